@@ -1,0 +1,40 @@
+# wheel_force_estimator: `make demo` and `make test` are all a fresh machine needs.
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+DEMO_DIR ?= demo_out
+# Tests that start DDS participants stay on this machine and on their own domain.
+export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
+export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
+export MPLBACKEND ?= Agg
+
+.PHONY: venv test demo bench bench-diagnose clean lint
+
+venv: $(STAMP)
+
+$(STAMP): setup.py setup.cfg package.xml requirements-dev.txt
+	test -x $(BIN)/python || $(PY) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -r requirements-dev.txt
+	$(BIN)/python -m pip install --quiet -e .
+	touch $(STAMP)
+
+test: venv
+	AMENT_PREFIX_PATH=$(CURDIR)/$(VENV) $(BIN)/python -m pytest -q -p no:cacheprovider test
+
+lint: venv
+	$(BIN)/ament_flake8 wheel_force_estimator test bench setup.py
+	$(BIN)/ament_pep257 wheel_force_estimator test bench setup.py
+
+demo: venv
+	$(BIN)/python -m wheel_force_estimator.demo --out $(DEMO_DIR)
+
+bench: venv
+	for f in bench/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
+
+bench-diagnose: venv
+	$(BIN)/python bench/diagnose_blind.py
+
+clean:
+	rm -rf $(VENV) $(DEMO_DIR) build install log *.egg-info

@@ -1,0 +1,42 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""ament_python setup for wheel_force_estimator."""
+from glob import glob
+
+from setuptools import find_packages
+from setuptools import setup
+
+package_name = 'wheel_force_estimator'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*', 'bench']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', glob('config/*.yaml')),
+    ],
+    package_data={package_name: ['py.typed']},
+    install_requires=[
+        'setuptools',
+        'numpy>=1.24',
+        'scipy>=1.10',
+        'matplotlib>=3.6',
+        'pyyaml>=6',
+        'tqdm>=4.60',
+        'numba>=0.58',
+        'rosbags>=0.10.4',
+    ],
+    zip_safe=True,
+    maintainer='wheel_force_estimator maintainers',
+    maintainer_email='wheel-force@example.com',
+    description='Virtual wheel force transducer (MIMO FRF) for ROS 2 with durability metrics.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'wheel-force = wheel_force_estimator.cli.main:main',
+            'wheel_force_node = wheel_force_estimator.ros.node:main',
+        ],
+    },
+)

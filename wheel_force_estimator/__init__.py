@@ -1,0 +1,9 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""Virtual wheel force transducer: MIMO FRF from spindle accelerations to wheel forces."""
+
+__version__ = '0.1.0'
+
+CORNERS = ('lf', 'rf', 'lr', 'rr')
+INPUT_CHANNELS = tuple(f'{c}_a{ax}' for c in CORNERS for ax in 'xyz')
+OUTPUT_CHANNELS = tuple(f'{c}_f{ax}' for c in CORNERS for ax in 'xyz')

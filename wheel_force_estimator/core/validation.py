@@ -1,0 +1,80 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""Argument checks shared by the numeric core: reject, never repair."""
+from typing import Optional, Sequence
+
+import numpy as np
+
+from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import InsufficientDataError
+from wheel_force_estimator.core.errors import NonFiniteError
+from wheel_force_estimator.core.errors import ShapeError
+
+
+def as_signals(x, name: str, channels: Optional[Sequence[str]] = None,
+               min_samples: int = 1) -> np.ndarray:
+    """Return ``x`` as a finite float64 array of shape ``(n_channels, n_samples)``.
+
+    Parameters
+    ----------
+    x : array_like, shape (n_channels, n_samples) or (n_samples,)
+        Signals, time last.  A 1-D input is one channel.
+    name : str
+        What ``x`` is, used in error messages (e.g. ``'inputs of recording run1'``).
+    channels : sequence of str, optional
+        Channel names; when given, the channel count must match and a non-finite value is
+        reported by channel name.
+    min_samples : int
+        Minimum number of samples required.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_channels, n_samples), float64
+
+    Raises
+    ------
+    ShapeError
+        Wrong number of dimensions or channels.
+    InsufficientDataError
+        Fewer than ``min_samples`` samples.
+    NonFiniteError
+        A NaN or infinite value (first offending channel and sample named).
+
+    """
+    arr = np.asarray(x, dtype=np.float64)
+    if arr.ndim == 1:
+        arr = arr[np.newaxis, :]
+    if arr.ndim != 2:
+        raise ShapeError(
+            f'{name}: expected shape (n_channels, n_samples), got {arr.shape}')
+    if channels is not None and arr.shape[0] != len(channels):
+        raise ShapeError(
+            f'{name}: expected {len(channels)} channels {list(channels)}, got {arr.shape[0]}')
+    if arr.shape[1] < min_samples:
+        raise InsufficientDataError(
+            f'{name}: {arr.shape[1]} samples, at least {min_samples} required')
+    finite = np.isfinite(arr)
+    if not finite.all():
+        ch, idx = np.argwhere(~finite)[0]
+        label = channels[ch] if channels is not None else f'channel {ch}'
+        raise NonFiniteError(
+            f'{name}: non-finite value {arr[ch, idx]!r} in {label} at sample {idx}')
+    return arr
+
+
+def positive_float(value, name: str) -> float:
+    """Return ``value`` as a float after checking it is finite and > 0.
+
+    Raises
+    ------
+    ConfigError
+        When ``value`` is not a finite number > 0.
+
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError) as err:
+        raise ConfigError(f'{name} must be a number, got {value!r}') from err
+    if not np.isfinite(v) or v <= 0.0:
+        raise ConfigError(f'{name} must be finite and > 0, got {value!r}')
+    return v
