@@ -1,6 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""Exception hierarchy shared by every part of the package.
+"""
+Exception hierarchy shared by every part of the package.
 
 Every error raised on purpose is a :class:`WheelForceError`; subclasses that describe a bad
 value also derive from the matching builtin so generic callers can catch ``ValueError``.

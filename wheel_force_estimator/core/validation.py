@@ -13,7 +13,8 @@ from wheel_force_estimator.core.errors import ShapeError
 
 def as_signals(x, name: str, channels: Optional[Sequence[str]] = None,
                min_samples: int = 1) -> np.ndarray:
-    """Return ``x`` as a finite float64 array of shape ``(n_channels, n_samples)``.
+    """
+    Return ``x`` as a finite float64 array of shape ``(n_channels, n_samples)``.
 
     Parameters
     ----------
@@ -63,7 +64,8 @@ def as_signals(x, name: str, channels: Optional[Sequence[str]] = None,
 
 
 def positive_float(value, name: str) -> float:
-    """Return ``value`` as a float after checking it is finite and > 0.
+    """
+    Return ``value`` as a float after checking it is finite and > 0.
 
     Raises
     ------

@@ -1,0 +1,121 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+``make demo``: the main job end to end on the embedded default vehicle and course.
+
+1. simulate a training and a validation proving-ground session (rosbag2, mcap),
+2. ``wheel-force fit`` the 12x12 FRF (report with coherence / FRF plots),
+3. ``wheel-force evaluate`` on the validation session (RMSE table, damage, report + JSON),
+4. replay the validation bag through the live ROS 2 node and print the live output's RMSE
+   table next to the offline one.
+"""
+import argparse
+import json
+import os
+from pathlib import Path
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from typing import List
+
+import numpy as np
+
+from wheel_force_estimator.cli.main import main as wheel_force
+
+
+def _run(argv: List[str]):
+    print(f'\n$ wheel-force {" ".join(argv)}', flush=True)
+    t0 = time.perf_counter()
+    rc = wheel_force(argv)
+    print(f'  ({time.perf_counter() - t0:.1f} s)', flush=True)
+    if rc != 0:
+        raise SystemExit(f'demo step failed: wheel-force {argv[0]} exited {rc}')
+
+
+def _live_rmse(out: Path, validation: Path, live_bag: Path) -> dict:
+    """Compare the node's recorded output with the WFT of the validation bag."""
+    from wheel_force_estimator.bagio import load_topic_config
+    from wheel_force_estimator.bagio import read_recording
+    from wheel_force_estimator.bagio import read_wrench_topics
+    from wheel_force_estimator.core.metrics import rmse_pct
+
+    topics = load_topic_config(None)
+    rec = read_recording(validation, topics, require_wft=True)
+    stamps = np.concatenate([s.stamp_ns for s in rec.segments])
+    target = np.concatenate([s.force_n for s in rec.segments], axis=1)
+    live_stamps, live = read_wrench_topics(live_bag, topics.output_topics)
+    common, i_t, i_l = np.intersect1d(stamps, live_stamps, return_indices=True)
+    from wheel_force_estimator import OUTPUT_CHANNELS
+    return {'n_target': int(stamps.size), 'n_live': int(live_stamps.size),
+            'n_matched': int(common.size),
+            'rmse_pct': dict(zip(OUTPUT_CHANNELS,
+                                 rmse_pct(target[:, i_t], live[:, i_l]).tolist()))}
+
+
+def _replay_through_node(out: Path, model: Path, validation: Path, rate: float) -> Path:
+    live_bag = out / 'live_output'
+    if live_bag.exists():
+        shutil.rmtree(live_bag)
+    env = dict(os.environ)
+    env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    env.setdefault('ROS_DOMAIN_ID', str(40 + os.getpid() % 50))
+    node = subprocess.Popen([sys.executable, '-m', 'wheel_force_estimator', 'node',
+                             '--model', str(model)], env=env)
+    try:
+        time.sleep(3.0)
+        if node.poll() is not None:
+            raise SystemExit(f'demo: the node exited early with {node.returncode}')
+        cmd = [sys.executable, '-m', 'wheel_force_estimator', 'replay', str(validation),
+               '--rate', str(rate), '--record', str(live_bag)]
+        print(f'\n$ wheel-force {" ".join(cmd[3:])}', flush=True)
+        subprocess.run(cmd, env=env, check=True)
+    finally:
+        node.send_signal(signal.SIGINT)
+        try:
+            node.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            node.kill()
+    return live_bag
+
+
+def main(argv=None) -> int:
+    """Run the demo; return the exit code."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--out', default='demo_out', help='output directory')
+    parser.add_argument('--duration-scale', type=float, default=1.0,
+                        help='shorten the simulated sessions (1.0 = ~10 min training)')
+    parser.add_argument('--replay-rate', type=float, default=10.0,
+                        help='replay speed through the live node (x real time)')
+    parser.add_argument('--no-node', action='store_true', help='skip the live node step')
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    if out.exists():
+        shutil.rmtree(out)
+    out.mkdir(parents=True)
+    train, val = out / 'training', out / 'validation'
+    model = out / 'model.npz'
+    scale = str(args.duration_scale)
+    _run(['simulate', str(train), '--seed', '1', '--duration-scale', scale])
+    _run(['simulate', str(val), '--seed', '2', '--duration-scale', str(0.5 * args.duration_scale)])
+    _run(['fit', str(train), '-o', str(model), '--report', str(out / 'fit_report')])
+    _run(['evaluate', str(model), str(val), '--json', str(out / 'evaluation.json'),
+          '--report', str(out / 'evaluation_report')])
+    offline = json.loads((out / 'evaluation.json').read_text())
+    if not args.no_node:
+        live_bag = _replay_through_node(out, model, val, args.replay_rate)
+        live = _live_rmse(out, val, live_bag)
+        (out / 'live_rmse.json').write_text(json.dumps(live, indent=1))
+        print(f'\nlive node: {live["n_live"]} output samples per corner for '
+              f'{live["n_target"]} input samples ({live["n_matched"]} matched by stamp)')
+        print(f'{"channel":8s} {"offline RMSE %":>15s} {"live RMSE %":>12s}')
+        for name, figures in offline['channels'].items():
+            print(f'{name:8s} {figures["rmse_pct"]:15.1f} {live["rmse_pct"][name]:12.1f}')
+    print(f'\nreports: {out / "fit_report" / "report.md"}, '
+          f'{out / "evaluation_report" / "report.md"}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

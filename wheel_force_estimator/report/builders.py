@@ -1,0 +1,118 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""Compose the ``fit`` and ``evaluate`` reports from the plot and table functions."""
+from pathlib import Path
+
+import numpy as np
+
+from wheel_force_estimator.report import plots
+from wheel_force_estimator.report import tables
+from wheel_force_estimator.report.markdown import ReportWriter
+
+
+def evaluation_text(evaluation) -> str:
+    """Return the terminal summary of an evaluation (RMSE table, rubric counts, damage)."""
+    from wheel_force_estimator.core.metrics import rubric
+    names = evaluation.channels
+    lines = ['RMSE % per channel (unfiltered / 1 Hz high-passed):',
+             tables.rmse_table(names, evaluation.rmse_pct, evaluation.rmse_hp1_pct,
+                               [rubric(float(v)) for v in evaluation.rmse_pct]),
+             'rubric counts: ' + ', '.join(f'{k} {v}'
+                                           for k, v in evaluation.rubric_counts().items()),
+             '',
+             f'pseudo damage (rainflow, Basquin k = {evaluation.sn_slope:g}, Miner):',
+             tables.damage_table(names, evaluation.damage_target, evaluation.damage_prediction,
+                                 evaluation.damage_ratio)]
+    if evaluation.events:
+        events = sorted(evaluation.events)
+        values = np.array([evaluation.events[e]['rmse_pct'] for e in events])
+        lines += ['', 'RMSE % per road event:', tables.event_table(events, names, values)]
+    return '\n'.join(lines)
+
+
+def write_fit_report(directory, model, summary) -> Path:
+    """Write the fit report (coherence, FRF diagonal, condition number); return report.md."""
+    out = ReportWriter(directory)
+    d = Path(directory)
+    diag = np.stack([model.coherence_ordinary[:, o, o]
+                     for o in range(min(len(model.output_channels),
+                                        len(model.input_channels)))], axis=1)
+    out.heading('FRF fit', 1)
+    out.paragraph(
+        f'{len(model.fit.get("segments", []))} segment(s), '
+        f'{model.fit.get("total_duration_s", 0):.1f} s at {model.fs_hz:g} Hz; estimator '
+        f'`{model.estimator}`, segment length {model.fit.get("segment_length")}, '
+        f'{model.fit.get("n_windows")} windows averaged.')
+    out.heading('Coherence', 2)
+    out.image(plots.plot_coherence(d / 'coherence.png', model.f_hz, model.coherence_multiple,
+                                   diag, model.output_channels),
+              'Multiple coherence per output and ordinary coherence of the same-axis pair')
+    rows = '\n'.join(f'| {n} | {summary["mean_coherence"][n]:.3f} | '
+                     + (', '.join(f'{a:.1f}-{b:.1f}' for a, b in summary['low_bands_hz'][n])
+                        or '-') + ' |'
+                     for n in model.output_channels)
+    out.table('| output | mean multiple coherence 0.5-50 Hz | bands < 0.5 [Hz] |\n'
+              '|---|---|---|\n' + rows)
+    out.heading('FRF diagonal', 2)
+    out.image(plots.plot_frf_diagonal(d / 'frf_diagonal.png', model.f_hz, model.h,
+                                      model.input_channels, model.output_channels),
+              'Same-axis FRF per corner: magnitude and phase')
+    out.heading('Conditioning', 2)
+    out.image(plots.plot_condition_number(d / 'condition_number.png', model.f_hz,
+                                          model.cond_sxx),
+              'Condition number of the input cross-spectral matrix')
+    return out.write()
+
+
+def write_evaluation_report(directory, model, evaluation, segments) -> Path:
+    """Write the evaluation report (paper Figures 6-13, Tables 2-3); return report.md."""
+    from wheel_force_estimator.core.metrics import rubric
+    out = ReportWriter(directory)
+    d = Path(directory)
+    ch = evaluation.channels
+    out.heading('Virtual WFT evaluation', 1)
+    out.paragraph(f'{len(segments)} segment(s) at {evaluation.fs_hz:g} Hz. RMSE % = RMS '
+                  f'error / RMS target on mean-removed signals; rubric: perfect < 25, great '
+                  f'25-50, good 50-75, bad 75-100, not qualified > 100.')
+    out.heading('RMSE', 2)
+    out.table(tables.rmse_table(ch, evaluation.rmse_pct, evaluation.rmse_hp1_pct,
+                                [rubric(float(v)) for v in evaluation.rmse_pct],
+                                markdown=True))
+    out.table(tables.rubric_counts_table(evaluation.rubric_counts()))
+    if evaluation.events:
+        events = sorted(evaluation.events)
+        values = np.array([evaluation.events[e]['rmse_pct'] for e in events])
+        out.heading('RMSE per road event', 2)
+        out.image(plots.plot_rmse_colormap(d / 'rmse_events.png', events, ch, values),
+                  'RMSE % per event and channel (paper Table 2 / Figure 9)')
+    out.heading('Pseudo damage', 2)
+    out.table(tables.damage_table(ch, evaluation.damage_target, evaluation.damage_prediction,
+                                  evaluation.damage_ratio, markdown=True))
+    ratio = np.nan_to_num(evaluation.damage_ratio, posinf=0.0)
+    out.image(plots.plot_damage_ratio(d / 'damage_ratio.png', ch, ratio),
+              'Prediction/target pseudo damage (0.5-2 is good)')
+    out.image(plots.plot_relative_damage_spectrum(
+        d / 'relative_damage_spectrum.png', ch, evaluation.bands_hz, evaluation.rds_target,
+        evaluation.rds_prediction), 'Relative damage spectrum (paper Figure 13)')
+    out.heading('Spectra', 2)
+    diag = np.stack([np.abs(model.h[:, o, o]) for o in range(len(ch))])
+    mag = np.stack([np.interp(evaluation.f_hz, model.f_hz, row) for row in diag])
+    out.image(plots.plot_asd(d / 'asd.png', evaluation.f_hz, evaluation.asd_target,
+                             evaluation.asd_prediction, evaluation.asd_error, ch,
+                             frf_mag=mag),
+              'ASD of target, prediction and error with the same-axis FRF (Figures 10-12)')
+    out.image(plots.plot_coherence(d / 'coherence.png', model.f_hz, model.coherence_multiple,
+                                   None, model.output_channels),
+              'Model multiple coherence (Figure 6)')
+    out.heading('Time histories', 2)
+    longest = max(segments, key=lambda s: s.target_n.shape[1])
+    t_s = (longest.stamp_ns - longest.stamp_ns[0]) * 1e-9
+    out.image(plots.plot_time_overlay(d / 'time_history.png', t_s, longest.target_n,
+                                      longest.prediction_n, ch, title=longest.source),
+              f'Target vs prediction, {longest.source}')
+    mid = t_s[-1] / 2
+    out.image(plots.plot_time_overlay(d / 'time_history_zoom.png', t_s, longest.target_n,
+                                      longest.prediction_n, ch, window_s=(mid, mid + 5.0),
+                                      title=f'{longest.source} (5 s zoom)'),
+              'Zoom on 5 s')
+    return out.write()
