@@ -45,7 +45,9 @@ class FitConfig:
     regularisation : float
         Relative Tikhonov lambda / TSVD cut-off [-].
     f_min_hz : float
-        FRF forced to zero below this frequency (drift control) [Hz].
+        FRF rolled off to zero below this frequency (drift control) [Hz].  ``0`` keeps the
+        quasi-static gain (DC = lowest resolved line), so steady braking/cornering loads pass;
+        the static input is removed by the predictor, so gravity never leaks into the force.
     f_max_hz : float or None
         FRF forced to zero above this frequency [Hz]; ``None`` = Nyquist.
 
@@ -62,7 +64,7 @@ class FitConfig:
     detrend: str = 'constant'
     estimator: str = 'h1_tikhonov'
     regularisation: float = 1e-4
-    f_min_hz: float = 0.3
+    f_min_hz: float = 0.0
     f_max_hz: Optional[float] = None
 
     def __post_init__(self):
@@ -153,7 +155,8 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     combined = combine_spectra(spectra)
     est = estimate_frf(combined, config.frf())
     f_max = config.f_max_hz
-    fir = fir_from_frf(est.f_hz, est.h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max)
+    fir = fir_from_frf(est.f_hz, est.h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
+                       keep_dc=config.f_min_hz == 0.0)
     info = {
         'segments': [seg.source for seg in segments],
         'durations_s': [seg.accel_mps2.shape[1] / fs_hz for seg in segments],
