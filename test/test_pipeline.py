@@ -8,8 +8,8 @@ from scipy import signal
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.core.errors import InsufficientDataError
-from wheel_force_estimator.core.evaluation import evaluate_segments
 from wheel_force_estimator.core.evaluation import EvalSegment
+from wheel_force_estimator.core.evaluation import evaluate_segments
 from wheel_force_estimator.core.fatigue import pseudo_damage
 from wheel_force_estimator.core.pipeline import coherence_summary
 from wheel_force_estimator.core.pipeline import fit_model
