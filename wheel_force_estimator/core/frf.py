@@ -1,0 +1,269 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+MIMO frequency response estimation (H1 and regularised H1) from Welch spectra.
+
+Model: ``Y_o = sum_i H[o, i] X_i + N_o`` with noise ``N`` uncorrelated with the inputs.  With
+the spectra of :mod:`wheel_force_estimator.core.spectra` (``sxx[i, j] = E[conj(X_i) X_j]``,
+``syx[o, i] = E[conj(X_i) Y_o]``) the normal equations are ``syx = H conj(sxx)``, i.e.
+``H^T = sxx^-1 syx^T`` per frequency (``sxx`` is Hermitian), solved in one batched call.
+
+Estimators
+----------
+``'h1'``
+    Plain H1.  Where ``sxx`` is singular to working precision (smallest eigenvalue below
+    ``n_in * eps`` times the largest, or no input power at all) the inputs do not determine
+    ``H``; rather than return numbers dominated by round-off, :func:`estimate_frf` raises
+    :class:`InsufficientDataError` naming the frequency.  ``regularisation`` is ignored.
+    (A boxcar window with ``detrend='constant'`` leaves only round-off in the 0 Hz line, which
+    plain H1 may therefore refuse; the default Hann window does not.)
+``'h1_tikhonov'``
+    ``H^T = (sxx + lambda I)^-1 syx^T`` with ``lambda = regularisation * trace(sxx) / n_in``
+    per frequency, i.e. relative to the mean input power at that frequency.  Directions of
+    the input space with power far below ``lambda`` (collinear inputs, such as left and right
+    vertical on a symmetric road) get a response shrunk towards zero, so the estimate is the
+    smallest-norm ``H`` that reproduces the outputs for inputs with that correlation.
+``'h1_tsvd'``
+    Truncated eigen (= singular value) decomposition of the Hermitian ``sxx``: eigenvalues below
+    ``regularisation * s_max`` (and always those below ``n_in * eps * s_max``) are dropped,
+    the remaining subspace is inverted exactly.
+
+For both regularised estimators a frequency with no input power at all gets ``H = 0`` (the
+limit of the regularised solution; ``syx`` is then zero too).
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import InsufficientDataError
+from wheel_force_estimator.core.errors import ShapeError
+from wheel_force_estimator.core.spectra import CrossSpectra
+
+ESTIMATORS = ('h1', 'h1_tikhonov', 'h1_tsvd')
+
+
+@dataclass(frozen=True)
+class FrfConfig:
+    """
+    How the FRF is estimated from the spectral matrices.
+
+    Parameters
+    ----------
+    estimator : str
+        One of ``'h1'``, ``'h1_tikhonov'``, ``'h1_tsvd'`` (see the module docstring).
+    regularisation : float
+        Relative regularisation, finite and >= 0 (dimensionless).  Tikhonov:
+        ``lambda = regularisation * trace(sxx) / n_in``; TSVD: eigenvalues below
+        ``regularisation * s_max`` are dropped (so <= 1).  Ignored by ``'h1'``.
+
+    Raises
+    ------
+    ConfigError
+        Unknown estimator or regularisation out of range.
+
+    """
+
+    estimator: str = 'h1_tikhonov'
+    regularisation: float = 1e-4
+
+    def __post_init__(self):
+        if self.estimator not in ESTIMATORS:
+            raise ConfigError(
+                f'FrfConfig.estimator must be one of {ESTIMATORS}, got {self.estimator!r}')
+        try:
+            reg = float(self.regularisation)
+        except (TypeError, ValueError) as err:
+            raise ConfigError(f'FrfConfig.regularisation must be a number, '
+                              f'got {self.regularisation!r}') from err
+        if not np.isfinite(reg) or reg < 0.0:
+            raise ConfigError(
+                f'FrfConfig.regularisation must be finite and >= 0, got {self.regularisation!r}')
+        if self.estimator == 'h1_tsvd' and reg > 1.0:
+            raise ConfigError(f'FrfConfig.regularisation must be <= 1 for h1_tsvd (it is '
+                              f'relative to the largest singular value), got {reg!r}')
+        object.__setattr__(self, 'regularisation', reg)
+
+
+@dataclass(frozen=True)
+class FrfEstimate:
+    """
+    Estimated MIMO FRF with its quality indicators.
+
+    Parameters
+    ----------
+    f_hz : numpy.ndarray, shape (nf,)
+        Frequency axis in Hz.
+    h : numpy.ndarray, shape (nf, n_out, n_in), complex128
+        ``h[f, o, i]`` in output unit per input unit (e.g. N per m/s²).
+    coherence_ordinary : numpy.ndarray, shape (nf, n_out, n_in)
+        ``|syx|² / (sxx_ii syy_o)`` in [0, 1]; 0 where the input or output has no power.
+    coherence_multiple : numpy.ndarray, shape (nf, n_out)
+        ``Re(sum_i h[o, i] conj(syx[o, i])) / syy_o`` in [0, 1]: the fraction of output power
+        explained by this estimate.  Exact multiple coherence for ``'h1'``; for the
+        regularised estimators it is a lower bound of it.  0 where the output has no power.
+    cond_sxx : numpy.ndarray, shape (nf,)
+        Condition number of ``sxx`` (largest over smallest eigenvalue magnitude); ``inf``
+        where an eigenvalue is exactly 0, ~1e16 or more where singular up to round-off.
+    config : FrfConfig
+        Estimator used.
+
+    Raises
+    ------
+    ShapeError
+        Inconsistent array shapes.
+    ConfigError
+        ``config`` is not a :class:`FrfConfig`.
+
+    """
+
+    f_hz: np.ndarray
+    h: np.ndarray
+    coherence_ordinary: np.ndarray
+    coherence_multiple: np.ndarray
+    cond_sxx: np.ndarray
+    config: FrfConfig
+
+    def __post_init__(self):
+        if not isinstance(self.config, FrfConfig):
+            raise ConfigError(f'FrfEstimate.config must be a FrfConfig, got {self.config!r}')
+        # Own read-only copies, so freezing never touches a caller's array.
+        f_hz = np.array(self.f_hz, dtype=np.float64)
+        h = np.array(self.h, dtype=np.complex128)
+        coh = np.array(self.coherence_ordinary, dtype=np.float64)
+        mcoh = np.array(self.coherence_multiple, dtype=np.float64)
+        cond = np.array(self.cond_sxx, dtype=np.float64)
+        nf = f_hz.shape[0] if f_hz.ndim == 1 else -1
+        if nf < 1 or h.ndim != 3 or h.shape[0] != nf:
+            raise ShapeError(f'FrfEstimate: h must be (nf, n_out, n_in) with nf = len(f_hz), '
+                             f'got f_hz {f_hz.shape}, h {h.shape}')
+        expected = {'coherence_ordinary': (coh, h.shape),
+                    'coherence_multiple': (mcoh, h.shape[:2]),
+                    'cond_sxx': (cond, (nf,))}
+        for name, (arr, shape) in expected.items():
+            if arr.shape != shape:
+                raise ShapeError(f'FrfEstimate: {name} must have shape {shape}, got {arr.shape}')
+        for name, arr in (('f_hz', f_hz), ('h', h), ('coherence_ordinary', coh),
+                          ('coherence_multiple', mcoh), ('cond_sxx', cond)):
+            arr.flags.writeable = False
+            object.__setattr__(self, name, arr)
+
+    @property
+    def n_inputs(self) -> int:
+        """Return the number of input channels."""
+        return self.h.shape[2]
+
+    @property
+    def n_outputs(self) -> int:
+        """Return the number of output channels."""
+        return self.h.shape[1]
+
+
+def _raise_singular(f_hz, bad, cond, limit, hint):
+    k = int(np.flatnonzero(bad)[0])
+    raise InsufficientDataError(
+        f'estimate_frf: the input cross-spectral matrix Sxx is singular to working precision '
+        f'at {int(bad.sum())} of {bad.size} frequencies, first at {f_hz[k]:g} Hz (condition '
+        f'number {cond[k]:.3g}, limit {limit:.3g}): inputs are linearly dependent or have no '
+        f'power there; {hint}')
+
+
+def _solve_hermitian(a, syx):
+    """Return ``h`` with ``h^T = a^-1 syx^T`` for a stack of Hermitian ``a``."""
+    return np.linalg.solve(a, syx.transpose(0, 2, 1)).transpose(0, 2, 1)
+
+
+def estimate_frf(spectra: CrossSpectra, config: FrfConfig = FrfConfig()) -> FrfEstimate:
+    """
+    Estimate the MIMO FRF, its coherences and the conditioning of the inputs.
+
+    Parameters
+    ----------
+    spectra : CrossSpectra
+        Welch spectral matrices (possibly combined over several recordings).
+    config : FrfConfig
+        Estimator and regularisation.
+
+    Returns
+    -------
+    FrfEstimate
+        ``h[f, o, i]`` in output unit per input unit.  The rows of ``h`` do not depend on which
+        other outputs are present (each output is estimated independently from the same
+        ``sxx``).
+
+    Raises
+    ------
+    InsufficientDataError
+        Estimator ``'h1'`` (or ``'h1_tikhonov'`` with a regularisation too small to matter)
+        and ``sxx`` singular to working precision at some frequency (frequency and condition
+        number named).
+    ConfigError
+        ``spectra`` is not a :class:`CrossSpectra` or ``config`` not a :class:`FrfConfig`.
+
+    """
+    if not isinstance(spectra, CrossSpectra):
+        raise ConfigError(f'estimate_frf: spectra must be a CrossSpectra, got {type(spectra)}')
+    if not isinstance(config, FrfConfig):
+        raise ConfigError(f'estimate_frf: config must be a FrfConfig, got {config!r}')
+    sxx, syx, syy, f_hz = spectra.sxx, spectra.syx, spectra.syy, spectra.f_hz
+    n_in = sxx.shape[1]
+    eps_rank = np.finfo(np.float64).eps * n_in
+    # The same eigenvalue routine for every estimator so cond_sxx does not depend on it.
+    eig = np.linalg.eigvalsh(sxx)
+    mag = np.abs(eig)
+    s_max = mag.max(axis=1)
+    s_min = mag.min(axis=1)
+    cond = np.full(s_max.shape, np.inf)
+    np.divide(s_max, s_min, out=cond, where=s_min > 0.0)
+    dead = s_max <= 0.0
+    h = np.zeros(syx.shape, dtype=np.complex128)
+    if config.estimator == 'h1':
+        # eigvalsh is ascending; a negative smallest eigenvalue is round-off of a singular
+        # (positive semi-definite) matrix.
+        bad = eig[:, 0] <= eps_rank * s_max
+        if bad.any():
+            _raise_singular(f_hz, bad, cond, 1.0 / eps_rank,
+                            "use estimator 'h1_tikhonov' or 'h1_tsvd'")
+        h = _solve_hermitian(sxx, syx)
+    elif config.estimator == 'h1_tikhonov':
+        lam = config.regularisation * np.trace(sxx, axis1=1, axis2=2).real / n_in
+        bad = ~dead & (eig[:, 0] + lam <= eps_rank * (s_max + lam))
+        if bad.any():
+            _raise_singular(f_hz, bad, cond, 1.0 / eps_rank,
+                            f'regularisation {config.regularisation:g} is too small to help')
+        live = ~dead
+        a = sxx[live] + lam[live, np.newaxis, np.newaxis] * np.eye(n_in)
+        h[live] = _solve_hermitian(a, syx[live])
+    else:
+        eig, vec = np.linalg.eigh(sxx)
+        keep = (eig >= config.regularisation * s_max[:, np.newaxis]) & (
+            eig > eps_rank * s_max[:, np.newaxis])
+        inv = np.zeros(eig.shape)
+        np.divide(1.0, eig, out=inv, where=keep)
+        # h^T = V diag(1/s) V^H syx^T on the kept subspace only.
+        proj = np.matmul(vec.conj().transpose(0, 2, 1), syx.transpose(0, 2, 1))
+        h = np.matmul(vec, inv[:, :, np.newaxis] * proj).transpose(0, 2, 1)
+    return FrfEstimate(f_hz, h, _ordinary_coherence(sxx, syx, syy),
+                       _multiple_coherence(h, syx, syy), cond, config)
+
+
+def _ordinary_coherence(sxx, syx, syy):
+    """|syx|² / (sxx_ii syy_o); 0 where either power is zero (nothing to be coherent with)."""
+    pxx = np.diagonal(sxx, axis1=1, axis2=2).real
+    den = syy[:, :, np.newaxis] * pxx[:, np.newaxis, :]
+    num = syx.real ** 2 + syx.imag ** 2
+    coh = np.zeros(num.shape)
+    np.divide(num, den, out=coh, where=den > 0.0)
+    # Cauchy-Schwarz bounds it by 1 exactly; the clip only removes round-off excess.
+    return np.clip(coh, 0.0, 1.0)
+
+
+def _multiple_coherence(h, syx, syy):
+    """Re(sum_i h conj(syx)) / syy; 0 where the output has no power."""
+    num = np.einsum('foi,foi->fo', h.real, syx.real) + np.einsum('foi,foi->fo', h.imag,
+                                                                 syx.imag)
+    coh = np.zeros(num.shape)
+    np.divide(num, syy, out=coh, where=syy > 0.0)
+    # The spectral matrix of [x; y] is positive semi-definite, so the exact value lies in
+    # [0, 1]; the clip only removes round-off (amplified by cond(sxx) for plain H1).
+    return np.clip(coh, 0.0, 1.0)
