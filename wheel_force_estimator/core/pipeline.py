@@ -50,6 +50,11 @@ class FitConfig:
         the static input is removed by the predictor, so gravity never leaks into the force.
     f_max_hz : float or None
         FRF forced to zero above this frequency [Hz]; ``None`` = Nyquist.
+    coherence_floor : float
+        Output rows of the FRF are faded to zero where the multiple coherence is below this
+        value (raised cosine from ``floor`` to ``2 * floor``) [-].  There the estimate is
+        noise (e.g. above the road's input band): it predicts nothing useful, and its large
+        gain would turn any step or spike in the accelerations into a force burst.  0 = off.
 
     Raises
     ------
@@ -66,9 +71,12 @@ class FitConfig:
     regularisation: float = 1e-4
     f_min_hz: float = 0.0
     f_max_hz: Optional[float] = None
+    coherence_floor: float = 0.1
 
     def __post_init__(self):
         """Validate values that the spectral and FRF configs do not check themselves."""
+        if not 0.0 <= self.coherence_floor < 0.5:
+            raise ConfigError(f'coherence_floor must be in [0, 0.5), got {self.coherence_floor!r}')
         if not np.isfinite(self.f_min_hz) or self.f_min_hz < 0:
             raise ConfigError(f'f_min_hz must be >= 0, got {self.f_min_hz!r}')
         if self.f_max_hz is not None and not self.f_max_hz > self.f_min_hz:
@@ -155,7 +163,8 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     combined = combine_spectra(spectra)
     est = estimate_frf(combined, config.frf())
     f_max = config.f_max_hz
-    fir = fir_from_frf(est.f_hz, est.h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
+    h = est.h * coherence_weight(est.coherence_multiple, config.coherence_floor)[:, :, None]
+    fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
                        keep_dc=config.f_min_hz == 0.0)
     info = {
         'segments': [seg.source for seg in segments],
@@ -166,16 +175,31 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         'overlap': config.overlap, 'detrend': config.detrend,
         'regularisation': config.regularisation,
         'f_min_hz': config.f_min_hz, 'f_max_hz': f_max,
+        'coherence_floor': config.coherence_floor,
     }
     info.update(dict(fit_info or {}))
     return FrfModel(
         fs_hz=fs_hz, input_channels=tuple(input_channels),
-        output_channels=tuple(output_channels), f_hz=est.f_hz, h=est.h,
+        output_channels=tuple(output_channels), f_hz=est.f_hz, h=h,
         coherence_ordinary=est.coherence_ordinary, coherence_multiple=est.coherence_multiple,
         cond_sxx=est.cond_sxx, fir_taps=fir.taps, fir_delay_samples=fir.delay_samples,
         static_force_n=sum_y / n_total, static_accel_mps2=sum_x / n_total,
         estimator=config.estimator, fit=info,
         created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds'))
+
+
+def coherence_weight(coherence_multiple: np.ndarray, floor: float) -> np.ndarray:
+    """
+    Return the per-(frequency, output) weight applied to the FRF rows [-].
+
+    0 below ``floor``, 1 above ``2 * floor``, a raised cosine between; all ones when
+    ``floor == 0``.
+    """
+    coh = np.asarray(coherence_multiple, dtype=np.float64)
+    if floor <= 0.0:
+        return np.ones_like(coh)
+    ramp = np.clip((coh - floor) / floor, 0.0, 1.0)
+    return 0.5 * (1.0 - np.cos(np.pi * ramp))
 
 
 def coherence_summary(model: FrfModel, band_hz: Tuple[float, float] = (0.5, 50.0),

@@ -10,9 +10,12 @@ Signal path per block::
 
     accel [m/s²] - static_accel  ->  FIR (overlap-add)  ->  + static_force  ->  physics terms
 
-Subtracting the static (fit-time mean) acceleration is exact for the steady state because the
-FIR's DC gain is zero; it only makes the start-up transient smaller (the filter starts as if the
-car had been standing at its mean state).  The output stream lags the input by
+Start and end: a FIR started from zero state sees a step at its first sample, and a step has
+energy at every frequency, including bands where the FRF is large and meaningless.  So on the
+first block (and after :meth:`Predictor.reset`) the filter is primed with ``n_taps`` copies of
+the first sample (discarded), and :meth:`Predictor.flush` feeds copies of the last sample: the
+filter sees the signal held constant outside the record instead of a step.  No recorded sample
+is changed, added or dropped.  The output stream lags the input by
 ``delay_samples`` (the FIR look-ahead): output sample ``j`` is the estimate for input sample
 ``j - delay_samples``.
 """
@@ -82,6 +85,8 @@ class Predictor:
         self._static_force = np.asarray(model.static_force_n, dtype=np.float64)[:, None]
         self._physics = None
         self._accel_delay = None
+        self._primed = False
+        self._last = None
         if model.physics:
             from wheel_force_estimator.core.physics import PhysicsStage
             from wheel_force_estimator.core.physics import PhysicsTerm
@@ -103,6 +108,8 @@ class Predictor:
     def reset(self):
         """Forget all state (after a gap or a stamp jump); the next block starts afresh."""
         self._filter.reset()
+        self._primed = False
+        self._last = None
         if self._physics is not None:
             self._physics.reset()
             self._accel_delay.reset(self._static_accel)
@@ -130,21 +137,35 @@ class Predictor:
 
         """
         x = as_signals(accel_mps2, 'accelerations', self.model.input_channels, min_samples=0)
+        if x.shape[1] == 0:
+            return np.empty((len(self.model.output_channels), 0))
+        if not self._primed:
+            self._prime(x[:, :1])
+        self._last = x[:, -1:]
         y = self._filter.process(x - self._static_accel[:, None]) + self._static_force
         if self._physics is not None:
             y = self._physics.process(self._accel_delay.process(x), y)
         return y
 
+    def _prime(self, first: np.ndarray):
+        """Bring the filter to the steady state of ``first`` held constant (no step)."""
+        self._primed = True
+        held = np.repeat(first - self._static_accel[:, None], self.fir.n_taps, axis=1)
+        self._filter.process(held)
+        if self._physics is not None:
+            self._accel_delay.reset(first[:, 0])
+
     def flush(self) -> np.ndarray:
         """
-        Return the last :attr:`delay_samples` outputs, feeding the static state.
+        Return the last :attr:`delay_samples` outputs (end of a record or before a gap).
 
-        The look-ahead is filled with the fit-time mean acceleration (the filter's rest
-        state), not with recorded data; the last samples of a record therefore carry an edge
-        transient, as any FIR's do.
+        The look-ahead is filled with copies of the last sample (the signal held constant),
+        not with recorded data; the last samples of a record carry the FIR's edge effect.
+        Nothing is returned when no sample was processed since the last reset.
         """
-        rest = np.repeat(self._static_accel[:, None], self.delay_samples, axis=1)
-        return self.process(rest)
+        if self._last is None:
+            return np.empty((len(self.model.output_channels), 0))
+        return self.process(np.repeat(self._last, self.delay_samples, axis=1))
 
 
 def predict_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[int] = None,

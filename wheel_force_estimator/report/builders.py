@@ -78,7 +78,7 @@ def write_evaluation_report(directory, model, evaluation, segments) -> Path:
     out.table(tables.rmse_table(ch, evaluation.rmse_pct, evaluation.rmse_hp1_pct,
                                 [rubric(float(v)) for v in evaluation.rmse_pct],
                                 markdown=True))
-    out.table(tables.rubric_counts_table(evaluation.rubric_counts()))
+    out.table(tables.rubric_counts_table(evaluation.rubric_counts(), markdown=True))
     if evaluation.events:
         events = sorted(evaluation.events)
         values = np.array([evaluation.events[e]['rmse_pct'] for e in events])
@@ -88,9 +88,12 @@ def write_evaluation_report(directory, model, evaluation, segments) -> Path:
     out.heading('Pseudo damage', 2)
     out.table(tables.damage_table(ch, evaluation.damage_target, evaluation.damage_prediction,
                                   evaluation.damage_ratio, markdown=True))
-    ratio = np.nan_to_num(evaluation.damage_ratio, posinf=0.0)
-    out.image(plots.plot_damage_ratio(d / 'damage_ratio.png', ch, ratio),
-              'Prediction/target pseudo damage (0.5-2 is good)')
+    ratio = evaluation.damage_ratio
+    finite = np.isfinite(ratio)  # a target without cycles has no ratio (n/a in the table)
+    if finite.any():
+        out.image(plots.plot_damage_ratio(d / 'damage_ratio.png',
+                                          [c for c, ok in zip(ch, finite) if ok], ratio[finite]),
+                  'Prediction/target pseudo damage (0.5-2 is good)')
     out.image(plots.plot_relative_damage_spectrum(
         d / 'relative_damage_spectrum.png', ch, evaluation.bands_hz, evaluation.rds_target,
         evaluation.rds_prediction), 'Relative damage spectrum (paper Figure 13)')
