@@ -26,7 +26,7 @@ setup(
         'pyyaml>=6',
         'tqdm>=4.60',
         'numba>=0.58',
-        'rosbags>=0.10.4',
+        'rosbags>=0.11',
     ],
     zip_safe=True,
     maintainer='wheel_force_estimator maintainers',

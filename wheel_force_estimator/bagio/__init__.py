@@ -1,6 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""Recordings in and out: rosbag2 (mcap, sqlite3) and ROS 1 bags via rosbags, never rclpy.
+"""
+Recordings in and out: rosbag2 (mcap, sqlite3) and ROS 1 bags via rosbags, never rclpy.
 
 ``read_recording`` aligns the four Imu and four WrenchStamped topics on ``header.stamp`` and
 splits them at gaps into :class:`Segment` s; ``write_recording`` writes rosbag2 version 8 with
@@ -12,6 +13,7 @@ from wheel_force_estimator.bagio.align import Segment
 from wheel_force_estimator.bagio.reader import read_imu_topic
 from wheel_force_estimator.bagio.reader import read_recording
 from wheel_force_estimator.bagio.reader import read_string_topic
+from wheel_force_estimator.bagio.reader import read_wrench_topics
 from wheel_force_estimator.bagio.reader import Recording
 from wheel_force_estimator.bagio.topics import load_topic_config
 from wheel_force_estimator.bagio.topics import TopicConfig
@@ -20,5 +22,6 @@ from wheel_force_estimator.bagio.writer import write_recording
 
 __all__ = [
     'Gap', 'Recording', 'Segment', 'TopicConfig', 'load_topic_config', 'read_imu_topic',
-    'read_recording', 'read_string_topic', 'write_forces', 'write_recording',
+    'read_recording', 'read_string_topic', 'read_wrench_topics', 'write_forces',
+    'write_recording',
 ]

@@ -1,0 +1,75 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""Bulk CDR layout against rosbags' serialiser (the reference), and its fallbacks."""
+import numpy as np
+import pytest
+
+from wheel_force_estimator.bagio.fastcdr import decode_rows
+from wheel_force_estimator.bagio.fastcdr import encode_rows
+from wheel_force_estimator.bagio.fastcdr import IMU
+from wheel_force_estimator.bagio.fastcdr import payload_length
+from wheel_force_estimator.bagio.fastcdr import WRENCH
+from wheel_force_estimator.bagio.reader import jazzy_typestore
+from wheel_force_estimator.bagio.writer import _make_imu
+from wheel_force_estimator.bagio.writer import _make_wrench
+
+STORE = jazzy_typestore()
+LAYOUTS = [(IMU, _make_imu), (WRENCH, _make_wrench)]
+
+
+def _serialize(layout):
+    def ser(msg):
+        return bytes(STORE.serialize_cdr(msg, layout.msgtype))
+    return ser
+
+
+def _deserialize(layout):
+    def deser(data):
+        return STORE.deserialize_cdr(data, layout.msgtype)
+    return deser
+
+
+@pytest.mark.parametrize('layout,make', LAYOUTS, ids=['imu', 'wrench'])
+@pytest.mark.parametrize('frame', ['', 'a', 'lf_spindle', 'x' * 3, 'x' * 4, 'x' * 11, 'x' * 12,
+                                   'rr_wheel_frame_with_a_long_name'])
+def test_layout_matches_rosbags(layout, make, frame):
+    """Payload length and value offsets agree with rosbags for frame ids across alignments."""
+    rng = np.random.default_rng(len(frame))
+    # nanosec 0, 1 and 1e9 - 1; the last stamp has the largest int32 sec
+    stamp = np.array([10**9, 10**9 + 1, 2 * 10**9 - 1, 2**31 * 10**9 - 1], np.int64)
+    values = rng.standard_normal((4, 3))
+    rows = encode_rows(layout, stamp, values, make(STORE, frame), _serialize(layout))
+    assert rows.shape[1] == payload_length(layout, len(frame) + 1)
+    for i in range(4):  # every row equals the reference serialisation
+        ref = _serialize(layout)(make(STORE, frame)(int(stamp[i]), tuple(values[i])))
+        assert rows[i].tobytes() == ref
+    got_stamp, got_values, n_fast = decode_rows(layout, rows, _deserialize(layout))
+    assert n_fast == 4
+    assert np.array_equal(got_stamp, stamp) and np.array_equal(got_values, values)
+
+
+def test_disagreement_with_generic_falls_back():
+    """If the bulk view ever disagrees with the deserialiser, the deserialiser wins."""
+    stamp = 10**9 + np.arange(5, dtype=np.int64)
+    values = np.arange(15, dtype=float).reshape(5, 3)
+    rows = encode_rows(WRENCH, stamp, values, _make_wrench(STORE, 'f'), _serialize(WRENCH))
+    other = _make_wrench(STORE, 'f')(42, (1.0, 2.0, 3.0))
+    got_stamp, got_values, n_fast = decode_rows(WRENCH, rows, lambda data: other)
+    assert n_fast == 0
+    assert np.all(got_stamp == 42) and np.all(got_values == [1.0, 2.0, 3.0])
+
+
+def test_unrecognised_rows_use_generic():
+    """Big-endian payloads and foreign lengths are decoded by the deserialiser only."""
+    msg = _make_imu(STORE, 'lf_spindle')(5 * 10**9 + 7, (1.5, -2.5, 9.81))
+    big = bytes(STORE.serialize_cdr(msg, IMU.msgtype, little_endian=False))
+    calls = []
+
+    def deser(data):
+        calls.append(data)
+        return STORE.deserialize_cdr(data, IMU.msgtype)
+
+    rows = np.frombuffer(big * 3, np.uint8).reshape(3, -1)
+    stamp, values, n_fast = decode_rows(IMU, rows, deser)
+    assert n_fast == 0 and len(calls) == 3
+    assert np.all(stamp == 5 * 10**9 + 7) and np.all(values == [1.5, -2.5, 9.81])

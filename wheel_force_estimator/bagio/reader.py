@@ -1,0 +1,448 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Read recordings (rosbag2 mcap/sqlite3 directories, ROS 1 ``.bag`` files) into aligned arrays.
+
+Two decoding paths give identical results:
+
+* bulk: uncompressed rosbag2 storages are read topic-wise with :mod:`.storage` and the
+  fixed-layout Imu / WrenchStamped payloads decoded with :mod:`.fastcdr` (validated against
+  the Jazzy deserialiser on the first messages of every layout group);
+* generic: everything else (ROS 1 bags, compressed rosbag2) goes message by message through
+  rosbags' ``AnyReader`` and its typestore (ROS 1 bags carry their own definitions).
+
+Samples are aligned on ``header.stamp``, never on the bag receive time.
+"""
+from dataclasses import dataclass
+from dataclasses import field
+import functools
+from pathlib import Path
+import sqlite3
+import struct
+from typing import Dict, List, Optional, Tuple
+
+import numpy as np
+from rosbags.highlevel import AnyReader
+from rosbags.highlevel import AnyReaderError
+from rosbags.rosbag1 import ReaderError as Reader1Error
+from rosbags.rosbag2 import ReaderError as Reader2Error
+from rosbags.serde import SerdeError
+from rosbags.typesys import get_typestore
+from rosbags.typesys import Stores
+from rosbags.typesys import TypesysError
+
+from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.bagio.align import align
+from wheel_force_estimator.bagio.align import check_same_clock
+from wheel_force_estimator.bagio.align import check_series
+from wheel_force_estimator.bagio.align import Gap
+from wheel_force_estimator.bagio.align import Segment
+from wheel_force_estimator.bagio.align import stamp_text
+from wheel_force_estimator.bagio.align import TopicSeries
+from wheel_force_estimator.bagio.fastcdr import extract
+from wheel_force_estimator.bagio.fastcdr import IMU_TYPE
+from wheel_force_estimator.bagio.fastcdr import LAYOUTS
+from wheel_force_estimator.bagio.fastcdr import STRING_TYPE
+from wheel_force_estimator.bagio.fastcdr import TopicDecoder
+from wheel_force_estimator.bagio.fastcdr import WRENCH_TYPE
+from wheel_force_estimator.bagio.storage import FastPathUnavailable
+from wheel_force_estimator.bagio.storage import read_raw_topics
+from wheel_force_estimator.bagio.topics import default_topic_config
+from wheel_force_estimator.core.errors import BagError
+from wheel_force_estimator.core.errors import ConfigError
+
+try:  # rosbags' sqlite3 backend; its errors are not rosbags errors
+    from apsw import Error as _ApswError
+except ImportError:  # pragma: no cover - apsw is a rosbags dependency
+    _ApswError = sqlite3.Error
+
+# Low-level failures a damaged file can provoke inside rosbags; re-raised as BagError.
+_ROSBAGS_ERRORS = (AnyReaderError, Reader1Error, Reader2Error, SerdeError, TypesysError,
+                   OSError, ValueError, KeyError, IndexError, struct.error, sqlite3.Error,
+                   _ApswError, EOFError, OverflowError)
+
+
+@functools.lru_cache(maxsize=1)
+def jazzy_typestore():
+    """Return the ROS 2 Jazzy typestore (``Stores.LATEST`` would be Kilted)."""
+    return get_typestore(Stores.ROS2_JAZZY)
+
+
+@dataclass(frozen=True, eq=False)  # holds arrays: compare fields, not objects
+class Recording:
+    """
+    An aligned recording: segments on one sample clock plus what the read found.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The bag.
+    fs_hz : float
+        Sample rate from the median stamp step [Hz].
+    segments : tuple of Segment
+        Contiguous parts (split at gaps), each with at least 2 samples.
+    events : tuple of (int, str)
+        ``(stamp_ns, name)`` from the event topic (bag timestamp; std_msgs/String has no
+        header), empty when the topic is absent.
+    n_read : dict of str to int
+        Messages read per sample topic.
+    n_used : int
+        Samples in ``segments``.
+    gaps : tuple of Gap
+        Places where every topic misses samples (segment boundaries).
+    short_segments : tuple of (int, int)
+        ``(first_stamp_ns, n_samples)`` of parts shorter than 2 samples, left out of
+        ``segments`` and reported here.
+    step_range_ns : tuple of (int, int)
+        Smallest and largest stamp step inside segments (clock jitter).
+    n_bulk : int
+        Messages decoded by the bulk numpy path (the rest by rosbags' deserialiser).
+    n_messages : int
+        All messages decoded (sample topics and events).
+
+    """
+
+    path: Path
+    fs_hz: float
+    segments: Tuple[Segment, ...]
+    events: Tuple[Tuple[int, str], ...]
+    n_read: Dict[str, int]
+    n_used: int
+    gaps: Tuple[Gap, ...]
+    short_segments: Tuple[Tuple[int, int], ...] = ()
+    step_range_ns: Tuple[int, int] = (0, 0)
+    n_bulk: int = 0
+    n_messages: int = 0
+
+    def summary(self) -> str:
+        """Describe what was read, used and left out, for logs and reports."""
+        n_samples = max(self.n_read.values()) if self.n_read else 0
+        lines = [
+            f'{self.path}: used {self.n_used} of {n_samples} samples read '
+            f'({self.fs_hz:.6g} Hz, {len(self.segments)} segment(s), '
+            f'{self.n_used / self.fs_hz:.3f} s)',
+            '  messages read: ' + ', '.join(f'{t} {n}' for t, n in self.n_read.items()),
+            f'  decoded in bulk: {self.n_bulk} of {self.n_messages} messages',
+            f'  stamp step inside segments: {self.step_range_ns[0]}..{self.step_range_ns[1]} '
+            f'ns (nominal {1e9 / self.fs_hz:.0f} ns)',
+        ]
+        if self.gaps:
+            lines.append(f'  gaps ({len(self.gaps)}):')
+            lines.extend(f'    {g}' for g in self.gaps)
+        else:
+            lines.append('  gaps: none')
+        for stamp, n in self.short_segments:
+            lines.append(f'  left out: segment of {n} sample(s) at {stamp_text(stamp)} '
+                         '(too short)')
+        lines.append(f'  events: {len(self.events)}')
+        return '\n'.join(lines)
+
+
+def _bag_error(path: Path, err: BaseException) -> BagError:
+    return BagError(f'{path}: cannot read bag: {type(err).__name__}: {err}')
+
+
+def _check_path(path) -> Path:
+    path = Path(path)
+    if not path.exists():
+        raise BagError(f'{path}: no such bag (file or rosbag2 directory)')
+    if path.is_file() and path.suffix not in ('.bag', '.mcap', '.db3'):
+        raise BagError(f'{path}: not a bag: expected a rosbag2 directory or a .bag, .mcap or '
+                       '.db3 file')
+    return path
+
+
+@dataclass
+class _Decoded:
+    """Per-topic decode results (internal)."""
+
+    stamp_ns: Dict[str, np.ndarray] = field(default_factory=dict)
+    values: Dict[str, np.ndarray] = field(default_factory=dict)
+    strings: Dict[str, List[Tuple[int, str]]] = field(default_factory=dict)
+    n_bulk: int = 0
+    n_messages: int = 0
+
+
+def _check_wanted(path, present, required, optional):
+    wanted = dict(required)
+    for name, msgtype in optional.items():
+        if name in present:
+            wanted[name] = msgtype
+    for name, msgtype in wanted.items():
+        if name not in present:
+            listing = ', '.join(f'{t} ({m})' for t, m in sorted(present.items()))
+            raise BagError(f'{path}: topic {name} ({msgtype}) not found; topics present: '
+                           f'{listing or "none"}')
+        if present[name] != msgtype:
+            raise BagError(f'{path}: topic {name} has type {present[name]}, expected {msgtype}')
+    return wanted
+
+
+def _read_topics(path: Path, required: Dict[str, str], optional: Dict[str, str],
+                 bulk: bool = True) -> _Decoded:
+    """Decode the given topics (name -> expected type) of any supported bag."""
+    if bulk and path.suffix != '.bag':
+        store = jazzy_typestore()
+
+        def make_sink(topic, msgtype):
+            layout = LAYOUTS.get(msgtype)
+            if layout is None:
+                return None  # keep raw payloads (event strings)
+
+            def deserialize(data):
+                return _deserialize(path, topic, store, data, msgtype)
+            return TopicDecoder(layout, deserialize)
+
+        try:
+            present, raw = read_raw_topics(path, list(required) + list(optional), make_sink)
+        except FastPathUnavailable:
+            pass
+        else:
+            return _decode_raw(path, raw, _check_wanted(path, present, required, optional))
+    try:
+        reader = AnyReader([path], default_typestore=jazzy_typestore())
+        reader.open()
+    except _ROSBAGS_ERRORS as err:
+        raise _bag_error(path, err) from err
+    try:
+        present = {name: info.msgtype for name, info in reader.topics.items()}
+        return _decode_generic(path, reader, _check_wanted(path, present, required, optional))
+    finally:
+        reader.close()
+
+
+def _decode_raw(path, raw, wanted) -> _Decoded:
+    out = _Decoded()
+    store = jazzy_typestore()
+    for name, msgtype in wanted.items():
+        topic = raw.get(name)
+        out.n_messages += topic.n if topic is not None else 0
+        if msgtype == STRING_TYPE:
+            texts = []
+            if topic is not None:
+                texts = [''] * topic.n
+                for pos, rows in topic.groups:
+                    for p, row in zip(pos, rows):
+                        texts[p] = _deserialize(path, name, store, row.tobytes(), msgtype).data
+                texts = list(zip(topic.log_time_ns.tolist(), texts))
+            out.strings[name] = texts
+        elif topic is None:
+            out.stamp_ns[name] = np.zeros(0, np.int64)
+            out.values[name] = np.zeros((0, 3))
+        else:
+            out.stamp_ns[name] = topic.stamp_ns
+            out.values[name] = topic.values
+            out.n_bulk += topic.n_fast
+    return out
+
+
+def _deserialize(path, topic, store, data: bytes, msgtype: str):
+    try:
+        return store.deserialize_cdr(data, msgtype)
+    except (SerdeError, struct.error, ValueError, IndexError, UnicodeDecodeError) as err:
+        raise BagError(f'{path}: {topic}: undecodable {msgtype} message: {err}') from err
+
+
+def _decode_generic(path, reader, wanted) -> _Decoded:
+    out = _Decoded()
+    conns = [c for c in reader.connections if c.topic in wanted]
+    stamps: Dict[str, list] = {name: [] for name in wanted}
+    vals: Dict[str, list] = {name: [] for name in wanted}
+    try:
+        for conn, log_time, data in reader.messages(connections=conns):
+            msg = reader.deserialize(data, conn.msgtype)
+            msgtype = wanted[conn.topic]
+            if msgtype == STRING_TYPE:
+                stamps[conn.topic].append((log_time, msg.data))
+            else:
+                stamp, vec = extract(LAYOUTS[msgtype], msg)
+                stamps[conn.topic].append(stamp)
+                vals[conn.topic].append(vec)
+    except _ROSBAGS_ERRORS as err:
+        raise _bag_error(path, err) from err
+    for name, msgtype in wanted.items():
+        expected = sum(c.msgcount for c in conns if c.topic == name)
+        got = len(stamps[name])
+        if got != expected:
+            # rosbags matches rosbag2 connections on QoS too and can silently yield nothing
+            raise BagError(f'{path}: {name}: the bag index lists {expected} messages but '
+                           f'{got} could be read')
+        out.n_messages += got
+        if msgtype == STRING_TYPE:
+            out.strings[name] = stamps[name]
+        else:
+            out.stamp_ns[name] = np.asarray(stamps[name], np.int64).reshape(-1)
+            out.values[name] = np.asarray(vals[name], np.float64).reshape(-1, 3)
+    return out
+
+
+def _series(decoded: _Decoded, topic: str, channels) -> TopicSeries:
+    return TopicSeries(topic, decoded.stamp_ns[topic], decoded.values[topic], tuple(channels))
+
+
+def read_recording(path, topics=None, require_wft: bool = True,
+                   expected_fs_hz: Optional[float] = None, *, bulk: bool = True) -> Recording:
+    """
+    Read a recording and align its topics on ``header.stamp``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        rosbag2 directory (mcap or sqlite3 storage) or ROS 1 ``.bag`` file.
+    topics : TopicConfig, optional
+        Topic names (defaults: DESIGN.md).
+    require_wft : bool
+        Read the four WrenchStamped ground-truth topics (training / evaluation bags).  When
+        False they are not read and ``Segment.force_n`` is None.
+    expected_fs_hz : float, optional
+        Reject the recording unless its sample rate is within 0.1 % of this [Hz].
+    bulk : bool
+        Use the bulk decoder where possible (False forces rosbags' per-message path; both
+        give identical results).
+
+    Returns
+    -------
+    Recording
+
+    Raises
+    ------
+    BagError
+        Bad path, corrupt or truncated bag, missing topic (topics present listed), wrong
+        type, unequal counts or stamps across topics, duplicate or decreasing stamps, rate
+        mismatch, or no segment of at least 2 samples.
+    NonFiniteError
+        NaN or infinity in a message (topic, channel and stamp named).
+
+    """
+    topics = default_topic_config(topics)
+    if expected_fs_hz is not None and not (np.isfinite(expected_fs_hz) and expected_fs_hz > 0):
+        raise ConfigError(f'expected_fs_hz must be finite and > 0, got {expected_fs_hz!r}')
+    path = _check_path(path)
+    required = {t: IMU_TYPE for t in topics.imu_topics}
+    if require_wft:
+        required.update({t: WRENCH_TYPE for t in topics.wft_topics})
+    decoded = _read_topics(path, required, {topics.event_topic: STRING_TYPE}, bulk=bulk)
+    imu = [_series(decoded, t, INPUT_CHANNELS[3 * i:3 * i + 3])
+           for i, t in enumerate(topics.imu_topics)]
+    wft = ([_series(decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3])
+            for i, t in enumerate(topics.wft_topics)] if require_wft else None)
+    result = align(path, imu, wft, expected_fs_hz)
+    if not result.segments:
+        raise BagError(f'{path}: no segment of at least 2 samples between gaps '
+                       f'({len(result.gaps)} gaps in {imu[0].stamp_ns.size} samples)')
+    events = tuple((int(s), str(name)) for s, name in
+                   decoded.strings.get(topics.event_topic, ()))
+    return Recording(
+        path=path,
+        fs_hz=result.fs_hz,
+        segments=result.segments,
+        events=events,
+        n_read={t: int(decoded.stamp_ns[t].size) for t in required},
+        n_used=sum(s.n_samples for s in result.segments),
+        gaps=result.gaps,
+        short_segments=result.short_segments,
+        step_range_ns=result.step_range_ns,
+        n_bulk=decoded.n_bulk,
+        n_messages=decoded.n_messages,
+    )
+
+
+def read_imu_topic(path, topic: str, *, bulk: bool = True):
+    """
+    Read one sensor_msgs/Imu topic of any bag (e.g. a ROS 1 robot's ``/imu/data``).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        rosbag2 directory or ROS 1 ``.bag`` file.
+    topic : str
+        Imu topic name.
+    bulk : bool
+        Allow the bulk decoder (rosbag2 only).
+
+    Returns
+    -------
+    stamp_ns : numpy.ndarray, shape (n,), int64
+        ``header.stamp`` in bag order (checked strictly increasing).
+    accel_mps2 : numpy.ndarray, shape (3, n), float64
+        linear_acceleration x, y, z.
+
+    Raises
+    ------
+    BagError
+        Bad path, corrupt bag, missing topic or wrong type, duplicate/decreasing stamps.
+    NonFiniteError
+        NaN or infinity in a message.
+
+    """
+    path = _check_path(path)
+    decoded = _read_topics(path, {topic: IMU_TYPE}, {}, bulk=bulk)
+    series = _series(decoded, topic, ('ax', 'ay', 'az'))
+    check_series(path, series)
+    return series.stamp_ns, np.ascontiguousarray(series.values.T)
+
+
+def read_wrench_topics(path, topics, *, bulk: bool = True):
+    """
+    Read four WrenchStamped topics on one sample clock (e.g. the node's recorded output).
+
+    Unlike :func:`read_recording` there is no segmentation: stamps are returned as they are,
+    so gaps stay visible in ``stamp_ns``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        rosbag2 directory or ROS 1 ``.bag`` file.
+    topics : sequence of 4 str
+        WrenchStamped topics in corner order (e.g. ``TopicConfig.output_topics``).
+    bulk : bool
+        Allow the bulk decoder.
+
+    Returns
+    -------
+    stamp_ns : numpy.ndarray, shape (n,), int64
+        ``header.stamp``, strictly increasing, shared by the four topics.
+    force_n : numpy.ndarray, shape (12, n), float64
+        wrench.force in ``OUTPUT_CHANNELS`` order [N].
+
+    Raises
+    ------
+    BagError
+        Bad path, corrupt bag, missing topic or wrong type, duplicate/decreasing stamps, or
+        stamps that differ between the topics.
+    NonFiniteError
+        NaN or infinity in a message.
+
+    """
+    topics = tuple(topics)
+    if len(topics) != 4:
+        raise ConfigError(f'read_wrench_topics needs 4 topics (lf, rf, lr, rr), got {topics}')
+    path = _check_path(path)
+    decoded = _read_topics(path, dict.fromkeys(topics, WRENCH_TYPE), {}, bulk=bulk)
+    series = [_series(decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3])
+              for i, t in enumerate(topics)]
+    for s in series:
+        check_series(path, s)
+    for s in series[1:]:
+        check_same_clock(path, series[0], s)
+    return series[0].stamp_ns, np.concatenate([s.values.T for s in series], axis=0)
+
+
+def read_string_topic(path, topic: str, *, bulk: bool = True) -> Tuple[Tuple[int, str], ...]:
+    """
+    Read one std_msgs/String topic: ``((bag_time_ns, text), ...)`` in bag order.
+
+    Raises
+    ------
+    BagError
+        Bad path, corrupt bag, missing topic or wrong type.
+
+    """
+    path = _check_path(path)
+    decoded = _read_topics(path, {topic: STRING_TYPE}, {}, bulk=bulk)
+    return tuple((int(s), str(t)) for s, t in decoded.strings[topic])
+
+
+__all__ = ['Recording', 'jazzy_typestore', 'read_imu_topic', 'read_recording',
+           'read_string_topic', 'read_wrench_topics']

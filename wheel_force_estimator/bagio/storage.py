@@ -1,0 +1,490 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Bulk access to the raw message payloads of a rosbag2 recording (sqlite3 and mcap).
+
+rosbags yields one ``(connection, timestamp, bytes)`` tuple per message, which caps a reader at
+a few hundred thousand messages per second before any decoding.  Here payloads come out in
+batches of numpy arrays: sqlite3 through aggregate queries over rowid ranges (SQLite itself
+concatenates the blobs), mcap chunks located through the summary's chunk indexes and each
+chunk's message indexes, payloads gathered with one fancy index per chunk and channel.  Each
+batch is grouped by payload length and handed to a per-topic sink: a raw collector here, or
+a decoder (:class:`.fastcdr.TopicDecoder`) that keeps only the decoded values.
+
+Topics are matched by name (and type), as ``ros2 bag`` does; QoS profiles are not compared.
+Whatever this module cannot do in bulk (file/message compression, an mcap file without
+summary or message indexes) raises :class:`FastPathUnavailable` and the caller uses the
+generic rosbags reader instead.  Structural damage raises :class:`BagError` naming the file.
+"""
+from dataclasses import dataclass
+from pathlib import Path
+from pathlib import PurePath
+import sqlite3
+import struct
+import sys
+from typing import Dict, List, Optional, Sequence, Tuple
+import zlib
+
+import numpy as np
+
+from wheel_force_estimator.core.errors import BagError
+import yaml
+
+_MCAP_MAGIC = b'\x89MCAP0\r\n'
+_FOOTER_LEN = 1 + 8 + 20 + 8  # opcode, length, footer fields, magic
+# Message record: opcode(1) length(8) channel(2) sequence(4) log_time(8) publish_time(8)
+_MSG_HEADER = 31
+
+
+class FastPathUnavailable(Exception):
+    """The recording cannot be read in bulk here; use the generic rosbags reader."""
+
+
+@dataclass(frozen=True)
+class RawTopic:
+    """
+    All raw payloads of one topic, in (bag timestamp, storage) order.
+
+    Attributes
+    ----------
+    msgtype : str
+        Message type name.
+    log_time_ns : numpy.ndarray, shape (n,), int64
+        Bag (receive) timestamps.
+    groups : tuple of (numpy.ndarray, numpy.ndarray)
+        ``(positions, rows)`` per payload length: positions (k,) into the topic's message
+        order and rows (k, L) uint8 payloads.
+
+    """
+
+    msgtype: str
+    log_time_ns: np.ndarray
+    groups: Tuple[Tuple[np.ndarray, np.ndarray], ...]
+
+    @property
+    def n(self) -> int:
+        """Return the number of messages."""
+        return len(self.log_time_ns)
+
+    def payload(self, i: int) -> bytes:
+        """Return the payload of message ``i`` (slow; for tests and small topics)."""
+        for pos, rows in self.groups:
+            hit = np.flatnonzero(pos == i)
+            if hit.size:
+                return rows[hit[0]].tobytes()
+        raise IndexError(i)
+
+
+@dataclass(frozen=True)
+class BagLayout:
+    """What metadata.yaml says about a rosbag2 directory (or a bare storage file)."""
+
+    storage: str
+    files: Tuple[Path, ...]
+    topic_types: Dict[str, str]
+    topic_counts: Dict[str, int]
+
+
+def bag_layout(path: Path) -> BagLayout:
+    """
+    Describe a rosbag2 directory or a bare ``.mcap`` / ``.db3`` file.
+
+    Raises
+    ------
+    FastPathUnavailable
+        Not a rosbag2 recording this module reads in bulk (ROS 1 bag, compressed bag).
+    BagError
+        metadata.yaml is unreadable or lists files that are missing.
+
+    """
+    if path.is_file():
+        storage = {'.mcap': 'mcap', '.db3': 'sqlite3'}.get(path.suffix)
+        if storage is None:
+            raise FastPathUnavailable(f'{path}: not a rosbag2 storage file')
+        return BagLayout(storage, (path,), {}, {})
+    meta_path = path / 'metadata.yaml'
+    try:
+        doc = yaml.safe_load(meta_path.read_text(encoding='utf-8'))
+        info = doc['rosbag2_bagfile_information']
+        storage = info['storage_identifier']
+        files = tuple(path / PurePath(p).name for p in info['relative_file_paths'])
+        mode = str(info.get('compression_mode') or '').lower()
+        types, counts = {}, {}
+        for entry in info.get('topics_with_message_count') or ():
+            meta = entry['topic_metadata']
+            types[meta['name']] = meta['type']
+            counts[meta['name']] = counts.get(meta['name'], 0) + int(entry['message_count'])
+    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as err:
+        raise BagError(f'{path}: cannot read rosbag2 metadata.yaml: {err!r}') from err
+    if mode not in ('', 'none'):
+        raise FastPathUnavailable(f'{path}: compression mode {mode!r}')
+    if storage not in ('mcap', 'sqlite3'):
+        raise FastPathUnavailable(f'{path}: storage {storage!r}')
+    missing = [str(f) for f in files if not f.is_file()]
+    if missing:
+        raise BagError(f'{path}: storage files listed in metadata.yaml are missing: {missing}')
+    return BagLayout(storage, files, types, counts)
+
+
+class _Collector:
+    """Accumulates (log_time, length-grouped rows) batches of one topic across files/chunks."""
+
+    def __init__(self, msgtype: str):
+        self.msgtype = msgtype
+        self.times: List[np.ndarray] = []
+        self.rows: Dict[int, List[Tuple[int, np.ndarray, np.ndarray]]] = {}
+        self.count = 0
+
+    def add(self, log_time: np.ndarray, lengths: np.ndarray, rows_of_length):
+        """Add a batch; ``rows_of_length(L, index) -> (k, L) uint8`` gathers one group."""
+        for length in np.unique(lengths):
+            idx = np.flatnonzero(lengths == length)
+            self.rows.setdefault(int(length), []).append(
+                (self.count, idx, rows_of_length(int(length), idx)))
+        self.times.append(np.asarray(log_time, np.int64))
+        self.count += len(log_time)
+
+    def finish(self) -> RawTopic:
+        times = np.concatenate(self.times) if self.times else np.zeros(0, np.int64)
+        order = np.argsort(times, kind='stable')
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        groups = []
+        for length in sorted(self.rows):
+            parts = self.rows[length]
+            pos = np.concatenate([base + idx for base, idx, _ in parts])
+            rows = parts[0][2] if len(parts) == 1 else np.concatenate([r for _, _, r in parts])
+            groups.append((rank[pos], rows))
+        return RawTopic(self.msgtype, times[order], tuple(groups))
+
+
+class _Sinks(dict):
+    """Topic -> sink, created on first use (raw collector unless ``make_sink`` says else)."""
+
+    def __init__(self, make_sink):
+        super().__init__()
+        self.make_sink = make_sink
+
+    def sink(self, topic: str, msgtype: str):
+        if topic not in self:
+            made = self.make_sink(topic, msgtype) if self.make_sink else None
+            self[topic] = made if made is not None else _Collector(msgtype)
+        return self[topic]
+
+
+def read_raw_topics(path: Path, topics: Sequence[str], make_sink=None):
+    """
+    Read every payload of the given topics of a rosbag2 recording in bulk.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        rosbag2 directory, or a bare ``.mcap`` / ``.db3`` file.
+    topics : sequence of str
+        Topic names; topics absent from the storage are absent from the result.
+    make_sink : callable, optional
+        ``make_sink(topic, msgtype)`` returns the object receiving that topic's batches
+        (``add(log_time, lengths, rows_of_length)`` and ``finish()``; e.g. a decoder), or
+        None to keep the raw payloads.
+
+    Returns
+    -------
+    present : dict
+        Every topic in the storage: name to message type.
+    raw : dict
+        Requested topic name to :class:`RawTopic` (or the sink's ``finish()`` result).
+
+    Raises
+    ------
+    FastPathUnavailable
+        Use the generic reader for this recording.
+    BagError
+        Truncated or corrupt storage (file and offset named), or message counts that
+        disagree with metadata.yaml.
+
+    """
+    layout = bag_layout(path)
+    collectors = _Sinks(make_sink)
+    present: Dict[str, str] = {}
+    for file in layout.files:
+        if layout.storage == 'sqlite3':
+            found = _read_sqlite(file, topics, collectors)
+        else:
+            found = _McapFile(file).read(topics, collectors)
+        for name, msgtype in found.items():
+            if present.setdefault(name, msgtype) != msgtype:
+                raise BagError(f'{path}: topic {name} recorded with two types '
+                               f'{present[name]} and {msgtype}')
+    raw = {name: col.finish() for name, col in collectors.items()}
+    for name in topics:
+        if name in layout.topic_counts:
+            got = raw[name].n if name in raw else 0
+            if got != layout.topic_counts[name]:
+                raise BagError(
+                    f'{path}: metadata.yaml lists {layout.topic_counts[name]} messages on '
+                    f'{name} but the storage holds {got}: truncated or inconsistent bag')
+    return present, raw
+
+
+# Rows per sqlite3 query: bounds memory and stays far below SQLITE_MAX_LENGTH (1e9 bytes)
+# for the concatenated payloads of one batch.
+_SQLITE_BATCH = 20000
+# Read pages through mmap instead of copying them into SQLite's page cache.
+_SQLITE_MMAP = 1 << 30
+
+
+def _read_sqlite(file: Path, topics: Sequence[str], collectors: '_Sinks'):
+    try:
+        con = sqlite3.connect(f'file:{file}?immutable=1', uri=True)
+    except sqlite3.Error as err:
+        raise BagError(f'{file}: cannot open sqlite3 storage: {err}') from err
+    try:
+        rows = con.execute('SELECT id, name, type FROM topics').fetchall()
+        present = {}
+        for _, name, typ in rows:
+            if present.setdefault(name, typ) != typ:
+                raise BagError(f'{file}: topic {name} recorded with two types '
+                               f'{present[name]} and {typ}')
+        ids = {tid: (name, typ) for tid, name, typ in rows if name in topics}
+        if ids:
+            _read_sqlite_messages(con, file, ids, collectors)
+    except sqlite3.Error as err:
+        raise BagError(f'{file}: corrupt sqlite3 storage: {err}') from err
+    finally:
+        con.close()
+    return present
+
+
+def _read_sqlite_messages(con, file, ids, collectors):
+    # One pass per batch: SQLite concatenates the payloads itself and lists (topic id, length)
+    # packed in one integer and the timestamps as text, so Python never touches a row.  All
+    # aggregates step over the same rows in the same order (an ascending rowid range scan),
+    # which keeps them consistent and gives rosbag2's (timestamp, id) order after a stable
+    # sort on timestamp.  Fewer, integer-only group_concats are the cheapest form found.
+    query = (
+        "SELECT CAST(group_concat(data, x'') AS BLOB), "
+        "group_concat((topic_id << 32) + length(data), ' '), group_concat(timestamp, ' ') "
+        f"FROM messages WHERE id >= ? AND id < ? AND topic_id IN ({','.join('?' * len(ids))})")
+    con.execute(f'PRAGMA mmap_size = {_SQLITE_MMAP}')
+    first = con.execute('SELECT min(id) FROM messages').fetchone()[0]
+    while first is not None:
+        blob, *columns = con.execute(query, (first, first + _SQLITE_BATCH, *ids)).fetchone()
+        # ids are normally 1..n; jumping to the next existing id also copes with holes
+        first = con.execute('SELECT min(id) FROM messages WHERE id >= ?',
+                            (first + _SQLITE_BATCH,)).fetchone()[0]
+        if blob is None:
+            continue
+        packed, stamp = (np.fromstring(c, np.int64, sep=' ') for c in columns)
+        lengths = packed & 0xFFFFFFFF
+        if packed.size != stamp.size or lengths.sum() != len(blob):
+            raise BagError(f'{file}: corrupt sqlite3 storage: payload lengths do not add up')
+        table = np.stack([packed >> 32, stamp, lengths], axis=1)
+        buf = np.frombuffer(blob, np.uint8)
+        offsets = np.concatenate(([0], np.cumsum(table[:, 2])[:-1]))
+        for tid, (name, typ) in ids.items():
+            sel = np.flatnonzero(table[:, 0] == tid)
+            if not sel.size:
+                continue
+
+            def gather(length, idx, starts=offsets[sel], buf=buf):
+                return _gather(buf, starts[idx], length)
+
+            collectors.sink(name, typ).add(table[sel, 1], table[sel, 2], gather)
+
+
+def _gather(buf: np.ndarray, starts: np.ndarray, length: int) -> np.ndarray:
+    """Copy ``buf[s:s + length]`` for every start into a (k, length) uint8 matrix."""
+    if length == 0:
+        return np.zeros((len(starts), 0), np.uint8)
+    # One void item of `length` bytes starting at every byte: indexing copies whole items
+    # (memcpy each) instead of walking a 2-D byte window element by element.
+    items = np.ndarray(shape=(buf.size - length + 1,), dtype=np.dtype((np.void, length)),
+                       buffer=buf, strides=(1,))
+    return items[starts].view(np.uint8).reshape(len(starts), length)
+
+
+def _zstd_decompress(data: bytes) -> bytes:
+    if sys.version_info >= (3, 14):
+        from compression import zstd
+        return zstd.decompress(data)
+    try:
+        from backports import zstd
+        return zstd.decompress(data)
+    except ImportError:
+        import zstandard  # older rosbags releases depend on this one
+        return zstandard.ZstdDecompressor().decompress(data)
+
+
+def _lz4_decompress(data: bytes) -> bytes:
+    from lz4.frame import decompress
+    return decompress(data)
+
+
+class _McapFile:
+    """Just enough of the MCAP format to pull message payloads out by channel in bulk."""
+
+    def __init__(self, file: Path):
+        self.file = file
+
+    def _fail(self, what: str, offset: Optional[int] = None) -> BagError:
+        where = f' at offset {offset}' if offset is not None else ''
+        return BagError(f'{self.file}: corrupt or truncated mcap: {what}{where}')
+
+    def read(self, topics: Sequence[str], collectors: '_Sinks'):
+        try:
+            with self.file.open('rb') as fh:
+                return self._read(fh, topics, collectors)
+        except OSError as err:
+            raise BagError(f'{self.file}: cannot read mcap: {err.strerror or err}') from err
+
+    def _read(self, fh, topics, collectors):
+        size = fh.seek(0, 2)
+        fh.seek(0)
+        if fh.read(8) != _MCAP_MAGIC:
+            raise self._fail('bad start magic', 0)
+        if size < 8 + _FOOTER_LEN:
+            raise self._fail('file too short', size)
+        fh.seek(size - _FOOTER_LEN)
+        footer = fh.read(_FOOTER_LEN)
+        if footer[-8:] != _MCAP_MAGIC or footer[0] != 0x02:
+            raise self._fail('bad footer magic (file truncated?)', size - _FOOTER_LEN)
+        summary_start, _ = struct.unpack_from('<QQ', footer, 9)
+        if summary_start == 0:
+            raise FastPathUnavailable(f'{self.file}: mcap without summary')
+        if not 8 <= summary_start <= size - _FOOTER_LEN:
+            raise self._fail('summary offset out of range', size - _FOOTER_LEN)
+        fh.seek(summary_start)
+        summary = fh.read(size - _FOOTER_LEN - summary_start)
+        schemas, channels, chunks, stats = self._summary(summary, summary_start)
+        if not channels:
+            raise FastPathUnavailable(f'{self.file}: mcap summary lists no channels')
+        wanted = {}
+        present = {}
+        for cid, (schema_id, topic) in channels.items():
+            msgtype = schemas.get(schema_id, '')
+            if present.setdefault(topic, msgtype) != msgtype:
+                raise BagError(f'{self.file}: topic {topic} recorded with two types '
+                               f'{present[topic]} and {msgtype}')
+            if topic in topics:
+                wanted[cid] = (topic, msgtype)
+        if wanted and (not chunks or (stats is None and any(not c[3] for c in chunks))):
+            raise FastPathUnavailable(f'{self.file}: mcap without chunk or message indexes')
+        counts = dict.fromkeys(wanted, 0)
+        for chunk in sorted(chunks, key=lambda c: c[0]):
+            self._chunk(fh, size, chunk, wanted, collectors, counts)
+        if stats is not None and any(counts[c] != stats.get(c, 0) for c in wanted):
+            # message indexes are optional in MCAP: without them we cannot find messages
+            raise FastPathUnavailable(f'{self.file}: mcap message indexes incomplete')
+        return present
+
+    def _summary(self, data: bytes, base: int):
+        schemas: Dict[int, str] = {}
+        channels: Dict[int, Tuple[int, str]] = {}
+        chunks = []
+        stats = None
+        pos = 0
+        try:
+            while pos < len(data):
+                op, length = struct.unpack_from('<BQ', data, pos)
+                body = pos + 9
+                if body + length > len(data):
+                    raise self._fail('summary record overruns the summary', base + pos)
+                if op == 0x03:
+                    sid, nlen = struct.unpack_from('<HI', data, body)
+                    schemas[sid] = data[body + 6:body + 6 + nlen].decode()
+                elif op == 0x04:
+                    cid, sid, tlen = struct.unpack_from('<HHI', data, body)
+                    channels[cid] = (sid, data[body + 8:body + 8 + tlen].decode())
+                elif op == 0x08:
+                    chunks.append(self._chunk_index(data, body))
+                elif op == 0x0B:
+                    (map_len,) = struct.unpack_from('<I', data, body + 42)
+                    stats = dict(struct.iter_unpack('<HQ', data[body + 46:body + 46 + map_len]))
+                pos = body + length
+        except (struct.error, UnicodeDecodeError) as err:
+            raise self._fail(f'unreadable summary ({err})', base + pos) from err
+        return schemas, channels, chunks, stats
+
+    @staticmethod
+    def _chunk_index(data: bytes, pos: int):
+        start_offset, length, map_len = struct.unpack_from('<QQI', data, pos + 16)
+        pos += 36
+        pairs = struct.iter_unpack('<HQ', data[pos:pos + map_len])
+        index_offsets = dict(pairs)
+        pos += map_len
+        index_length, clen = struct.unpack_from('<QI', data, pos)
+        compression = data[pos + 12:pos + 12 + clen].decode()
+        return start_offset, length, index_offsets, index_length, compression
+
+    def _chunk(self, fh, size, chunk, wanted, collectors, counts):
+        start, length, index_offsets, index_length, _ = chunk
+        mine = [cid for cid in index_offsets if cid in wanted]
+        if not mine:
+            return
+        if start + length + index_length > size:
+            raise self._fail('chunk beyond end of file', start)
+        fh.seek(start)
+        rec = fh.read(length + index_length)
+        if len(rec) != length + index_length or rec[0] != 0x06:
+            raise self._fail('chunk record expected', start)
+        records = self._chunk_records(rec, start)
+        buf = np.frombuffer(records, np.uint8)
+        for cid in mine:
+            topic, msgtype = wanted[cid]
+            log_time, offsets = self._message_index(rec, index_offsets[cid] - start, cid, start)
+            data_len = self._check_messages(buf, offsets, cid, start)
+            counts[cid] += len(offsets)
+            col = collectors.sink(topic, msgtype)
+
+            def gather(length, idx, offsets=offsets):
+                return _gather(buf, offsets[idx] + _MSG_HEADER, length)
+
+            col.add(log_time, data_len, gather)
+
+    def _chunk_records(self, rec: bytes, start: int) -> bytes:
+        try:
+            (rec_len, _, _, usize, crc, clen) = struct.unpack_from('<QQQQII', rec, 1)
+            comp = rec[41:41 + clen].decode()
+            (csize,) = struct.unpack_from('<Q', rec, 41 + clen)
+        except (struct.error, UnicodeDecodeError) as err:
+            raise self._fail(f'unreadable chunk header ({err})', start) from err
+        first = 49 + clen
+        if first + csize > len(rec) or 9 + rec_len > len(rec):
+            raise self._fail('chunk data overruns the chunk record', start)
+        data = rec[first:first + csize]
+        try:
+            if comp == 'zstd':
+                data = _zstd_decompress(data)
+            elif comp == 'lz4':
+                data = _lz4_decompress(data)
+            elif comp:
+                raise BagError(f'{self.file}: unsupported mcap chunk compression {comp!r}')
+        except (ValueError, RuntimeError, OSError) as err:
+            raise self._fail(f'chunk does not decompress ({err})', start) from err
+        if len(data) != usize:
+            raise self._fail(f'chunk holds {len(data)} bytes, header says {usize}', start)
+        if crc and zlib.crc32(data) != crc:
+            raise self._fail('chunk CRC mismatch', start)
+        return data
+
+    def _message_index(self, rec: bytes, pos: int, cid: int, start: int):
+        try:
+            op, _, index_cid, arr_len = struct.unpack_from('<BQHI', rec, pos)
+        except struct.error as err:
+            raise self._fail('message index out of range', start + pos) from err
+        if op != 0x07 or index_cid != cid or pos + 15 + arr_len > len(rec) or arr_len % 16:
+            raise self._fail(f'bad message index for channel {cid}', start + pos)
+        pairs = np.frombuffer(rec, '<u8', count=arr_len // 8, offset=pos + 15).reshape(-1, 2)
+        return pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.int64)
+
+    def _check_messages(self, buf: np.ndarray, offsets: np.ndarray, cid: int, start: int):
+        if offsets.size and (offsets.min() < 0 or offsets.max() + _MSG_HEADER > buf.size):
+            raise self._fail(f'message offset outside chunk for channel {cid}', start)
+        head = _gather(buf, offsets, 11)  # opcode, record length, channel id
+        rec_len = np.ascontiguousarray(head[:, 1:9]).view('<u8')[:, 0].astype(np.int64)
+        chan = np.ascontiguousarray(head[:, 9:11]).view('<u2')[:, 0]
+        bad = (head[:, 0] != 0x05) | (chan != cid) | (rec_len < 22)
+        bad |= offsets + 9 + rec_len > buf.size
+        if bad.any():
+            raise self._fail(f'bad message record for channel {cid} in chunk', start)
+        return rec_len - 22
