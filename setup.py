@@ -16,6 +16,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
+        ('share/' + package_name + '/config/vehicles', glob('config/vehicles/*.yaml')),
     ],
     package_data={package_name: ['py.typed']},
     install_requires=[
