@@ -9,7 +9,7 @@ from pathlib import Path
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``evaluate``."""
     p = subparsers.add_parser(
-        'evaluate', help='RMSE %, pseudo damage and spectra of the prediction vs the WFT',
+        'evaluate', help='RMSE %%, pseudo damage and spectra of the prediction vs the WFT',
         description='Predict the forces of each recording and judge them against the '
                     'recorded WFT: RMSE % (unfiltered and 1 Hz high-passed) per channel and '
                     "per road event with the paper's rubric, pseudo damage ratio, relative "

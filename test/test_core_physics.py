@@ -1,0 +1,262 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""Physics terms: hand-checked force laws, feature filters, term validation, streaming stage."""
+import json
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.core import physics as ph
+from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import ShapeError
+
+FS = 512.0
+
+
+def test_force_laws_hand_values():
+    x = np.array([-0.05, -0.01, 0.0, 0.02, 0.04])
+    # 10 mm beyond a 30 mm gap is the reference depth: secant stiffness 1e5 N/m -> 1000 N.
+    np.testing.assert_allclose(ph.bump_stop_force(x, 0.03, 1e5, 2.0), [0, 0, 0, 0, 1000.0])
+    np.testing.assert_allclose(ph.bump_stop_force(x, 0.0, 1e5, 1.0), [0, 0, 0, 2000, 4000])
+    np.testing.assert_allclose(ph.rebound_stop_force(x, 0.04, 1e5, 2.0), [-1000.0, 0, 0, 0, 0])
+    np.testing.assert_allclose(ph.cubic_stiffness_force(x, 1e6), 1e6 * x ** 3)
+    v = np.array([-2.0, 0.0, 1.0])
+    np.testing.assert_allclose(ph.damper_asymmetry_force(v, 100.0), [100.0, 0.0, 50.0])
+    np.testing.assert_allclose(ph.coulomb_friction_force(v, 50.0, 1e-9), [-50.0, 0.0, 50.0])
+    np.testing.assert_allclose(ph.backlash_force(np.clip(x, -0.01, 0.01), 1e4),
+                               [100.0, 100.0, 0.0, -100.0, -100.0])
+    np.testing.assert_allclose(ph.tire_lift_off_force([-200.0, 0.0, 500.0], 0.0, 1.0),
+                               [200.0, 0.0, 0.0])
+    np.testing.assert_allclose(ph.anti_roll_bar_force(x, -x, 10.0), 20.0 * x)
+    np.testing.assert_allclose(ph.time_delay_force([1.0, 2.0], [0.5, 1.0]), [-0.5, -1.0])
+    np.testing.assert_allclose(ph.clip_indicator([-70.0, 10.0, 60.0], 60.0), [-1.0, 0.0, 1.0])
+    np.testing.assert_allclose(ph.mass_error_force(v, 2.0), 2.0 * v)
+    np.testing.assert_allclose(ph.stiffness_error_force(x, 3.0), 3.0 * x)
+    np.testing.assert_allclose(ph.damping_error_force(v, 4.0), 4.0 * v)
+
+
+def _play_loop(x, b, y0):
+    out, y = np.empty_like(x), y0
+    for i, xi in enumerate(x):
+        y = min(max(y, xi - b), xi + b)
+        out[i] = y
+    return out
+
+
+def test_play_operator_matches_loop_and_splits_exactly():
+    x = np.random.default_rng(0).standard_normal(1000).cumsum()
+    ref = _play_loop(x, 1.5, x[0])
+    # The scan only selects values (no arithmetic), so it is exact.
+    assert np.array_equal(ph.play_operator(x, 1.5, x[0]), ref)
+    first = ph.play_operator(x[:333], 1.5, x[0])
+    second = ph.play_operator(x[333:], 1.5, first[-1])
+    assert np.array_equal(np.concatenate([first, second]), ref)
+    assert ph.play_operator(np.zeros(0), 1.0, 0.0).size == 0
+
+
+@pytest.mark.parametrize('f_hz', [2.0, 10.0])
+def test_feature_filters_integrate_a_sine(f_hz):
+    t = np.arange(int(30 * FS)) / FS
+    w = 2 * np.pi * f_hz
+    disp = 0.01 * np.sin(w * t)
+    accel = -w ** 2 * disp + 9.81
+    feats = ph.FeatureBank(FS, 'acceleration', 0.2, 0.0, 1).process(accel[np.newaxis])
+    tail = slice(-int(5 * FS), None)
+    # Amplitude: the 0.2 Hz high-pass passes >= 2 Hz to within 0.1 % and the bilinear
+    # integrator's warping at 10 Hz / 512 Hz is 0.1 %; allow 1 %.
+    assert np.std(feats['displacement'][0, tail]) == pytest.approx(0.01 / np.sqrt(2), rel=0.01)
+    assert np.std(feats['velocity'][0, tail]) == pytest.approx(0.01 * w / np.sqrt(2), rel=0.01)
+    # Phase: HP3 at 0.2 Hz leads by 11.5 deg at 2 Hz (known), 2.3 deg at 10 Hz; correlation
+    # with the true displacement is cos(phase) > 0.97.
+    assert np.corrcoef(feats['displacement'][0, tail], disp[tail])[0, 1] > 0.97
+
+
+def test_feature_filters_reject_constant_gravity_exactly():
+    accel = np.full((2, 4000), 9.81)
+    feats = ph.FeatureBank(FS, 'acceleration', 0.2, 0.0, 2).process(accel)
+    # Started in steady state, a constant input stays at the DC gain (zero) up to rounding.
+    assert np.abs(feats['displacement']).max() < 1e-9
+    assert np.abs(feats['velocity']).max() < 1e-9
+
+
+def test_feature_filters_differentiate_displacement():
+    t = np.arange(int(10 * FS)) / FS
+    w = 2 * np.pi * 1.0
+    feats = ph.FeatureBank(FS, 'displacement', 0.0, 64.0, 1).process(
+        0.02 * np.sin(w * t)[np.newaxis])
+    tail = slice(-int(4 * FS), None)
+    # The 64 Hz low-pass changes a 1 Hz derivative by < 0.1 % in amplitude.
+    assert np.std(feats['velocity'][0, tail]) == pytest.approx(0.02 * w / np.sqrt(2), rel=0.005)
+    expected = 0.02 * w ** 2 / np.sqrt(2)
+    assert np.std(feats['acceleration'][0, tail]) == pytest.approx(expected, rel=0.005)
+
+
+def test_feature_filter_errors():
+    with pytest.raises(ConfigError, match='highpass_hz'):
+        ph.feature_filters(FS, 'acceleration', 0.0, 0.0)
+    with pytest.raises(ConfigError, match='lowpass_hz'):
+        ph.feature_filters(FS, 'displacement', 0.0, FS)
+    with pytest.raises(ConfigError, match='input_quantity'):
+        ph.feature_filters(FS, 'jerk', 0.2, 0.0)
+
+
+def _terms():
+    return [
+        ph.PhysicsTerm('bump_stop', ('lf_fz', 'rf_fz'),
+                       {'gap_m': 0.002, 'stiffness_n_per_m': 1e5, 'exponent': 2.0}),
+        ph.PhysicsTerm('rebound_stop', ('lr_fz',),
+                       {'gap_m': 0.002, 'stiffness_n_per_m': 1e5, 'exponent': 1.0}),
+        ph.PhysicsTerm('cubic_stiffness', ('rr_fz',), {'stiffness_n_per_m3': 1e7}),
+        ph.PhysicsTerm('damper_asymmetry', ('lf_fz',),
+                       {'compression_minus_rebound_n_s_per_m': 300.0}),
+        ph.PhysicsTerm('coulomb_friction', ('rf_fz',),
+                       {'friction_n': 50.0, 'velocity_scale_mps': 0.01}),
+        ph.PhysicsTerm('backlash', ('lf_fx',),
+                       {'gap_m': 0.0005, 'stiffness_n_per_m': 1e4, 'hysteretic': 1.0}),
+        ph.PhysicsTerm('backlash', ('rf_fx',),
+                       {'gap_m': 0.0005, 'stiffness_n_per_m': 1e4, 'hysteretic': 0.0}),
+        ph.PhysicsTerm('tire_lift_off', ('lr_fz',), {'threshold_n': 0.0, 'gain': 1.0}),
+        ph.PhysicsTerm('anti_roll_bar', ('lf_fz', 'rf_fz'), {'stiffness_n_per_m': 2e4},
+                       partners=('rf_az', 'lf_az')),
+        ph.PhysicsTerm('time_delay', ('lf_fy', 'rr_fz'), {'delay_s': 3.3 / FS}),
+        ph.PhysicsTerm('sensor_saturation', ('lf_fz',),
+                       {'limit': 25.0, 'force_n': 40.0, 'integration': 2.0}),
+        ph.PhysicsTerm('mass_error', ('rr_fx',), {'mass_kg': 2.0}),
+        ph.PhysicsTerm('stiffness_error', ('rr_fy',), {'stiffness_n_per_m': 1e3}),
+        ph.PhysicsTerm('damping_error', ('lr_fy',), {'damping_n_s_per_m': 1e2}),
+    ]
+
+
+def _signals(n=6000, seed=1):
+    rng = np.random.default_rng(seed)
+    b, a = signal.butter(2, 30.0, fs=FS)
+    accel = signal.lfilter(b, a, rng.standard_normal((12, n)), axis=1) * 20.0 + 9.81
+    force = rng.standard_normal((12, n)) * 800.0 + 3000.0
+    return accel, force
+
+
+def test_every_vocabulary_entry_has_a_term_and_round_trips_through_json():
+    terms = _terms()
+    assert {t.physics for t in terms} == set(ph.VOCABULARY)
+    for term in terms:
+        back = ph.PhysicsTerm.from_dict(json.loads(json.dumps(term.to_dict())))
+        assert back == term
+
+
+def test_stage_chunked_equals_batch_bit_for_bit():
+    accel, force = _signals()
+    terms = _terms()
+    batch = ph.apply_physics(terms, FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force)
+    stage = ph.PhysicsStage(terms, FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    parts, i = [], 0
+    for m in (1, 2, 127, 0, 1000, 3, 4000, 867):
+        parts.append(stage.process(accel[:, i:i + m], force[:, i:i + m]))
+        i += m
+    assert i == accel.shape[1]
+    assert np.array_equal(np.concatenate(parts, axis=1), batch)
+    stage.reset()
+    assert np.array_equal(stage.process(accel, force), batch)
+    # Every term acts: each channel named by a term differs from the linear force.
+    touched = {OUTPUT_CHANNELS.index(c) for t in terms for c in t.channels}
+    for o in touched:
+        assert not np.array_equal(batch[o], force[o])
+    for o in set(range(12)) - touched:
+        assert np.array_equal(batch[o], force[o])
+
+
+def test_stage_time_delay_is_an_exact_shift():
+    accel, force = _signals(n=500)
+    term = ph.PhysicsTerm('time_delay', OUTPUT_CHANNELS, {'delay_s': 7.0 / FS})
+    out = ph.apply_physics([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force)
+    # F + (F_delayed - F) is F_delayed up to one rounding.
+    np.testing.assert_allclose(out[:, 7:], force[:, :-7], rtol=1e-13)
+    np.testing.assert_allclose(out[:, :7], np.repeat(force[:, :1], 7, axis=1), rtol=1e-13)
+    half = ph.PhysicsTerm('time_delay', ('lf_fx',), {'delay_s': 0.5 / FS})
+    out = ph.apply_physics([half], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force)
+    np.testing.assert_allclose(out[0, 1:], 0.5 * (force[0, 1:] + force[0, :-1]), rtol=1e-12)
+
+
+def test_stage_without_terms_is_identity_and_checks_shapes():
+    accel, force = _signals(n=100)
+    stage = ph.PhysicsStage([], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    assert np.array_equal(stage.process(accel, force), force)
+    stage = ph.PhysicsStage(_terms(), FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    with pytest.raises(ShapeError, match='samples'):
+        stage.process(accel[:, :10], force[:, :11])
+    with pytest.raises(ShapeError, match='channels'):
+        stage.process(accel[:3], force)
+
+
+def test_stage_rest_inputs_start_the_filters_at_rest():
+    accel = np.full((12, 300), 9.81)
+    force = np.full((12, 300), 1000.0)
+    term = ph.PhysicsTerm('stiffness_error', ('lf_fz',), {'stiffness_n_per_m': 1e6})
+    out = ph.apply_physics([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force,
+                           rest_inputs=np.full(12, 9.81))
+    # Constant input at the rest level: zero displacement, no added force (rounding only).
+    np.testing.assert_allclose(out, force, atol=1e-6)
+
+
+def _term(physics, channels=('lf_fz',), **parameters):
+    return {'physics': physics, 'channels': channels, 'parameters': parameters}
+
+
+@pytest.mark.parametrize('kwargs, match', [
+    (_term('spring'), 'not one of'),
+    (_term('bump_stop', gap_m=0.01), 'parameters'),
+    (_term('bump_stop', gap_m=-0.01, stiffness_n_per_m=1.0, exponent=2.0), 'gap_m'),
+    (_term('coulomb_friction', friction_n=1.0, velocity_scale_mps=0.0), 'velocity_scale'),
+    (_term('stiffness_error', (), stiffness_n_per_m=1.0), 'channels'),
+    (_term('stiffness_error', ('lf_fz', 'lf_fz'), stiffness_n_per_m=1.0), 'unique'),
+    (_term('stiffness_error', stiffness_n_per_m=float('nan')), 'finite'),
+    (_term('anti_roll_bar', stiffness_n_per_m=1.0), 'partner'),
+    (_term('backlash', ('lf_fx',), gap_m=0.1, stiffness_n_per_m=1.0, hysteretic=0.5),
+     'hysteretic'),
+    (_term('sensor_saturation', limit=1.0, force_n=1.0, integration=3.0), 'integration'),
+    (_term('stiffness_error', ('force',), stiffness_n_per_m=1.0), 'source'),
+])
+def test_term_validation(kwargs, match):
+    with pytest.raises(ConfigError, match=match):
+        ph.PhysicsTerm(**kwargs)
+
+
+def test_from_dict_rejects_unknown_and_missing_keys():
+    with pytest.raises(ConfigError, match='unknown keys'):
+        ph.PhysicsTerm.from_dict({'physics': 'mass_error', 'channels': ['lf_fz'],
+                                  'parameters': {'mass_kg': 1.0}, 'colour': 'red'})
+    with pytest.raises(ConfigError, match='missing keys'):
+        ph.PhysicsTerm.from_dict({'physics': 'mass_error', 'channels': ['lf_fz']})
+
+
+def test_stage_rejects_unknown_channels_and_negative_delay():
+    term = ph.PhysicsTerm('mass_error', ('xx_fz',), {'mass_kg': 1.0}, sources=('lf_az',))
+    with pytest.raises(ConfigError, match='xx_fz'):
+        ph.PhysicsStage([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    late = ph.PhysicsTerm('time_delay', ('lf_fz',), {'delay_s': -0.01})
+    with pytest.raises(ConfigError, match='look-ahead'):
+        ph.PhysicsStage([late], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+
+
+def test_predictor_applies_physics_like_the_batch_stage():
+    from wheel_force_estimator.core.model import FrfModel
+    from wheel_force_estimator.core.predict import predict_forces
+    nf, nt = 65, 128
+    taps = np.zeros((12, 12, nt))
+    taps[np.arange(12), np.arange(12), 10] = 30.0
+    model = FrfModel(fs_hz=FS, input_channels=INPUT_CHANNELS, output_channels=OUTPUT_CHANNELS,
+                     f_hz=np.linspace(0.0, FS / 2, nf), h=np.zeros((nf, 12, 12), complex),
+                     coherence_ordinary=np.zeros((nf, 12, 12)),
+                     coherence_multiple=np.zeros((nf, 12)), cond_sxx=np.ones(nf),
+                     fir_taps=taps, fir_delay_samples=10, static_force_n=np.full(12, 3000.0),
+                     static_accel_mps2=np.full(12, 9.81), estimator='h1')
+    accel, _ = _signals(n=3000)
+    terms = [t for t in _terms() if t.physics != 'time_delay']
+    linear = predict_forces(model, accel)
+    augmented = predict_forces(model.with_physics([t.to_dict() for t in terms]), accel)
+    expected = ph.apply_physics(terms, FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, linear)
+    # Same filters and state: the predictor primes its delay line with the first sample, the
+    # batch stage starts at rest at the first sample; equal up to rounding in the filters.
+    np.testing.assert_allclose(augmented, expected, rtol=1e-9, atol=1e-6)

@@ -1,0 +1,105 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""``wheel-force diagnose`` end to end: generic files and simulated bags."""
+import json
+
+import numpy as np
+import pytest
+
+from wheel_force_estimator.cli.main import main
+from wheel_force_estimator.core.model import load_model
+from wheel_force_estimator.diagnosis.synthetic import make_recording
+
+
+def _write_npz(path, rec):
+    np.savez(path, a=rec.inputs[0], b=rec.inputs[1], fa=rec.outputs[0], fb=rec.outputs[1])
+
+
+@pytest.fixture(scope='module')
+def generic_files(tmp_path_factory):
+    d = tmp_path_factory.mktemp('generic')
+    files = {}
+    for name, effect, seed, noise in (('sim1', 'none', 1, 0.0), ('sim2', 'none', 2, 0.0),
+                                      ('real1', 'damper_asymmetry', 3, 0.05),
+                                      ('real2', 'damper_asymmetry', 4, 0.05),
+                                      ('hold', 'damper_asymmetry', 5, 0.05)):
+        rec, _ = make_recording(effect, seed, duration_s=40.0, noise=noise)
+        files[name] = d / f'{name}.npz'
+        _write_npz(files[name], rec)
+    return files
+
+
+ROLES = ['--input', 'a:acceleration:m/s^2', '--input', 'b:acceleration:m/s^2',
+         '--output', 'fa:force:N', '--output', 'fb:force:N', '--fs', '256',
+         '--linear', 'regression']
+
+
+def test_generic_sim_diagnosis_writes_json_and_report(generic_files, tmp_path, capsys):
+    f = generic_files
+    out = tmp_path / 'd.json'
+    rc = main(['diagnose', '--real', str(f['real1']), str(f['real2']), '--sim', str(f['sim1']),
+               str(f['sim2']), '--holdout', str(f['hold']), '--json', str(out),
+               '--report', str(tmp_path / 'rep')] + ROLES)
+    assert rc == 0
+    doc = json.loads(out.read_text())
+    assert doc['findings'][0]['physics'] == 'damper_asymmetry'
+    assert doc['findings'][0]['channels'] == ['fa']
+    assert doc['fit']['data'] == 'holdout'
+    assert doc['fit']['after']['fa'] < doc['fit']['before']['fa']
+    assert (tmp_path / 'rep' / 'report.md').is_file()
+    assert list((tmp_path / 'rep').glob('regime_*.png'))
+    assert 'rebound damping differ' in capsys.readouterr().out
+
+
+def test_generic_without_sim_fits_linear_on_real(generic_files, tmp_path):
+    f = generic_files
+    out = tmp_path / 'd.json'
+    rc = main(['diagnose', '--real', str(f['real1']), str(f['real2']), '--holdout',
+               str(f['hold']), '--json', str(out)] + ROLES)
+    assert rc == 0
+    doc = json.loads(out.read_text())
+    assert doc['findings'][0]['physics'] == 'damper_asymmetry'
+    assert doc['fit']['linear_real'] == doc['fit']['before']
+
+
+def test_usage_errors_exit_2(generic_files, tmp_path, capsys):
+    f = generic_files
+    base = ['diagnose', '--real', str(f['real1']), '--json', str(tmp_path / 'x.json')]
+    assert main(base + ['--input', 'a:acceleration:m/s^2']) == 2
+    assert 'need --input, --output and --fs' in capsys.readouterr().err
+    assert main(base) == 2
+    assert 'reference' in capsys.readouterr().err
+    assert main(base + ROLES + ['--out-model', str(tmp_path / 'm.npz')]) == 2
+    with pytest.raises(SystemExit) as err:
+        main(['diagnose', '--json', 'x.json'])
+    assert err.value.code == 2
+
+
+def test_user_errors_exit_1(generic_files, tmp_path, capsys):
+    rc = main(['diagnose', '--real', str(tmp_path / 'missing.npz'), '--json',
+               str(tmp_path / 'x.json')] + ROLES)
+    assert rc == 1
+    assert 'missing.npz: no such file' in capsys.readouterr().err
+    rc = main(['diagnose', '--real', str(generic_files['real1']), '--json',
+               str(tmp_path / 'x.json'), '--input', 'a:acceleration:furlong', '--output',
+               'fa:force:N', '--fs', '256'])
+    assert rc == 1
+    assert 'unknown acceleration unit' in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_bags_from_the_simulator_and_augmented_model(tmp_path):
+    from wheel_force_estimator.sim.api import simulate_pair
+    paths = simulate_pair(tmp_path / 'pair', ('damper_asymmetry',), seed=3,
+                          duration_scale=0.1)
+    out = tmp_path / 'd.json'
+    model = tmp_path / 'aug.npz'
+    rc = main(['diagnose', '--real', str(paths['real']), '--sim', str(paths['sim']),
+               '--holdout', str(paths['holdout']), '--json', str(out), '--out-model',
+               str(model)])
+    assert rc == 0
+    doc = json.loads(out.read_text())
+    assert doc['fit']['metric'] == 'rmse_hp1_pct'
+    assert [f['physics'] for f in doc['findings']][:1] == ['damper_asymmetry']
+    physics = load_model(model).physics
+    assert physics and physics[0]['physics'] == 'damper_asymmetry'

@@ -1,0 +1,89 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""Data a diagnosis must refuse, with the reason named."""
+import numpy as np
+import pytest
+
+from wheel_force_estimator.core.errors import DiagnosisError
+from wheel_force_estimator.diagnosis import diagnose
+from wheel_force_estimator.diagnosis import DiagnosisConfig
+from wheel_force_estimator.diagnosis import MotionRecording
+from wheel_force_estimator.diagnosis.synthetic import make_recording
+from wheel_force_estimator.diagnosis.synthetic import synthetic_pair
+
+CONFIG = DiagnosisConfig(linear='regression')
+
+
+def _relabel(rec, **changes):
+    fields = {'name': rec.name, 'fs_hz': rec.fs_hz, 'inputs': rec.inputs,
+              'outputs': rec.outputs, 'input_channels': rec.input_channels,
+              'output_channels': rec.output_channels}
+    fields.update(changes)
+    return MotionRecording(**fields)
+
+
+@pytest.fixture(scope='module')
+def pair():
+    sim, real, holdout, _ = synthetic_pair('bump_stop', seed=11, duration_s=40.0)
+    return sim, real, holdout
+
+
+def test_different_rates_are_refused(pair):
+    sim, real, _ = pair
+    slow = [_relabel(r, fs_hz=200.0) for r in sim]
+    with pytest.raises(DiagnosisError, match='200 Hz.*256 Hz|256 Hz.*200 Hz'):
+        diagnose(real, slow, (), CONFIG)
+
+
+def test_different_channels_are_refused(pair):
+    sim, real, holdout = pair
+    other = [_relabel(r, output_channels=('lr_fz', 'rr_fz')) for r in sim]
+    with pytest.raises(DiagnosisError, match='output_channels'):
+        diagnose(real, other, (), CONFIG)
+    with pytest.raises(DiagnosisError, match='holdout'):
+        diagnose(real, sim, [_relabel(holdout[0], fs_hz=512.0)], CONFIG)
+
+
+def test_too_little_data_to_cross_validate(pair):
+    sim, _, _ = pair
+    # 16 s: 15 s settle for the 0.2 Hz integrators leaves 1 s, less than 5 blocks of 2 s.
+    short, _ = make_recording('bump_stop', 5, duration_s=16.0)
+    with pytest.raises(DiagnosisError, match='cross-validate|settle'):
+        diagnose([short], sim, (), CONFIG)
+    tiny, _ = make_recording('bump_stop', 5, duration_s=10.0)
+    with pytest.raises(DiagnosisError, match='settle'):
+        diagnose([tiny], sim, (), CONFIG)
+
+
+def test_no_overlap_in_operating_range(pair):
+    sim, real, _ = pair
+    # The simulation driven 50x more gently than the real system.
+    gentle = [_relabel(r, inputs=9.81 + (r.inputs - 9.81) / 50.0) for r in sim]
+    with pytest.raises(DiagnosisError, match='operating ranges do not overlap on lf_az'):
+        diagnose(real, gentle, (), CONFIG)
+
+
+def test_recording_with_unequal_lengths_is_refused():
+    with pytest.raises(DiagnosisError, match='100 input samples but 99 output samples'):
+        MotionRecording('bad', 100.0, np.zeros((1, 100)), np.zeros((1, 99)), ('a',), ('f',))
+
+
+def test_recording_with_nan_names_the_channel():
+    y = np.zeros((1, 50))
+    y[0, 17] = np.nan
+    with pytest.raises(ValueError, match='f at sample 17'):
+        MotionRecording('bad', 100.0, np.zeros((1, 50)), y, ('a',), ('f',))
+
+
+def test_no_real_recordings():
+    with pytest.raises(DiagnosisError, match='no real recordings'):
+        diagnose([], None)
+
+
+def test_unpairable_channels_are_refused():
+    rng = np.random.default_rng(0)
+    rec = MotionRecording('r', 100.0, rng.standard_normal((2, 4000)),
+                          rng.standard_normal((3, 4000)), ('a', 'b'), ('f', 'g', 'h'),
+                          input_quantity='displacement')
+    with pytest.raises(DiagnosisError, match='which input drives which output'):
+        diagnose([rec], None)

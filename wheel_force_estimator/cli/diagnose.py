@@ -1,0 +1,123 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""``wheel-force diagnose``: name the physics a simulation (or model) leaves out."""
+import argparse
+import sys
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    """Register ``diagnose``."""
+    p = subparsers.add_parser(
+        'diagnose', help='sim-vs-real diagnosis: locate the mismatch, name the missing physics',
+        description="Predict the real forces with the simulation's FRF (--sim) or a model "
+                    '(--model), locate the residual (bands, time windows, operating regime), '
+                    'rank candidate physics by the residual they explain on held-out data '
+                    'against a time-shifted-feature null, and compare before/after on '
+                    'holdout recordings.  Generic recordings (CSV/MAT/NPZ/JSON) are read with '
+                    '--input/--output role specs and --fs; without --sim a linear law is '
+                    'fitted on the real data and only nonlinear physics are sought.')
+    p.add_argument('--real', nargs='+', required=True, metavar='FILE',
+                   help='real recordings (bags, or generic files with --input/--output)')
+    ref = p.add_mutually_exclusive_group()
+    ref.add_argument('--sim', nargs='+', metavar='FILE', help='simulation recordings')
+    ref.add_argument('--model', metavar='MODEL', help='model file (.npz) as the reference')
+    p.add_argument('--holdout', nargs='+', default=[], metavar='FILE',
+                   help='real recordings kept out of fitting, for the before/after comparison')
+    p.add_argument('--json', required=True, metavar='FILE', help='write the diagnosis here')
+    p.add_argument('--out-model', metavar='MODEL',
+                   help='write the augmented model (reference FRF + fitted physics terms)')
+    p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
+    p.add_argument('--config', metavar='YAML', help='params file (topic names, fit settings)')
+    g = p.add_argument_group('generic recordings')
+    g.add_argument('--input', action='append', default=[], metavar='NAME:QUANTITY:UNIT',
+                   help='input channel, e.g. disp:displacement:m, data[1]:displacement:in '
+                        '(repeatable; quantity displacement, velocity or acceleration)')
+    g.add_argument('--output', action='append', default=[], metavar='NAME:force:UNIT',
+                   help='force channel, e.g. force:force:N (repeatable)')
+    g.add_argument('--fs', type=float, metavar='HZ', help='sample rate of generic recordings')
+    p.add_argument('--highpass-hz', type=float, metavar='HZ',
+                   help='corner of the band-limited integration of the features (default 0.2)')
+    p.add_argument('--linear', choices=('auto', 'frf', 'regression'), default='auto',
+                   help='linear reference fitted on --sim recordings: the MIMO FRF, a '
+                        'per-channel F0 + k x + c v + m a law, or auto (FRF for acceleration '
+                        'inputs)')
+    return p
+
+
+def _generic(args):
+    from wheel_force_estimator.diagnosis.generic import load_generic
+    from wheel_force_estimator.diagnosis.generic import parse_spec
+    inputs = [parse_spec(s, 'input') for s in args.input]
+    outputs = [parse_spec(s, 'output') for s in args.output]
+
+    def load(paths):
+        return [load_generic(path, inputs, outputs, args.fs) for path in paths]
+    return load(args.real), (load(args.sim) if args.sim else None), load(args.holdout)
+
+
+def _bags(args):
+    from wheel_force_estimator import INPUT_CHANNELS
+    from wheel_force_estimator import OUTPUT_CHANNELS
+    from wheel_force_estimator.bagio import load_topic_config
+    from wheel_force_estimator.cli.common import read_recordings
+    from wheel_force_estimator.diagnosis.recording import from_bag_recording
+    topics = load_topic_config(args.config)
+
+    def load(paths):
+        out = []
+        for rec in read_recordings(paths, topics, require_wft=True):
+            out.extend(from_bag_recording(rec, INPUT_CHANNELS, OUTPUT_CHANNELS))
+        return out
+    return load(args.real), (load(args.sim) if args.sim else None), load(args.holdout)
+
+
+def _usage_error(message: str) -> int:
+    print(f'wheel-force diagnose: error: {message}', file=sys.stderr)
+    return 2
+
+
+def command(args: argparse.Namespace) -> int:
+    """Run ``diagnose``; return the exit code."""
+    generic = bool(args.input or args.output)
+    if generic and (not args.input or not args.output or args.fs is None):
+        return _usage_error('generic recordings need --input, --output and --fs')
+    if not generic and not (args.sim or args.model):
+        return _usage_error('bags need a reference: --sim BAG... or --model MODEL')
+    if args.out_model and not (args.sim or args.model):
+        return _usage_error('--out-model needs an FRF reference (--sim or --model)')
+
+    from wheel_force_estimator.core.model import load_model
+    from wheel_force_estimator.core.model import save_model
+    from wheel_force_estimator.diagnosis.features import FeatureConfig
+    from wheel_force_estimator.diagnosis.run import diagnose
+    from wheel_force_estimator.diagnosis.run import DiagnosisConfig
+
+    real, sim, holdout = _generic(args) if generic else _bags(args)
+    reference = load_model(args.model) if args.model else sim
+    features = FeatureConfig() if args.highpass_hz is None else FeatureConfig(args.highpass_hz)
+    fit = None
+    if not generic:
+        from wheel_force_estimator.cli.common import load_fit_config
+        fit = load_fit_config(args.config)
+    config = DiagnosisConfig(features=features, fit=fit, linear=args.linear)
+    result = diagnose(real, reference, holdout, config)
+    path = result.write_json(args.json)
+    for m in result.mismatch[:4]:
+        bands = ', '.join(f'{a:.1f}-{b:.1f} Hz' for a, b in m.bands_hz) or '-'
+        print(f'mismatch {m.channel:8s} RMSE {m.rmse_pct:6.1f} %  bands {bands}  '
+              f'regime {m.regime}')
+    for line in result.summary:
+        print(line)
+    for line in result.rejected:
+        print(f'  not accepted: {line}')
+    if args.out_model:
+        if result.model is None:
+            from wheel_force_estimator.core.errors import DiagnosisError
+            raise DiagnosisError('the reference is not an FRF model; no augmented model '
+                                 'can be written')
+        print(f'augmented model: {save_model(result.model, args.out_model)}')
+    if args.report:
+        from wheel_force_estimator.diagnosis.plots import write_report
+        print(f'report: {write_report(args.report, result, real, holdout)}')
+    print(f'diagnosis: {path}')
+    return 0

@@ -1,0 +1,194 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Physical states from recorded motion, computed exactly as :class:`PhysicsStage` does.
+
+Displacement, velocity and acceleration come from the recorded quantity through the causal
+band-limited integrators / differentiators of :func:`core.physics.feature_filters` (the same
+filters the stage applies later, so fitted parameters mean the same thing when applied).
+Per output channel the diagnosis also uses the other side of the axle (left-right
+difference), the raw recorded level (saturation), the sign of the velocity and the predicted
+load (the reference model's total force, static included).
+"""
+from dataclasses import dataclass
+from typing import Dict, Optional, Sequence, Tuple
+
+import numpy as np
+
+from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import DiagnosisError
+from wheel_force_estimator.core.physics import default_source
+from wheel_force_estimator.core.physics import FeatureBank
+
+#: Other corner of the same axle.
+PARTNER_CORNER = {'lf': 'rf', 'rf': 'lf', 'lr': 'rr', 'rr': 'lr'}
+
+
+@dataclass(frozen=True)
+class FeatureConfig:
+    """
+    Corners of the feature filters.
+
+    Attributes
+    ----------
+    highpass_hz : float
+        Integration high-pass corner [Hz] (acceleration or velocity inputs).
+    lowpass_hz : float
+        Differentiation low-pass corner [Hz] (displacement or velocity inputs); 0 picks
+        ``fs / 8``.
+
+    """
+
+    highpass_hz: float = 0.2
+    lowpass_hz: float = 0.0
+
+    def __post_init__(self):
+        if not np.isfinite(self.highpass_hz) or self.highpass_hz <= 0.0:
+            raise ConfigError(f'highpass_hz must be > 0, got {self.highpass_hz!r}')
+        if not np.isfinite(self.lowpass_hz) or self.lowpass_hz < 0.0:
+            raise ConfigError(f'lowpass_hz must be >= 0, got {self.lowpass_hz!r}')
+
+    def resolved(self, fs_hz: float, input_quantity: str) -> Tuple[float, float]:
+        """Return ``(highpass_hz, lowpass_hz)`` as stored in the terms for these inputs."""
+        hp = self.highpass_hz if input_quantity != 'displacement' else 0.0
+        if input_quantity == 'acceleration':
+            return hp, 0.0
+        return hp, self.lowpass_hz or fs_hz / 8.0
+
+
+def pairing(output_channels: Sequence[str], input_channels: Sequence[str]
+            ) -> Tuple[Tuple[str, ...], Tuple[Optional[str], ...]]:
+    """
+    Source input channel and other-side partner input channel of every output channel.
+
+    Vehicle names pair ``lf_fz`` with ``lf_az`` (partner ``rf_az``); other recordings pair
+    outputs with inputs by position, or every output with a single input.
+
+    Raises
+    ------
+    DiagnosisError
+        When no pairing rule fits the channel names and counts.
+
+    """
+    inputs = tuple(input_channels)
+    try:
+        sources = tuple(default_source(c) for c in output_channels)
+    except ConfigError:
+        sources = ()
+    if sources and all(s in inputs for s in sources):
+        partners = []
+        for s in sources:
+            corner, _, axis = s.partition('_')
+            other = f'{PARTNER_CORNER.get(corner, "")}_{axis}'
+            partners.append(other if other in inputs else None)
+        return sources, tuple(partners)
+    if len(inputs) == len(output_channels):
+        return inputs, (None,) * len(inputs)
+    if len(inputs) == 1:
+        return inputs * len(output_channels), (None,) * len(output_channels)
+    raise DiagnosisError(
+        f'cannot tell which input drives which output: inputs {list(inputs)}, outputs '
+        f'{list(output_channels)} (give one input per output, in order, or a single input)')
+
+
+def motion_features(inputs: np.ndarray, fs_hz: float, input_quantity: str,
+                    config: FeatureConfig) -> Dict[str, np.ndarray]:
+    """
+    Return ``{'displacement'|'velocity'|'acceleration': (n_in, n)}`` for one record.
+
+    The filters start at rest at the record mean (see :func:`settle_samples` for the start-up
+    transient that remains).
+    """
+    hp, lp = config.resolved(fs_hz, input_quantity)
+    x = np.asarray(inputs, dtype=np.float64)
+    bank = FeatureBank(fs_hz, input_quantity, hp, lp, x.shape[0])
+    return bank.process(x, rest=x.mean(axis=1))
+
+
+def settle_samples(fs_hz: float, input_quantity: str, config: FeatureConfig) -> int:
+    """
+    Return the samples at the start of a record left out while the feature filters settle.
+
+    An integrator high-pass at ``f`` rings for about ``3 / f`` seconds after the record
+    starts (a differentiator low-pass for about ``3 / f_lp``).
+    """
+    hp, lp = config.resolved(fs_hz, input_quantity)
+    settle_s = max(3.0 / hp if hp else 0.0, 3.0 / lp if lp else 0.0)
+    return int(np.ceil(settle_s * fs_hz))
+
+
+@dataclass(frozen=True)
+class ChannelContext:
+    """
+    Everything a hypothesis may use to explain the residual of one output channel.
+
+    Attributes are 1-D arrays over the record: ``disp`` [m], ``vel`` [m/s], ``acc`` [m/s**2]
+    of the source input, ``partner_disp`` (or None), ``level`` (raw recorded input),
+    ``load`` (reference total force prediction [N]); ``fs_hz`` the rate.
+    """
+
+    disp: np.ndarray
+    vel: np.ndarray
+    acc: np.ndarray
+    level: np.ndarray
+    load: np.ndarray
+    partner_disp: Optional[np.ndarray]
+    fs_hz: float
+    filters: Tuple[str, float, float] = ('acceleration', 0.2, 0.0)
+
+    def shifted(self, shift: int) -> 'ChannelContext':
+        """Return the context circularly shifted in time (a feature unrelated to the force)."""
+        def roll(a):
+            return None if a is None else np.roll(a, shift)
+        return ChannelContext(roll(self.disp), roll(self.vel), roll(self.acc), roll(self.level),
+                              roll(self.load), roll(self.partner_disp), self.fs_hz,
+                              self.filters)
+
+
+def channel_contexts(inputs: np.ndarray, input_channels: Sequence[str], fs_hz: float,
+                     input_quantity: str, prediction_n: np.ndarray,
+                     sources: Sequence[str], partners: Sequence[Optional[str]],
+                     config: FeatureConfig) -> Tuple[ChannelContext, ...]:
+    """Build one :class:`ChannelContext` per output channel of one record."""
+    feats = motion_features(inputs, fs_hz, input_quantity, config)
+    filters = (input_quantity,) + config.resolved(fs_hz, input_quantity)
+    idx = {c: i for i, c in enumerate(input_channels)}
+    out = []
+    for o, (src, partner) in enumerate(zip(sources, partners)):
+        s = idx[src]
+        out.append(ChannelContext(
+            disp=feats['displacement'][s], vel=feats['velocity'][s],
+            acc=feats['acceleration'][s], level=np.asarray(inputs[s], dtype=np.float64),
+            load=np.asarray(prediction_n[o], dtype=np.float64),
+            partner_disp=None if partner is None else feats['displacement'][idx[partner]],
+            fs_hz=fs_hz, filters=filters))
+    return tuple(out)
+
+
+def saturation_level(level: np.ndarray, min_fraction: float = 5e-4,
+                     min_samples: int = 3) -> Optional[float]:
+    """
+    Return the clipping level of a sensor record, or None when it shows no flat tops.
+
+    A clipped sensor repeats its extreme value exactly, and it arrives there fast: the signal
+    is cut while still moving.  A healthy (even coarsely quantised) sensor rounds a peak
+    slowly.  The level is reported when at least ``min_fraction`` of the samples (and at
+    least ``min_samples``) sit at the extreme magnitude of either sign, and the median step
+    into those flat tops is at least half the RMS sample-to-sample step of the record.
+    """
+    x = np.asarray(level, dtype=np.float64)
+    if x.size < 3:
+        return None
+    steps = np.abs(np.diff(x))
+    typical = float(np.sqrt(np.mean(steps ** 2)))
+    best = None
+    for extreme in (x.max(), x.min()):
+        at = x == extreme
+        if extreme == 0.0 or np.count_nonzero(at) < max(min_samples, min_fraction * x.size):
+            continue
+        entries = np.flatnonzero(at[1:] & ~at[:-1])
+        if entries.size == 0 or np.median(steps[entries]) < 0.5 * typical:
+            continue
+        mag = abs(float(extreme))
+        best = mag if best is None else min(best, mag)
+    return best

@@ -1,0 +1,185 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""Diagnosis report: report.md plus the plots that show the effect (matplotlib, Agg)."""
+from pathlib import Path
+from typing import List, Sequence
+
+import numpy as np
+from scipy import signal
+
+from wheel_force_estimator.core.errors import DiagnosisError
+from wheel_force_estimator.core.physics import apply_physics
+from wheel_force_estimator.diagnosis.features import FeatureConfig
+from wheel_force_estimator.diagnosis.features import motion_features
+from wheel_force_estimator.diagnosis.features import pairing
+from wheel_force_estimator.diagnosis.hypotheses import BY_NAME
+
+#: Which state reveals each physics (feature key, axis label).
+_STATE = {'bump_stop': ('displacement', 'displacement [m]'),
+          'rebound_stop': ('displacement', 'displacement [m]'),
+          'cubic_stiffness': ('displacement', 'displacement [m]'),
+          'backlash': ('displacement', 'displacement [m]'),
+          'stiffness_error': ('displacement', 'displacement [m]'),
+          'anti_roll_bar': ('displacement', 'displacement [m]'),
+          'damper_asymmetry': ('velocity', 'velocity [m/s]'),
+          'coulomb_friction': ('velocity', 'velocity [m/s]'),
+          'damping_error': ('velocity', 'velocity [m/s]'),
+          'mass_error': ('acceleration', 'acceleration [m/s^2]'),
+          'sensor_saturation': ('level', 'recorded input'),
+          'tire_lift_off': ('load', 'predicted force [N]'),
+          'time_delay': ('load', 'predicted force [N]')}
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _predictions(result, rec):
+    before = result.baseline.predict(rec)
+    after = apply_physics(result.terms, rec.fs_hz, rec.input_channels, rec.output_channels,
+                          rec.inputs, before, rest_inputs=rec.inputs.mean(axis=1))
+    return before, after
+
+
+def _time_plot(plt, path, rec, o, before, after, windows):
+    t = np.arange(rec.n_samples) / rec.fs_hz + rec.start_s
+    centre = windows[0][0] if windows else t[rec.n_samples // 2]
+    sel = (t >= centre - 1.0) & (t <= centre + 3.0)
+    if sel.sum() < 8:
+        sel = slice(None)
+    fig, ax = plt.subplots(figsize=(10, 4))
+    ax.plot(t[sel], rec.outputs[o][sel], 'k', lw=1.2, label='real')
+    ax.plot(t[sel], before[o][sel], 'C1', lw=0.9, label='reference (before)')
+    ax.plot(t[sel], after[o][sel], 'C2', lw=0.9, label='augmented (after)')
+    ax.set_xlabel('time [s]')
+    ax.set_ylabel(f'{rec.output_channels[o]} [N]')
+    ax.set_title(f'{rec.name}: {rec.output_channels[o]}')
+    ax.legend(loc='best')
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def _asd_plot(plt, path, rec, o, before, after):
+    n = min(rec.n_samples, int(2 ** np.floor(np.log2(max(16, 4 * rec.fs_hz)))))
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for label, x, style in (('real force', rec.outputs[o], 'k'),
+                            ('residual before', rec.outputs[o] - before[o], 'C1'),
+                            ('residual after', rec.outputs[o] - after[o], 'C2')):
+        f, p = signal.welch(x, rec.fs_hz, nperseg=n)
+        ax.semilogy(f[1:], np.sqrt(p[1:]), style, lw=1, label=label)
+    ax.set_xlabel('frequency [Hz]')
+    ax.set_ylabel('ASD [N/sqrt(Hz)]')
+    ax.set_title(f'{rec.output_channels[o]}: where the residual lives')
+    ax.legend(loc='best')
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def _regime_plot(plt, path, rec, o, before, finding):
+    term = finding.terms[0] if finding.terms else None
+    hp = term.highpass_hz if term else FeatureConfig().highpass_hz
+    feats = motion_features(rec.inputs, rec.fs_hz, rec.input_quantity, FeatureConfig(hp or 0.2))
+    sources, _ = pairing(rec.output_channels, rec.input_channels)
+    s = rec.input_channels.index(sources[o])
+    key, label = _STATE.get(finding.physics, ('displacement', 'displacement [m]'))
+    state = {'level': rec.inputs[s], 'load': before[o]}.get(key)
+    if state is None:
+        state = feats[key][s]
+    skip = min(rec.n_samples // 4, int(3.0 / (hp or 1.0) * rec.fs_hz)) if hp else 0
+    x, r = state[skip:], (rec.outputs[o] - before[o])[skip:]
+    r = r - r.mean()
+    fig, ax = plt.subplots(figsize=(7, 5))
+    step = max(1, x.size // 4000)
+    ax.plot(x[::step], r[::step], '.', ms=2, alpha=0.4, color='0.5', label='residual')
+    edges = np.quantile(x, np.linspace(0.0, 1.0, 26))
+    idx = np.clip(np.searchsorted(edges, x, side='right') - 1, 0, 24)
+    centres = [x[idx == i].mean() for i in range(25) if np.any(idx == i)]
+    means = [r[idx == i].mean() for i in range(25) if np.any(idx == i)]
+    ax.plot(centres, means, 'C3o-', ms=4, label='binned mean')
+    ax.set_xlabel(f'{sources[o]} {label}')
+    ax.set_ylabel(f'{rec.output_channels[o]} residual [N]')
+    ax.set_title(f'{finding.physics}: the regime that reveals it')
+    ax.legend(loc='best')
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def write_report(directory, result, real: Sequence, holdout: Sequence = ()) -> Path:
+    """
+    Write ``report.md`` and PNG plots into ``directory``; return the report path.
+
+    Raises
+    ------
+    DiagnosisError
+        When the directory cannot be written.
+
+    """
+    out = Path(directory)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise DiagnosisError(f'{out}: cannot create report directory: {err}') from err
+    plt = _pyplot()
+    rec = (list(holdout) or list(real))[0]
+    before, after = _predictions(result, rec)
+    channels = list(rec.output_channels)
+    focus = [f.channels[0] for f in result.findings] or [result.mismatch[0].channel]
+    images: List[str] = []
+    for k, ch in enumerate(dict.fromkeys(focus)):
+        o = channels.index(ch)
+        windows = next((m.time_windows_s for m in result.mismatch if m.channel == ch), ())
+        name = f'time_{k}_{_safe(ch)}.png'
+        _time_plot(plt, out / name, rec, o, before, after, windows)
+        images.append(name)
+        name = f'asd_{k}_{_safe(ch)}.png'
+        _asd_plot(plt, out / name, rec, o, before, after)
+        images.append(name)
+    for k, f in enumerate(result.findings):
+        name = f'regime_{k}_{f.physics}.png'
+        _regime_plot(plt, out / name, rec, channels.index(f.channels[0]), before, f)
+        images.append(name)
+    report = out / 'report.md'
+    try:
+        report.write_text(_markdown(result, rec, images))
+    except OSError as err:
+        raise DiagnosisError(f'{report}: cannot write report: {err}') from err
+    return report
+
+
+def _safe(name: str) -> str:
+    return ''.join(c if c.isalnum() or c in '-_' else '_' for c in name)
+
+
+def _markdown(result, rec, images) -> str:
+    lines = ['# Sim-vs-real diagnosis', '', f'Reference: {result.reference}', '']
+    lines += [f'- {s}' for s in result.summary] + ['']
+    lines += ['## Mismatch', '', '| channel | RMSE % | bands [Hz] | time windows [s] | regime |',
+              '|---|---|---|---|---|']
+    for m in result.mismatch:
+        bands = ', '.join(f'{a:.1f}-{b:.1f}' for a, b in m.bands_hz) or '-'
+        wins = ', '.join(f'{a:.2f}-{b:.2f}' for a, b in m.time_windows_s) or '-'
+        lines.append(f'| {m.channel} | {m.rmse_pct:.1f} | {bands} | {wins} | {m.regime} |')
+    lines += ['', '## Findings', '']
+    for f in result.findings:
+        params = ', '.join(f'{k} = {v:.4g}' for k, v in f.parameters.items())
+        lines += [f'### {f.physics} ({", ".join(f.channels)})', '',
+                  f'{BY_NAME[f.physics].describe}. Parameters: {params}.', '', f.evidence, '']
+    if not result.findings:
+        lines += ['None beyond noise.', '']
+    lines += ['', '## Not accepted', ''] + [f'- {r}' for r in result.rejected]
+    lines += ['', f'## Fit ({result.fit.data})', '', '| channel | before % | after % |'
+              + (' best linear on real % |' if result.fit.linear_real else ''),
+              '|---|---|---|' + ('---|' if result.fit.linear_real else '')]
+    for ch, b in result.fit.before.items():
+        row = f'| {ch} | {b:.1f} | {result.fit.after[ch]:.1f} |'
+        if result.fit.linear_real:
+            row += f' {result.fit.linear_real[ch]:.1f} |'
+        lines.append(row)
+    lines += ['', f'Plots from {rec.name}:', ''] + [f'![{i}]({i})' for i in images]
+    return '\n'.join(lines) + '\n'

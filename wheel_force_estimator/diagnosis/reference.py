@@ -1,0 +1,139 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The linear prediction a diagnosis starts from ("what the simulation can explain").
+
+- :class:`FrfReference`: the product's MIMO FRF model, fitted on the simulation's recordings
+  (``--sim``) or loaded (``--model``), applied to the real accelerations.
+- :class:`RegressionReference`: a per-channel linear force-from-motion law
+  ``F = F0 + k x + c v + m a`` on the same band-limited features the physics terms use, for
+  generic recordings (displacement / velocity inputs, short sinusoidal tests) where a Welch FRF
+  is not identifiable.
+"""
+from typing import Sequence
+
+import numpy as np
+
+from wheel_force_estimator.core.errors import DiagnosisError
+from wheel_force_estimator.core.errors import WheelForceError
+from wheel_force_estimator.diagnosis.features import FeatureConfig
+from wheel_force_estimator.diagnosis.features import motion_features
+from wheel_force_estimator.diagnosis.features import pairing
+from wheel_force_estimator.diagnosis.features import settle_samples
+from wheel_force_estimator.diagnosis.recording import MotionRecording
+
+
+class FrfReference:
+    """Predict forces with an :class:`FrfModel` (static force included, physics applied)."""
+
+    kind = 'frf'
+
+    def __init__(self, model, name: str):
+        self.model = model
+        self.name = name
+
+    @classmethod
+    def fit(cls, recordings: Sequence[MotionRecording], name: str, fit_config=None):
+        """
+        Fit the FRF on recordings (all segments pooled, Welch per segment).
+
+        Raises
+        ------
+        DiagnosisError
+            When the recordings cannot be fitted (too short, singular), with the reason.
+
+        """
+        from wheel_force_estimator.core.pipeline import FitConfig
+        from wheel_force_estimator.core.pipeline import fit_model
+        from wheel_force_estimator.core.pipeline import TrainingSegment
+        config = fit_config or FitConfig()
+        rec0 = recordings[0]
+        segments = [TrainingSegment(r.inputs, r.outputs, r.name) for r in recordings]
+        try:
+            model = fit_model(segments, rec0.fs_hz, config, rec0.input_channels,
+                              rec0.output_channels, fit_info={'diagnosis': name})
+        except WheelForceError as err:
+            raise DiagnosisError(f'cannot fit the linear FRF on the {name} recordings: '
+                                 f'{err}') from err
+        return cls(model, name)
+
+    def check(self, rec: MotionRecording):
+        """Refuse a recording whose channels or rate differ from the model's."""
+        m = self.model
+        if rec.input_channels != m.input_channels or rec.output_channels != m.output_channels:
+            raise DiagnosisError(f'{rec.name}: channels {list(rec.input_channels)} -> '
+                                 f'{list(rec.output_channels)} differ from those of the '
+                                 f'{self.name} model')
+        if abs(rec.fs_hz - m.fs_hz) > 1e-6 * m.fs_hz:
+            raise DiagnosisError(f'{rec.name}: sampled at {rec.fs_hz:g} Hz but the {self.name} '
+                                 f'model at {m.fs_hz:g} Hz; nothing is resampled')
+        if rec.input_quantity != 'acceleration':
+            raise DiagnosisError(f'{rec.name}: an FRF model needs acceleration inputs, got '
+                                 f'{rec.input_quantity}')
+
+    def predict(self, rec: MotionRecording) -> np.ndarray:
+        """Total force [N] time-aligned with ``rec``."""
+        from wheel_force_estimator.core.predict import predict_forces
+        self.check(rec)
+        return predict_forces(self.model, rec.inputs)
+
+
+class RegressionReference:
+    """Per-channel ``F = F0 + k x + c v + m a`` fitted by least squares."""
+
+    kind = 'regression'
+
+    def __init__(self, coefficients: np.ndarray, config: FeatureConfig, name: str,
+                 input_channels, output_channels, input_quantity: str, fs_hz: float):
+        self.coefficients = coefficients
+        self.config = config
+        self.name = name
+        self.input_channels = tuple(input_channels)
+        self.output_channels = tuple(output_channels)
+        self.input_quantity = input_quantity
+        self.fs_hz = fs_hz
+        self.sources, _ = pairing(self.output_channels, self.input_channels)
+
+    @staticmethod
+    def _design(rec: MotionRecording, config: FeatureConfig, sources):
+        feats = motion_features(rec.inputs, rec.fs_hz, rec.input_quantity, config)
+        idx = {c: i for i, c in enumerate(rec.input_channels)}
+        cols = []
+        for src in sources:
+            s = idx[src]
+            cols.append(np.stack([np.ones(rec.n_samples), feats['displacement'][s],
+                                  feats['velocity'][s], feats['acceleration'][s]], axis=1))
+        return cols
+
+    @classmethod
+    def fit(cls, recordings: Sequence[MotionRecording], config: FeatureConfig, name: str):
+        """Fit on recordings, leaving out each record's filter settling time."""
+        rec0 = recordings[0]
+        sources, _ = pairing(rec0.output_channels, rec0.input_channels)
+        skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config)
+        rows = [[] for _ in sources]
+        ys = [[] for _ in sources]
+        for rec in recordings:
+            if rec.n_samples <= skip + 8:
+                raise DiagnosisError(f'{rec.name}: {rec.n_samples} samples, the feature filters '
+                                     f'need {skip} to settle')
+            for o, design in enumerate(cls._design(rec, config, sources)):
+                rows[o].append(design[skip:])
+                ys[o].append(rec.outputs[o, skip:])
+        coefs = []
+        for o in range(len(sources)):
+            a, y = np.concatenate(rows[o]), np.concatenate(ys[o])
+            scale = np.maximum(np.abs(a).max(axis=0), 1e-300)
+            sol, *_ = np.linalg.lstsq(a / scale, y, rcond=None)
+            coefs.append(sol / scale)
+        return cls(np.array(coefs), config, name, rec0.input_channels, rec0.output_channels,
+                   rec0.input_quantity, rec0.fs_hz)
+
+    def predict(self, rec: MotionRecording) -> np.ndarray:
+        """Total force [N] time-aligned with ``rec``."""
+        if (rec.input_channels, rec.output_channels, rec.input_quantity) != (
+                self.input_channels, self.output_channels, self.input_quantity):
+            raise DiagnosisError(f'{rec.name}: channels or input quantity differ from the '
+                                 f'{self.name} recordings')
+        design = self._design(rec, self.config, self.sources)
+        return np.stack([d @ c for d, c in zip(design, self.coefficients)])

@@ -1,0 +1,479 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Sim-vs-real diagnosis: locate the mismatch, name the physics left out, prove the gain.
+
+1. The reference (the simulation's FRF, a given model, or - for generic recordings without a
+   simulation - a linear law fitted on the real data) predicts the real forces; the residual is
+   what it cannot explain.
+2. Per channel the residual is located in frequency, time and operating regime.
+3. Candidate physics are ranked by the residual they explain on held-out time blocks and
+   accepted only against a time-shifted-feature null (:mod:`diagnosis.selection`).
+4. A physics accepted on several channels with compatible parameters becomes one finding with
+   shared parameters; every finding carries the :class:`PhysicsTerm` s of the augmented model.
+5. Reference and augmented model are compared on holdout recordings (or held-out blocks).
+"""
+from dataclasses import dataclass
+from dataclasses import field
+from dataclasses import replace
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import DiagnosisError
+from wheel_force_estimator.core.metrics import highpass
+from wheel_force_estimator.core.metrics import rmse_pct
+from wheel_force_estimator.core.physics import apply_physics
+from wheel_force_estimator.core.physics import PhysicsTerm
+from wheel_force_estimator.diagnosis import text
+from wheel_force_estimator.diagnosis.features import channel_contexts
+from wheel_force_estimator.diagnosis.features import FeatureConfig
+from wheel_force_estimator.diagnosis.features import motion_features
+from wheel_force_estimator.diagnosis.features import pairing
+from wheel_force_estimator.diagnosis.features import settle_samples
+from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
+from wheel_force_estimator.diagnosis.hypotheses import BY_NAME
+from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
+from wheel_force_estimator.diagnosis.hypotheses import term_parameters
+from wheel_force_estimator.diagnosis.locate import locate_channel
+from wheel_force_estimator.diagnosis.locate import regime_ratios
+from wheel_force_estimator.diagnosis.recording import check_compatible
+from wheel_force_estimator.diagnosis.recording import MotionRecording
+from wheel_force_estimator.diagnosis.reference import FrfReference
+from wheel_force_estimator.diagnosis.reference import RegressionReference
+from wheel_force_estimator.diagnosis.result import DiagnosisResult
+from wheel_force_estimator.diagnosis.result import Finding
+from wheel_force_estimator.diagnosis.result import FitComparison
+from wheel_force_estimator.diagnosis.selection import Piece
+from wheel_force_estimator.diagnosis.selection import SelectionConfig
+from wheel_force_estimator.diagnosis.selection import Selector
+
+LINEAR_COMPANIONS = ('stiffness_error', 'damping_error', 'mass_error')
+
+
+@dataclass(frozen=True)
+class DiagnosisConfig:
+    """
+    Settings of a diagnosis.
+
+    Attributes
+    ----------
+    features : FeatureConfig
+        Feature filter corners (stored in the fitted terms).
+    selection : SelectionConfig
+        Cross-validation and acceptance rules.
+    linear : str
+        Reference fitted on simulation recordings: ``'frf'`` (the product's MIMO FRF),
+        ``'regression'`` (per-channel ``F0 + k x + c v + m a``) or ``'auto'`` (FRF for
+        acceleration inputs).
+    fit : object
+        ``core.pipeline.FitConfig`` for FRF fits (None = defaults).
+    merge_ratio : float
+        A physics found on several channels becomes one shared-parameter finding when the
+        shared fit removes at least this fraction of what the per-channel fits remove.
+    range_ratio : float
+        Largest ratio of real to simulated input RMS (per channel) still called overlapping.
+    residual_highpass_hz : float or None
+        Zero-phase high-pass of residuals before locating, fitting and scoring (the paper's
+        1 Hz RMSE for road events); None = 1 Hz for an FRF reference (which cannot follow
+        quasi-static load transfer), none for a linear-law reference.
+
+    """
+
+    features: FeatureConfig = field(default_factory=FeatureConfig)
+    selection: SelectionConfig = field(default_factory=SelectionConfig)
+    linear: str = 'auto'
+    fit: object = None
+    merge_ratio: float = 0.85
+    range_ratio: float = 10.0
+    residual_highpass_hz: Optional[float] = None
+
+    def __post_init__(self):
+        if self.linear not in ('auto', 'frf', 'regression'):
+            raise ConfigError(f'linear must be auto, frf or regression, got {self.linear!r}')
+        if not 0.0 < self.merge_ratio <= 1.0 or not self.range_ratio > 1.0:
+            raise ConfigError('merge_ratio must be in (0, 1] and range_ratio > 1')
+
+
+@dataclass
+class _Prepared:
+    """Reference prediction and features of the real recordings, settling time removed."""
+
+    recordings: Tuple[MotionRecording, ...]
+    targets: List[np.ndarray]
+    predictions: List[np.ndarray]
+    contexts: list
+    starts_s: List[float]
+    full_predictions: List[np.ndarray]
+
+
+def _fit_linear(recordings, config, name, rec0):
+    kind = config.linear
+    if kind == 'auto':
+        kind = 'frf' if rec0.input_quantity == 'acceleration' else 'regression'
+    if kind == 'frf':
+        return FrfReference.fit(recordings, name, config.fit)
+    return RegressionReference.fit(recordings, config.features, name)
+
+
+def _reference(real, sim_or_model, config):
+    """Return ``(reference, companions, mode, sim recordings)``."""
+    rec0 = real[0]
+    if sim_or_model is None:
+        return (RegressionReference.fit(real, config.features, 'real (linear fit)'),
+                tuple(BY_NAME[n] for n in LINEAR_COMPANIONS), 'linear', ())
+    if isinstance(sim_or_model, (FrfReference, RegressionReference)):
+        return sim_or_model, (), 'model', ()
+    if hasattr(sim_or_model, 'fir_taps'):
+        return FrfReference(sim_or_model, 'model'), (), 'model', ()
+    sim = tuple(sim_or_model)
+    check_compatible(sim, 'sim')
+    check_compatible((rec0,) + sim, 'real and sim')
+    _check_overlap(real, sim, config)
+    return _fit_linear(sim, config, 'sim', rec0), (), 'sim', sim
+
+
+def _check_overlap(real, sim, config):
+    """Refuse a simulation whose operating range does not overlap the real one."""
+    def stats(recs):
+        rms, lo, hi = [], [], []
+        for rec in recs:
+            acc = motion_features(rec.inputs, rec.fs_hz, rec.input_quantity,
+                                  config.features)['acceleration']
+            rms.append(np.sqrt(np.mean(acc ** 2, axis=1)))
+            lo.append(rec.inputs.min(axis=1))
+            hi.append(rec.inputs.max(axis=1))
+        return np.mean(rms, axis=0), np.min(lo, axis=0), np.max(hi, axis=0)
+    r_rms, r_lo, r_hi = stats(real)
+    s_rms, s_lo, s_hi = stats(sim)
+    for i, name in enumerate(real[0].input_channels):
+        ratio = max(r_rms[i], s_rms[i]) / max(min(r_rms[i], s_rms[i]), 1e-300)
+        if ratio > config.range_ratio or r_hi[i] < s_lo[i] or s_hi[i] < r_lo[i]:
+            raise DiagnosisError(
+                f'operating ranges do not overlap on {name}: real {r_lo[i]:.4g}..'
+                f'{r_hi[i]:.4g} (dynamic RMS {r_rms[i]:.4g}), sim {s_lo[i]:.4g}..{s_hi[i]:.4g} '
+                f'(dynamic RMS {s_rms[i]:.4g}); a diagnosis needs the simulation driven like '
+                f'the real system')
+
+
+def _prepare(recordings, reference, sources, partners, config) -> _Prepared:
+    rec0 = recordings[0]
+    skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
+    prep = _Prepared(tuple(recordings), [], [], [], [], [])
+    for rec in recordings:
+        if rec.n_samples <= skip + config.selection.min_block_samples:
+            raise DiagnosisError(
+                f'{rec.name}: {rec.n_samples} samples ({rec.duration_s:.2f} s); the feature '
+                f'filters need {skip / rec.fs_hz:.2f} s to settle, too little data remains')
+        pred = reference.predict(rec)
+        ctxs = channel_contexts(rec.inputs, rec.input_channels, rec.fs_hz, rec.input_quantity,
+                                pred, sources, partners, config.features)
+        prep.targets.append(np.asarray(rec.outputs)[:, skip:])
+        prep.predictions.append(pred[:, skip:])
+        prep.contexts.append([_trim(c, skip) for c in ctxs])
+        prep.starts_s.append(rec.start_s + skip / rec.fs_hz)
+        prep.full_predictions.append(pred)
+    return prep
+
+
+def _trim(ctx, skip):
+    return replace(ctx, **{k: (None if getattr(ctx, k) is None else getattr(ctx, k)[skip:])
+                           for k in ('disp', 'vel', 'acc', 'level', 'load', 'partner_disp')})
+
+
+def _pieces(prep: _Prepared, o: int, channel: str) -> List[Piece]:
+    return [Piece(prep.contexts[i][o], prep.targets[i][o] - prep.predictions[i][o],
+                  prep.targets[i][o], i, channel) for i in range(len(prep.recordings))]
+
+
+def _contribution(hyp, shape, coef, ctx):
+    return coef * hyp.basis(ctx, shape)
+
+
+def _axis(channel: str) -> str:
+    corner, sep, axis = channel.rpartition('_f')
+    return axis if sep else channel
+
+
+def _groups(channels: Sequence[str]) -> List[List[List[str]]]:
+    """Ways to share parameters, widest first: all channels of an axis, axles, singles."""
+    options = [[list(channels)]]
+    front = [c for c in channels if c[:2] in ('lf', 'rf')]
+    rear = [c for c in channels if c[:2] in ('lr', 'rr')]
+    if front and rear and len(front) + len(rear) == len(channels):
+        options.append([front, rear])
+    if len(channels) > 1:
+        options.append([[c] for c in channels])
+    return options
+
+
+class _Builder:
+    """Turns per-channel selections into findings with shared parameters and model terms."""
+
+    def __init__(self, prep, outcomes, channels, sources, partners, config, companions,
+                 sim_prep=None):
+        self.prep, self.outcomes, self.channels = prep, outcomes, channels
+        self.sim_prep = sim_prep
+        self.sources, self.partners = sources, partners
+        self.config, self.companions = config, companions
+        rec0 = prep.recordings[0]
+        self.fs_hz, self.quantity = rec0.fs_hz, rec0.input_quantity
+        self.hp, self.lp = config.features.resolved(self.fs_hz, self.quantity)
+
+    def _cleaned_pieces(self, channel, key):
+        """Pieces of ``channel`` with its other accepted terms and companions removed."""
+        o = self.channels.index(channel)
+        outcome = self.outcomes[channel]
+        pieces = _pieces(self.prep, o, channel)
+        for p in pieces:
+            for a in outcome.accepted:
+                if a.hypothesis.key != key:
+                    p.residual = p.residual - _contribution(a.hypothesis, a.shape,
+                                                            a.coefficient, p.ctx)
+            for name, coef in outcome.companions.items():
+                p.residual = p.residual - _contribution(BY_NAME[name], {}, coef, p.ctx)
+        return pieces
+
+    def _shared(self, key, group):
+        """Pooled fit over ``group``: (shape, gain, coefficient, sse drop)."""
+        pieces = [p for c in group for p in self._cleaned_pieces(c, key)]
+        sim_pieces = None
+        if self.sim_prep is not None:
+            sim_pieces = [p for c in group
+                          for p in _pieces(self.sim_prep, self.channels.index(c), c)]
+        sel = Selector(pieces, self.config.selection, (), sim_pieces)
+        shape, gain, coef, base = sel.fit_single(BY_KEY[key])
+        return shape, gain, coef, gain * base
+
+    def findings(self) -> List[Finding]:
+        by_key: Dict[str, List[str]] = {}
+        for ch in self.channels:
+            for a in self.outcomes[ch].accepted:
+                by_key.setdefault(a.hypothesis.key, []).append(ch)
+        found = []
+        for key, chans in by_key.items():
+            axes: Dict[str, List[str]] = {}
+            for c in chans:
+                axes.setdefault(_axis(c), []).append(c)
+            for group in axes.values():
+                found.extend(self._group_findings(key, group))
+        found.sort(key=lambda f: (not BY_NAME[f.physics].priority, -f.explained_fraction))
+        return self._with_companions(found)
+
+    def _accepted(self, channel, key):
+        return next(a for a in self.outcomes[channel].accepted if a.hypothesis.key == key)
+
+    def _group_findings(self, key, group) -> List[Finding]:
+        singles = {c: self._accepted(c, key) for c in group}
+        for option in _groups(group):
+            if all(len(g) == 1 for g in option):
+                return [self._finding(key, [c], a.shape, a.coefficient, a.gain,
+                                      max(a.null_gains)) for c, a in singles.items()]
+            shared = [self._shared(key, g) for g in option]
+            ok = all(drop >= self.config.merge_ratio * sum(
+                singles[c].gain * singles[c].sse_before for c in g)
+                for g, (_, _, _, drop) in zip(option, shared))
+            if ok:
+                return [self._finding(key, g, shape, coef, gain,
+                                      max(max(singles[c].null_gains) for c in g))
+                        for g, (shape, gain, coef, _) in zip(option, shared)]
+        return []
+
+    def _finding(self, key, group, shape, coef, gain, null) -> Finding:
+        hyp = BY_KEY[key]
+        physics = hyp.physics
+        params = term_parameters(hyp, shape, coef, self.fs_hz)
+        idx = [self.channels.index(c) for c in group]
+        causal = not (physics == 'time_delay' and params['delay_s'] < 0.0)
+        terms = ()
+        if causal:
+            terms = (PhysicsTerm(
+                physics=physics, channels=tuple(group), parameters=params,
+                sources=tuple(self.sources[i] for i in idx),
+                partners=tuple(self.partners[i] for i in idx) if physics == 'anti_roll_bar'
+                else (), input_quantity=self.quantity, highpass_hz=self.hp,
+                lowpass_hz=self.lp, state=hyp.state,
+                state_lowpass_hz=shape.get('state_lowpass_hz', 0.0)),)
+        ratios = {}
+        for c in group:
+            o = self.channels.index(c)
+            residuals = [p.residual for p in _pieces(self.prep, o, c)]
+            ratios[c] = dict(regime_ratios(residuals, [ctx[o] for ctx in self.prep.contexts]))
+        evidence = text.evidence(hyp, group, params, gain, null, ratios, causal)
+        return Finding(physics, tuple(group), params, gain, evidence, terms, null)
+
+    def _with_companions(self, found: List[Finding]) -> List[Finding]:
+        """Attach each channel's refitted linear companions to its first finding."""
+        if not self.companions:
+            return found
+        done = set()
+        out = []
+        for f in found:
+            extra = []
+            for c in f.channels:
+                if c in done:
+                    continue
+                done.add(c)
+                i = self.channels.index(c)
+                for name, coef in self.outcomes[c].companions.items():
+                    params = BY_NAME[name].parameters({}, coef)
+                    extra.append(PhysicsTerm(name, (c,), params, sources=(self.sources[i],),
+                                             input_quantity=self.quantity,
+                                             highpass_hz=self.hp, lowpass_hz=self.lp))
+            out.append(replace(f, terms=f.terms + tuple(extra)))
+        return out
+
+
+def _rmse(targets, predictions, channels, highpass_hz=0.0, fs_hz=1.0) -> Dict[str, float]:
+    """RMSE % per channel over records (each record high-passed on its own first)."""
+    if highpass_hz > 0.0:
+        targets = [highpass(t, fs_hz, highpass_hz, 'RMSE target') for t in targets]
+        predictions = [highpass(p, fs_hz, highpass_hz, 'RMSE prediction') for p in predictions]
+    t = np.concatenate(targets, axis=1)
+    p = np.concatenate(predictions, axis=1)
+    return dict(zip(channels, (float(v) for v in rmse_pct(t, p, channels))))
+
+
+def _augmented(prep: _Prepared, terms) -> List[np.ndarray]:
+    """Return the reference prediction plus the physics stage, over the trimmed records."""
+    out = []
+    for rec, pred, target in zip(prep.recordings, prep.full_predictions, prep.targets):
+        y = apply_physics(terms, rec.fs_hz, rec.input_channels, rec.output_channels,
+                          rec.inputs, pred, rest_inputs=rec.inputs.mean(axis=1))
+        out.append(y[:, -target.shape[1]:])
+    return out
+
+
+def _holdout_gate(findings, hold, before, channels, hp, fs_hz):
+    """
+    Drop findings whose terms make the holdout worse (backward elimination).
+
+    A term that fits the real recordings but makes unseen data worse did not find physics;
+    it is reported under ``rejected``.  Linear companions were refitted jointly with all
+    terms of their channel, so they stay in every model compared (and end up on the first
+    finding kept).  Returns ``(kept, rejection lines)``.
+    """
+    companions = [t for f in findings for t in f.terms if t.physics != f.physics]
+    kept = [replace(f, terms=tuple(t for t in f.terms if t.physics == f.physics))
+            for f in findings]
+    gated = []
+
+    def score(items):
+        terms = [t for g in items for t in g.terms]
+        terms += companions if terms else []
+        return _rmse(hold.targets, _augmented(hold, terms), channels, hp, fs_hz)
+    while True:
+        full = score(kept)
+        worst, harm = None, 0.05
+        for f in (g for g in kept if g.terms):
+            without = score([g for g in kept if g is not f])
+            damage = max(full[c] - without[c] for c in f.channels)
+            if damage > harm:
+                worst, harm, undo = f, damage, without
+        if worst is None:
+            break
+        gated.append(f'{text.channel_list(worst.channels)}: {worst.physics} fitted the real '
+                     f'data but worsens the holdout RMSE of ' + ', '.join(
+                         f'{c} ({undo[c]:.1f} % -> {full[c]:.1f} %)' for c in worst.channels)
+                     + '; not kept')
+        kept = [g for g in kept if g is not worst]
+    kept = [replace(f, rmse_after_pct={c: full[c] for c in f.channels}) for f in kept]
+    if companions and any(f.terms for f in kept):
+        i = next(i for i, f in enumerate(kept) if f.terms)
+        kept[i] = replace(kept[i], terms=kept[i].terms + tuple(companions))
+    return kept, gated
+
+
+def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
+             holdout: Sequence[MotionRecording] = (),
+             config: Optional[DiagnosisConfig] = None) -> DiagnosisResult:
+    """
+    Diagnose what the reference leaves out of the real recordings.
+
+    Parameters
+    ----------
+    real : sequence of MotionRecording
+        Real recordings used to locate and fit (inputs + measured forces).
+    sim_or_model : sequence of MotionRecording, FrfModel, reference object or None
+        Simulation recordings (the FRF / linear law is fitted on them), a model, or None for
+        generic data without a simulation (a linear law is fitted on ``real`` and only
+        nonlinear physics are sought).
+    holdout : sequence of MotionRecording
+        Real recordings NOT used for fitting, for the before/after comparison; when empty
+        the comparison uses the held-out blocks of the cross-validation.
+    config : DiagnosisConfig, optional
+        Features, selection rules and reference settings (defaults when None).
+
+    Returns
+    -------
+    DiagnosisResult
+
+    Raises
+    ------
+    DiagnosisError
+        Incompatible recordings (rates, channels), too little data to cross-validate, no
+        overlap between simulated and real operating ranges.
+
+    """
+    config = config or DiagnosisConfig()
+    real = tuple(real)
+    holdout = tuple(holdout)
+    check_compatible(real, 'real')
+    if holdout:
+        check_compatible(real + holdout, 'real and holdout')
+    reference, companions, mode, sim = _reference(real, sim_or_model, config)
+    rec0 = real[0]
+    fs_hz = rec0.fs_hz
+    hp = config.residual_highpass_hz
+    if hp is None:
+        hp = 1.0 if reference.kind == 'frf' else 0.0
+    config = replace(config, selection=replace(config.selection, highpass_hz=hp))
+    channels = rec0.output_channels
+    sources, partners = pairing(channels, rec0.input_channels)
+    prep = _prepare(real, reference, sources, partners, config)
+    sim_prep = _prepare(sim, reference, sources, partners, config) if sim else None
+    mismatch = sorted((locate_channel(ch, [t[o] for t in prep.targets],
+                                      [p[o] for p in prep.predictions],
+                                      [c[o] for c in prep.contexts], prep.starts_s,
+                                      fs_hz, hp) for o, ch in enumerate(channels)),
+                      key=lambda m: -m.rmse_pct)
+    skip_names = {h.physics for h in companions}
+    candidates = [h for h in HYPOTHESES if h.physics not in skip_names]
+    outcomes = {}
+    for o, ch in enumerate(channels):
+        sim_pieces = _pieces(sim_prep, o, ch) if sim_prep else None
+        outcomes[ch] = Selector(_pieces(prep, o, ch), config.selection, companions,
+                                sim_pieces).run(candidates)
+    builder = _Builder(prep, outcomes, channels, sources, partners, config, companions,
+                       sim_prep)
+    findings = builder.findings()
+    terms = [t for f in findings for t in f.terms]
+    gated = []
+    if holdout:
+        hold = _prepare(holdout, reference, sources, partners, config)
+        before = _rmse(hold.targets, hold.predictions, channels, hp, fs_hz)
+        findings, gated = _holdout_gate(findings, hold, before, channels, hp, fs_hz)
+        terms = [t for f in findings for t in f.terms]
+        after = _rmse(hold.targets, _augmented(hold, terms), channels, hp, fs_hz)
+        if mode == 'linear':
+            linear_real = before
+        else:
+            lin = _fit_linear(real, config, 'real', rec0)
+            linear_real = _rmse(hold.targets, [lin.predict(r)[:, -t.shape[1]:] for r, t in
+                                               zip(holdout, hold.targets)], channels, hp, fs_hz)
+        fit = FitComparison(before, after, 'holdout', linear_real, hp)
+    else:
+        fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},
+                            {c: outcomes[c].cv_after_pct for c in channels},
+                            'cross_validation', None, hp)
+    rejected = tuple(text.rejection(ch, outcomes[ch].rejected) for ch in channels
+                     if outcomes[ch].rejected is not None and outcomes[ch].rejected[0].gain > 0)
+    rejected = tuple(gated) + rejected
+    summary = text.summary(findings, fit, rejected)
+    model = None
+    if isinstance(reference, FrfReference):
+        model = reference.model.with_physics(list(reference.model.physics)
+                                             + [t.to_dict() for t in terms])
+    return DiagnosisResult(tuple(mismatch), tuple(findings), fit, tuple(summary),
+                           f'{reference.name} ({reference.kind})', rejected, model, reference)

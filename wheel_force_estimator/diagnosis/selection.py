@@ -1,0 +1,436 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Cross-validated ranking of candidate physics and the significance test that guards it.
+
+The residual of a channel (real force minus reference prediction) is cut into time blocks;
+blocks are dealt to ``n_folds`` folds (the same time block of every channel and recording goes
+to the same fold).  Inside each block an offset and a linear trend are projected out of the
+residual and of every column, so sensor offsets and slow drifts can never pass as physics.  A
+candidate's *gain* is the fraction of the residual sum of squares it removes on held-out
+folds, with its strength fitted on the other folds.
+
+A candidate is accepted only when its gain beats ``null_factor`` times the best gain the same
+candidate (same grid search) reaches when its features are circularly shifted against the
+force - an unrelated signal with the same distribution and spectrum - and when it lowers the
+cross-validated RMSE by a practical amount.  Candidates are added greedily; a simpler candidate
+(fewer shape parameters) wins when it is within a small margin of the best.
+"""
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import DiagnosisError
+from wheel_force_estimator.core.metrics import highpass
+from wheel_force_estimator.diagnosis.features import ChannelContext
+from wheel_force_estimator.diagnosis.hypotheses import Hypothesis
+
+
+@dataclass(frozen=True)
+class SelectionConfig:
+    """
+    Cross-validation and acceptance settings.
+
+    Attributes
+    ----------
+    n_folds : int
+        Folds of time blocks.
+    block_s : float
+        Length of a time block [s] (blocks hold at least ``min_block_samples`` samples).
+    min_block_samples : int
+        Shortest block [samples].
+    n_null : int
+        Shifted-feature repetitions of the significance test.
+    null_factor : float
+        Required ratio of the gain to the best shifted-feature gain.
+    min_gain : float
+        Smallest fraction of the residual a term must explain on held-out data.
+    min_improvement_pct : float
+        Smallest drop of the cross-validated RMSE [% of the force RMS] a term must bring.
+    parsimony_abs, parsimony_rel : float
+        A candidate with fewer shape parameters wins when its gain is within
+        ``max(parsimony_abs, parsimony_rel * best_gain)`` of the best.
+    max_terms : int
+        Most terms accepted per channel.
+    highpass_hz : float
+        Zero-phase high-pass (metrics.highpass) applied to residual and candidate columns
+        before fitting, so a band the reference cannot model (quasi-static load transfer
+        below ~1 Hz for an FRF) is not mistaken for physics; 0 = none.
+
+    """
+
+    n_folds: int = 5
+    block_s: float = 2.0
+    min_block_samples: int = 64
+    n_null: int = 8
+    null_factor: float = 2.0
+    min_gain: float = 0.05
+    min_improvement_pct: float = 0.2
+    parsimony_abs: float = 0.01
+    parsimony_rel: float = 0.05
+    max_terms: int = 3
+    highpass_hz: float = 0.0
+
+    def __post_init__(self):
+        if self.n_folds < 2 or self.n_null < 1 or self.max_terms < 1:
+            raise ConfigError('n_folds must be >= 2, n_null and max_terms >= 1')
+        for name in ('block_s', 'null_factor'):
+            if not getattr(self, name) > 0.0:
+                raise ConfigError(f'{name} must be > 0')
+
+
+@dataclass
+class Piece:
+    """One output channel of one recording: its features, residual and target force."""
+
+    ctx: ChannelContext
+    residual: np.ndarray
+    target: np.ndarray
+    recording: int
+    channel: str
+
+
+class CvData:
+    """Block and fold structure of a set of pieces, with per-block detrending."""
+
+    def __init__(self, pieces: Sequence[Piece], config: SelectionConfig):
+        self.pieces = list(pieces)
+        self.config = config
+        fs = self.pieces[0].ctx.fs_hz
+        length = max(int(round(config.block_s * fs)), config.min_block_samples)
+        n_blocks = {}
+        for p in self.pieces:
+            n_blocks.setdefault(p.recording, p.residual.size // length)
+        first_block, total = {}, 0
+        for rec, nb in n_blocks.items():
+            first_block[rec] = total
+            total += nb
+        self.starts, folds = [], []
+        for p in self.pieces:
+            nb = p.residual.size // length
+            self.starts.append(np.arange(nb) * length)
+            folds.append((first_block[p.recording] + np.arange(nb)) % config.n_folds)
+        n_time_blocks = total
+        if n_time_blocks < config.n_folds or any(s.size == 0 for s in self.starts):
+            raise DiagnosisError(
+                f'too little data to cross-validate: {n_time_blocks} time blocks of '
+                f'{length / fs:.2f} s ({length} samples), need at least {config.n_folds} and '
+                f'one per recording')
+        self.fold = np.concatenate(folds)
+        self._design = [self._detrend_design(i) for i in range(len(self.pieces))]
+        self.residual = [self.prepare(i, p.residual) for i, p in enumerate(self.pieces)]
+        self.target_ss = float(sum(np.sum(self.prepare(i, p.target) ** 2)
+                                   for i, p in enumerate(self.pieces)))
+        self.n_samples = sum(p.residual.size for p in self.pieces)
+
+    def _detrend_design(self, i):
+        n = self.pieces[i].residual.size
+        starts = self.starts[i]
+        idx = np.arange(n)
+        block = np.searchsorted(starts, idx, side='right') - 1
+        counts = np.diff(np.append(starts, n))
+        tau = idx - (starts[block] + 0.5 * (counts[block] - 1))
+        tt = np.add.reduceat(tau * tau, starts)
+        return block, counts, tau, np.where(tt > 0.0, tt, 1.0)
+
+    def detrend(self, i: int, x: np.ndarray) -> np.ndarray:
+        """Remove an offset and a linear trend inside every block of piece ``i``."""
+        block, counts, tau, tt = self._design[i]
+        starts = self.starts[i]
+        mean = np.add.reduceat(x, starts) / counts
+        slope = np.add.reduceat(x * tau, starts) / tt
+        return x - mean[block] - slope[block] * tau
+
+    def prepare(self, i: int, x: np.ndarray) -> np.ndarray:
+        """High-pass (when configured) and detrend a column of piece ``i``."""
+        if self.config.highpass_hz > 0.0 and np.any(x):
+            x = highpass(x[np.newaxis], self.pieces[i].ctx.fs_hz, self.config.highpass_hz,
+                         'diagnosis column')[0]
+        return self.detrend(i, x)
+
+    def block_sums(self, i: int, x: np.ndarray) -> np.ndarray:
+        """Sum of ``x`` over every block of piece ``i``."""
+        return np.add.reduceat(x, self.starts[i])
+
+
+@dataclass(frozen=True)
+class Stats:
+    """Per-block normal equations: ``g[b] = D_b'D_b``, ``h[b] = D_b'r_b``, ``s[b] = r_b'r_b``."""
+
+    g: np.ndarray
+    h: np.ndarray
+    s: np.ndarray
+
+
+def block_stats(data: CvData, columns: Sequence[Sequence[np.ndarray]],
+                offset: Optional[Sequence[np.ndarray]] = None) -> Stats:
+    """Return per-block normal equations of detrended columns and residual minus offset."""
+    gs, hs, ss = [], [], []
+    for i in range(len(data.pieces)):
+        r = data.residual[i] if offset is None else data.residual[i] - offset[i]
+        cols = list(columns[i])
+        p = len(cols)
+        nb = data.starts[i].size
+        g = np.zeros((nb, p, p))
+        h = np.zeros((nb, p))
+        for a in range(p):
+            h[:, a] = data.block_sums(i, cols[a] * r)
+            for b in range(a, p):
+                g[:, a, b] = g[:, b, a] = data.block_sums(i, cols[a] * cols[b])
+        gs.append(g)
+        hs.append(h)
+        ss.append(data.block_sums(i, r * r))
+    return Stats(np.concatenate(gs), np.concatenate(hs), np.concatenate(ss))
+
+
+def _solve(g, h):
+    p = h.size
+    if p == 0:
+        return h
+    scale = np.trace(g) / p
+    ridge = 1e-10 * scale if scale > 0.0 else 1e-300
+    return np.linalg.solve(g + ridge * np.eye(p), h)
+
+
+def cv_sse(stats: Stats, fold: np.ndarray, n_folds: int) -> float:
+    """Held-out sum of squared residuals after the fold-wise least-squares fit."""
+    if stats.h.shape[1] == 0:
+        return float(stats.s.sum())
+    total = 0.0
+    for k in range(n_folds):
+        test = fold == k
+        if not test.any():
+            continue
+        theta = _solve(stats.g[~test].sum(0), stats.h[~test].sum(0))
+        total += float(stats.s[test].sum() - 2.0 * np.sum(stats.h[test] @ theta)
+                       + np.einsum('bij,i,j->', stats.g[test], theta, theta))
+    return total
+
+
+def full_fit(stats: Stats) -> np.ndarray:
+    """Least-squares coefficients on all blocks."""
+    return _solve(stats.g.sum(0), stats.h.sum(0))
+
+
+@dataclass(frozen=True)
+class Evaluated:
+    """Best shape of one hypothesis at one greedy step."""
+
+    hypothesis: Hypothesis
+    shape: Dict[str, float]
+    gain: float
+
+
+@dataclass(frozen=True)
+class Accepted:
+    """A term accepted for a channel (or a pooled group of channels)."""
+
+    hypothesis: Hypothesis
+    shape: Dict[str, float]
+    gain: float
+    null_gains: Tuple[float, ...]
+    coefficient: float
+    rmse_before_pct: float
+    rmse_after_pct: float
+    sse_before: float
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """Result of the greedy selection for one channel or group."""
+
+    accepted: Tuple[Accepted, ...]
+    companions: Dict[str, float]
+    ranking: Tuple[Evaluated, ...]
+    rejected: Optional[Tuple[Evaluated, Tuple[float, ...], str]]
+    cv_before_pct: float
+    cv_after_pct: float
+
+
+class Selector:
+    """
+    Greedy cross-validated selection over hypotheses for one set of pieces.
+
+    With ``sim_pieces`` (the simulation's own residual against the same reference) every
+    candidate is judged by the *contrast*: the held-out error of the real residual when the
+    candidate keeps the strength it has in the simulation (H0: real behaves like sim) minus
+    the error when its strength is fitted on the real data.  What the linear reference misses
+    in the simulation as much as in reality is then not reported as missing physics.
+    """
+
+    def __init__(self, pieces: Sequence[Piece], config: SelectionConfig,
+                 companions: Sequence[Hypothesis] = (),
+                 sim_pieces: Optional[Sequence[Piece]] = None):
+        self.data = CvData(pieces, config)
+        self.config = config
+        self.companions = tuple(companions)
+        self._base_cols = [[self.data.prepare(i, h.basis(p.ctx, {})) for h in self.companions]
+                           for i, p in enumerate(self.data.pieces)]
+        self._offset = [np.zeros(p.residual.size) for p in self.data.pieces]
+        self.sim = None
+        if sim_pieces:
+            self.sim = CvData(sim_pieces, config)
+            self._sim_cols = [[self.sim.prepare(i, h.basis(p.ctx, {})) for h in self.companions]
+                              for i, p in enumerate(self.sim.pieces)]
+            self._sim_offset = [np.zeros(p.residual.size) for p in self.sim.pieces]
+
+    @staticmethod
+    def _columns_of(data, hyp, shape, shift_fraction=None):
+        cols = []
+        for i, p in enumerate(data.pieces):
+            ctx = p.ctx
+            if shift_fraction is not None:
+                ctx = ctx.shifted(int(round(shift_fraction * p.residual.size)))
+            cols.append(data.prepare(i, hyp.basis(ctx, shape)))
+        return cols
+
+    def _columns(self, hyp, shape, shift_fraction=None):
+        return self._columns_of(self.data, hyp, shape, shift_fraction)
+
+    def _sse(self, extra_cols=None, extra_offset=None):
+        cols = self._base_cols
+        if extra_cols is not None:
+            cols = [b + [c] for b, c in zip(self._base_cols, extra_cols)]
+        offset = self._offset
+        if extra_offset is not None:
+            offset = [o + c for o, c in zip(self._offset, extra_offset)]
+        return cv_sse(block_stats(self.data, cols, offset), self.data.fold,
+                      self.config.n_folds)
+
+    def sim_strength(self, hyp, shape, shift_fraction=None) -> float:
+        """Strength the candidate has in the simulation's residual (0 without a simulation)."""
+        if self.sim is None:
+            return 0.0
+        cols = self._columns_of(self.sim, hyp, shape, shift_fraction)
+        if hyp.fixed_coefficient:
+            stats = block_stats(self.sim, self._sim_cols, self._sim_offset)
+            with_term = block_stats(self.sim, self._sim_cols,
+                                    [o + c for o, c in zip(self._sim_offset, cols)])
+            return 1.0 if (cv_sse(with_term, self.sim.fold, self.config.n_folds)
+                           < cv_sse(stats, self.sim.fold, self.config.n_folds)) else 0.0
+        stats = block_stats(self.sim, [b + [c] for b, c in zip(self._sim_cols, cols)],
+                            self._sim_offset)
+        return float(full_fit(stats)[-1])
+
+    def gain(self, hyp, shape, base_sse, shift_fraction=None) -> float:
+        """Held-out gain of adding one candidate shape (beyond its simulated strength)."""
+        cols = self._columns(hyp, shape, shift_fraction)
+        if base_sse <= 0.0 or all(not np.any(c) for c in cols):
+            return 0.0
+        if hyp.fixed_coefficient:
+            sse = self._sse(extra_offset=cols)
+        else:
+            sse = self._sse(extra_cols=cols)
+        reference = base_sse
+        if self.sim is not None:
+            strength = self.sim_strength(hyp, shape, shift_fraction)
+            if strength != 0.0:
+                # H0 "real behaves like sim": the candidate keeps its simulated strength (or
+                # is left out, whichever predicts the real held-out data better).
+                reference = min(base_sse, self._sse(extra_offset=[strength * c for c in cols]))
+        return (reference - sse) / base_sse
+
+    def best_shape(self, hyp, grid, base_sse, shift_fraction=None) -> Tuple[Dict, float]:
+        """Grid point with the highest held-out gain."""
+        best = ({}, -np.inf)
+        for shape in grid:
+            g = self.gain(hyp, shape, base_sse, shift_fraction)
+            if g > best[1]:
+                best = (shape, g)
+        return best
+
+    def _pct(self, sse):
+        if self.data.target_ss <= 0.0:
+            return 0.0
+        return 100.0 * float(np.sqrt(max(sse, 0.0) / self.data.target_ss))
+
+    def run(self, hypotheses: Sequence[Hypothesis]) -> Outcome:
+        """Add candidates greedily while they pass the significance test."""
+        cfg = self.config
+        contexts = [p.ctx for p in self.data.pieces]
+        grids = {h.key: h.grid(contexts) for h in hypotheses}
+        candidates = [h for h in hypotheses if grids[h.key]]
+        accepted: List[Accepted] = []
+        rejected = None
+        ranking: Tuple[Evaluated, ...] = ()
+        start_sse = self._sse()
+        for _ in range(cfg.max_terms):
+            base_sse = self._sse()
+            if base_sse <= 0.0:
+                break
+            evaluated = []
+            for hyp in candidates:
+                shape, g = self.best_shape(hyp, grids[hyp.key], base_sse)
+                evaluated.append(Evaluated(hyp, dict(shape), float(g)))
+            evaluated.sort(key=lambda e: -e.gain)
+            if not ranking:
+                ranking = tuple(evaluated)
+            if not evaluated:
+                break
+            # A data-quality effect seen directly in the inputs (flat tops) is tried first: its
+            # corrupted features would otherwise be explained away by a wrong linear term.
+            first = [e for e in evaluated if e.hypothesis.priority and e.gain > 0.0]
+            choice = first[0] if first else self._parsimonious(evaluated)
+            hyp = choice.hypothesis
+            fractions = 0.25 + 0.5 * np.arange(cfg.n_null) / max(cfg.n_null - 1, 1)
+            nulls = tuple(float(self.best_shape(hyp, grids[hyp.key], base_sse, f)[1])
+                          for f in fractions)
+            after_sse = base_sse * (1.0 - choice.gain)
+            drop = self._pct(base_sse) - self._pct(after_sse)
+            reason = None
+            if choice.gain < cfg.min_gain:
+                reason = f'explains {choice.gain:.1%} < {cfg.min_gain:.0%} of the residual'
+            elif choice.gain <= cfg.null_factor * max(max(nulls), 0.0):
+                reason = (f'explains {choice.gain:.1%}, not {cfg.null_factor:g}x above the '
+                          f'{max(nulls):.1%} an unrelated (time-shifted) feature explains')
+            elif drop < cfg.min_improvement_pct:
+                reason = (f'lowers the cross-validated RMSE by only {drop:.2f} points '
+                          f'(< {cfg.min_improvement_pct:g})')
+            if reason is not None:
+                rejected = (choice, nulls, reason)
+                break
+            cols = self._columns(hyp, choice.shape)
+            if hyp.fixed_coefficient:
+                self._offset = [o + c for o, c in zip(self._offset, cols)]
+            else:
+                self._base_cols = [b + [c] for b, c in zip(self._base_cols, cols)]
+            if self.sim is not None:
+                sim_cols = self._columns_of(self.sim, hyp, choice.shape)
+                if hyp.fixed_coefficient:
+                    self._sim_offset = [o + c for o, c in zip(self._sim_offset, sim_cols)]
+                else:
+                    self._sim_cols = [b + [c] for b, c in zip(self._sim_cols, sim_cols)]
+            accepted.append(Accepted(hyp, choice.shape, choice.gain, nulls, 1.0,
+                                     self._pct(base_sse), self._pct(after_sse), base_sse))
+            candidates = [h for h in candidates if h.physics != hyp.physics]
+        coefs = full_fit(block_stats(self.data, self._base_cols, self._offset))
+        n_comp = len(self.companions)
+        companions = {h.physics: float(c) for h, c in zip(self.companions, coefs[:n_comp])}
+        fitted = iter(coefs[n_comp:])
+        final = tuple(a if a.hypothesis.fixed_coefficient else
+                      Accepted(a.hypothesis, a.shape, a.gain, a.null_gains, float(next(fitted)),
+                               a.rmse_before_pct, a.rmse_after_pct, a.sse_before)
+                      for a in accepted)
+        return Outcome(final, companions, ranking, rejected, self._pct(start_sse),
+                       self._pct(self._sse()))
+
+    def fit_single(self, hyp: Hypothesis) -> Tuple[Dict[str, float], float, float, float]:
+        """Best shape, held-out gain, coefficient and starting SSE of one hypothesis alone."""
+        base_sse = self._sse()
+        grid = hyp.grid([p.ctx for p in self.data.pieces])
+        if not grid or base_sse <= 0.0:
+            return {}, 0.0, 0.0, base_sse
+        shape, gain = self.best_shape(hyp, grid, base_sse)
+        if hyp.fixed_coefficient:
+            return dict(shape), float(gain), 1.0, base_sse
+        cols = [b + [c] for b, c in zip(self._base_cols, self._columns(hyp, shape))]
+        coef = full_fit(block_stats(self.data, cols, self._offset))[-1]
+        return dict(shape), float(gain), float(coef), base_sse
+
+    def _parsimonious(self, evaluated: Sequence[Evaluated]) -> Evaluated:
+        best = evaluated[0]
+        margin = max(self.config.parsimony_abs, self.config.parsimony_rel * best.gain)
+        close = [e for e in evaluated if e.gain >= best.gain - margin]
+        return min(close, key=lambda e: (e.hypothesis.n_shape, -e.gain))
