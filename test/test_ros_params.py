@@ -1,0 +1,186 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""Node parameters: descriptors, validation, model checks, refusal to start."""
+import dataclasses
+import subprocess
+import sys
+
+import pytest
+import rclpy
+from rclpy.context import Context
+from rclpy.parameter import Parameter
+
+from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import ModelFileError
+from wheel_force_estimator.core.model import save_model
+from wheel_force_estimator.ros.params import model_layout
+from wheel_force_estimator.ros.params import MOMENT_CHANNELS
+from wheel_force_estimator.ros.params import NodeParams
+from wheel_force_estimator.ros.params import PARAMETERS
+from wheel_force_estimator.ros.testing import isolated_ros_env
+from wheel_force_estimator.ros.testing import synthetic_model
+
+pytestmark = pytest.mark.ros
+
+
+def values(**changes):
+    base = {s.name: tuple(s.default) if isinstance(s.default, list) else s.default
+            for s in PARAMETERS}
+    base['model_path'] = 'model.npz'
+    base.update(changes)
+    return base
+
+
+def test_every_config_key_is_declared_with_a_unit():
+    import yaml
+    from wheel_force_estimator.cli.common import default_config_path
+    doc = yaml.safe_load(default_config_path().read_text())
+    keys = set(doc['wheel_force_node']['ros__parameters'])
+    declared = {s.name for s in PARAMETERS}
+    assert keys <= declared
+    for spec in PARAMETERS:
+        assert '[' in spec.description and spec.description.endswith(']'), spec.name
+    # The defaults are the shipped file's values.
+    for key in keys:
+        default = next(s.default for s in PARAMETERS if s.name == key)
+        assert doc['wheel_force_node']['ros__parameters'][key] == default, key
+
+
+@pytest.mark.parametrize('changes, match', [
+    ({'model_path': ''}, 'model_path is empty'),
+    ({'imu_topics': ('/a', '/b', '/c')}, 'imu_topics must be a list of 4'),
+    ({'output_topics': ('/a', '/b', '/c', 'not a topic')}, 'output_topics\\[3\\]'),
+    ({'output_topics': ('/spindle/lf/imu', '/b', '/c', '/d')}, 'two purposes'),
+    ({'imu_frame_ids': ('a', 'b')}, 'imu_frame_ids must be'),
+    ({'input_reliability': 'sometimes'}, 'input_reliability must be one of'),
+    ({'block_size': 512, 'output_qos_depth': 1024}, 'output_qos_depth = 1024 must hold'),
+    ({'block_size': 0}, 'block_size must be >= 1'),
+    ({'flush_timeout_s': 0.0}, 'flush_timeout_s must be > 0'),
+])
+def test_node_params_refuse_bad_values(changes, match):
+    with pytest.raises(ConfigError, match=match):
+        NodeParams(**values(**changes))
+
+
+def test_node_params_normalise_imu_frame_ids():
+    assert NodeParams(**values()).imu_frame_ids == ('',) * 4
+    frames = ('a', '', 'c', 'd')
+    assert NodeParams(**values(imu_frame_ids=frames)).imu_frame_ids == frames
+
+
+def test_model_layout_maps_channels_and_checks_rate_and_delay():
+    params = NodeParams(**values(causal_delay_s=0.05))
+    shuffled = tuple(reversed(INPUT_CHANNELS))
+    model = synthetic_model(delay_samples=48, input_channels=shuffled)
+    layout = model_layout(model, params)
+    assert layout.input_order == tuple(INPUT_CHANNELS.index(c) for c in shuffled)
+    assert layout.force_rows[1] == (3, 4, 5) and layout.torque_rows is None
+    assert layout.causal_delay_samples == round(0.05 * 512)
+    with_moments = synthetic_model(output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS)
+    assert model_layout(with_moments, params).torque_rows[3] == (21, 22, 23)
+
+
+@pytest.mark.parametrize('kwargs, changes, match', [
+    ({'input_channels': INPUT_CHANNELS[:11] + ('rr_gz',)}, {}, 'input channels'),
+    ({'output_channels': OUTPUT_CHANNELS[:11] + ('rr_mx',)}, {}, "missing \\['rr_fz'\\]"),
+    ({'output_channels': OUTPUT_CHANNELS + ('lf_mx',)}, {}, 'not all of'),
+    ({'fs_hz': 1000.0}, {'sample_rate_hz': 512.0}, 'sample rate 1000 Hz differs'),
+    ({'delay_samples': 10}, {'causal_delay_s': 0.25}, "exceeds the model's look-ahead"),
+])
+def test_model_layout_refuses_models_that_do_not_fit(kwargs, changes, match):
+    with pytest.raises(ModelFileError, match=match):
+        model_layout(synthetic_model(**kwargs), NodeParams(**values(**changes)))
+
+
+@pytest.fixture
+def ros_context(monkeypatch):
+    for key, value in isolated_ros_env().items():
+        monkeypatch.setenv(key, value)
+    context = Context()
+    rclpy.init(context=context)
+    yield context
+    rclpy.try_shutdown(context=context)
+
+
+@pytest.fixture(scope='module')
+def model_file(tmp_path_factory):
+    return save_model(synthetic_model(delay_samples=48),
+                      tmp_path_factory.mktemp('model') / 'model.npz')
+
+
+def make_node(context, model_path, **params):
+    from wheel_force_estimator.ros.node import WheelForceNode
+    overrides = [Parameter('model_path', value=str(model_path)),
+                 Parameter('causal_delay_s', value=48 / 512)]
+    overrides += [Parameter(k, value=v) for k, v in params.items()]
+    return WheelForceNode(context=context, parameter_overrides=overrides)
+
+
+def test_node_declares_descriptors_and_only_budget_is_live(ros_context, model_file):
+    node = make_node(ros_context, model_file)
+    try:
+        desc = node.describe_parameter('block_size')
+        assert desc.read_only and '[samples]' in desc.description
+        assert (desc.integer_range[0].from_value, desc.integer_range[0].to_value) == (1, 8192)
+        assert '[s]' in node.describe_parameter('causal_delay_s').description
+        assert node.set_parameters([Parameter('damage_budget', value=1e15)])[0].successful
+        assert node.get_parameter('damage_budget').value == 1e15
+        result = node.set_parameters([Parameter('block_size', value=64)])[0]
+        assert not result.successful and 'read-only' in result.reason
+        assert node.get_parameter('block_size').value == 128
+    finally:
+        node.destroy_node()
+
+
+@pytest.mark.parametrize('params, error, match', [
+    ({'block_size': 0}, ConfigError, 'block_size.*out of range'),
+    ({'sn_slope': 5}, ConfigError, 'sn_slope.*write a float'),
+    ({'input_reliability': 'fast'}, ConfigError, 'input_reliability'),
+    ({'sample_rate_hz': 1000.0}, ModelFileError, 'sample rate 512 Hz differs'),
+])
+def test_node_refuses_bad_parameters(ros_context, model_file, params, error, match):
+    with pytest.raises(error, match=match):
+        make_node(ros_context, model_file, **params)
+
+
+def test_node_refuses_model_with_other_channels_or_missing(ros_context, tmp_path):
+    other = save_model(synthetic_model(input_channels=tuple(f'ch{i}' for i in range(12))),
+                       tmp_path / 'other.npz')
+    with pytest.raises(ModelFileError, match='input channels'):
+        make_node(ros_context, other)
+    with pytest.raises(ModelFileError, match='not found'):
+        make_node(ros_context, tmp_path / 'missing.npz')
+
+
+def test_cli_refusal_is_one_clear_line_and_exit_1(tmp_path, model_file):
+    env = isolated_ros_env()
+    missing = tmp_path / 'missing.npz'
+    proc = subprocess.run([sys.executable, '-m', 'wheel_force_estimator', 'node', '--model',
+                           str(missing)], env=env, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1
+    lines = [ln for ln in (proc.stdout + proc.stderr).splitlines() if ln.strip()]
+    assert len(lines) == 1, lines
+    assert 'refusing to start' in lines[0] and str(missing) in lines[0]
+    assert 'Traceback' not in proc.stderr
+    proc = subprocess.run([sys.executable, '-m', 'wheel_force_estimator', 'node', '--config',
+                           str(tmp_path / 'none.yaml')], env=env, capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 1 and 'none.yaml: params file not found' in proc.stderr
+    proc = subprocess.run([sys.executable, '-m', 'wheel_force_estimator.ros.node', '--ros-args',
+                           '--params-file', str(tmp_path / 'none.yaml')],
+                          env=env, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1 and 'refusing to start' in proc.stderr
+    assert 'Traceback' not in proc.stderr
+    proc = subprocess.run([sys.executable, '-m', 'wheel_force_estimator.ros.node', '--ros-args',
+                           '-p', f'model_path:={model_file}', '-p', 'block_size:=0'],
+                          env=env, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1
+    assert 'block_size' in proc.stderr and 'out of range' in proc.stderr
+
+
+def test_dataclass_is_frozen():
+    params = NodeParams(**values())
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        params.block_size = 3

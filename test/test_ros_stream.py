@@ -1,0 +1,154 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""The node's estimation stream (blocks, gaps, flush, jumps, damage), without ROS."""
+import numpy as np
+import pytest
+
+from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import ShapeError
+from wheel_force_estimator.core.fatigue import pseudo_damage
+from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.core.predict import Predictor
+from wheel_force_estimator.ros.stream import ForceStream
+from wheel_force_estimator.ros.testing import sample_stamps
+from wheel_force_estimator.ros.testing import synthetic_accel
+from wheel_force_estimator.ros.testing import synthetic_model
+
+# The stream and predict_forces run the same overlap-add engine with different call lengths;
+# they differ only by FFT rounding, ~1e-15 of the signal.  1e-12 relative leaves room for the
+# accumulation over a few thousand samples and still catches any misplaced sample (O(1) error).
+RTOL = 1e-12
+
+
+@pytest.fixture(scope='module')
+def model():
+    return synthetic_model(n_taps=96, delay_samples=40, seed=4)
+
+
+def run(stream, stamps, x, rng, max_chunk=300):
+    """Feed in random chunks, flush at the end; return everything emitted."""
+    out_s, out_y = [], []
+    i = 0
+    while i < stamps.size:
+        k = int(rng.integers(1, max_chunk))
+        stream.feed(stamps[i:i + k], x[:, i:i + k])
+        s, y = stream.take()
+        out_s.append(s)
+        out_y.append(y)
+        i += k
+    stream.flush()
+    s, y = stream.take()
+    return np.concatenate(out_s + [s]), np.concatenate(out_y + [y], axis=1)
+
+
+def assert_close(actual, expected):
+    scale = np.abs(expected).max()
+    np.testing.assert_allclose(actual, expected, rtol=0, atol=RTOL * scale)
+
+
+@pytest.mark.parametrize('block_size', [1, 7, 64, 128, 1000])
+def test_any_chunking_equals_offline_prediction(model, block_size):
+    rng = np.random.default_rng(block_size)
+    n = 2500
+    x = synthetic_accel(n, seed=2)
+    stamps = sample_stamps(n)
+    stream = ForceStream(Predictor(model), block_size, 5.0)
+    s, y = run(stream, stamps, x, rng)
+    np.testing.assert_array_equal(s, stamps)        # every sample estimated exactly once
+    assert_close(y, predict_forces(model, x))
+    assert stream.counts == {'samples_in': n, 'samples_out': n, 'gaps': 0, 'flushes': 1,
+                             'jumps': 0}
+    # The running damage is that of exactly the emitted signal.
+    np.testing.assert_allclose(stream.damage(), pseudo_damage(y, 5.0), rtol=1e-12)
+
+
+def test_latency_is_block_plus_delay(model):
+    block = 64
+    stream = ForceStream(Predictor(model), block, 5.0)
+    x = synthetic_accel(1000, seed=3)
+    stamps = sample_stamps(1000)
+    stream.feed(stamps[:block - 1], x[:, :block - 1])
+    assert stream.take()[0].size == 0 and stream.in_flight == block - 1
+    stream.feed(stamps[block - 1:block], x[:, block - 1:block])
+    s, _ = stream.take()
+    np.testing.assert_array_equal(s, stamps[:block - model.fir_delay_samples])
+    assert stream.in_flight == model.fir_delay_samples
+
+
+def test_gap_flushes_and_each_segment_equals_its_offline_prediction(model):
+    n = 1500
+    x = synthetic_accel(n, seed=5)
+    stamps = sample_stamps(n)
+    keep = np.r_[0:700, 703:n]                       # three samples missing
+    stream = ForceStream(Predictor(model), 128, 5.0)
+    s, y = run(stream, stamps[keep], x[:, keep], np.random.default_rng(0))
+    np.testing.assert_array_equal(s, stamps[keep])
+    expected = np.concatenate([predict_forces(model, x[:, :700]),
+                               predict_forces(model, x[:, 703:])], axis=1)
+    assert_close(y, expected)
+    assert stream.counts['gaps'] == 1
+    assert stream.counts['flushes'] == 2             # the gap and the final flush
+
+
+def test_clock_jitter_is_not_a_gap_but_another_rate_is(model):
+    x = synthetic_accel(400, seed=6)
+    period = 1e9 / model.fs_hz
+    # ±10 % per stamp: steps within ±20 %, inside the ±25 % tolerance.
+    jitter = np.random.default_rng(1).uniform(-0.1, 0.1, 400) * period
+    stamps = (10**12 + np.arange(400) * period + jitter).astype(np.int64)
+    stream = ForceStream(Predictor(model), 64, 5.0)
+    stream.feed(stamps, x)
+    assert stream.counts['gaps'] == 0
+    fast = (10**13 + np.arange(400) * (1e9 / 1000.0)).astype(np.int64)   # 1 kHz input
+    stream.feed(fast, x)
+    assert stream.counts['gaps'] == 400
+
+
+def test_restart_after_stamp_jump_resets_filter_and_damage(model):
+    n = 600
+    x = synthetic_accel(n, seed=7)
+    stamps = sample_stamps(n)
+    stream = ForceStream(Predictor(model), 100, 5.0)
+    stream.feed(stamps, x)
+    stream.restart()
+    s1, y1 = stream.take()
+    np.testing.assert_array_equal(s1, stamps)
+    assert_close(y1, predict_forces(model, x))
+    assert np.all(stream.damage() == 0.0)
+    stream.feed(stamps[:300], x[:, :300])             # the recording again from its start
+    stream.flush()
+    s2, y2 = stream.take()
+    np.testing.assert_array_equal(s2, stamps[:300])
+    assert_close(y2, predict_forces(model, x[:, :300]))
+    np.testing.assert_allclose(stream.damage(), pseudo_damage(y2, 5.0), rtol=1e-12)
+    assert stream.counts['jumps'] == 1 and stream.counts['gaps'] == 0
+
+
+def test_short_segment_shorter_than_the_delay(model):
+    x = synthetic_accel(5, seed=8)
+    stream = ForceStream(Predictor(model), 128, 5.0)
+    stream.feed(sample_stamps(5), x)
+    stream.flush()
+    s, y = stream.take()
+    assert s.size == 5
+    assert_close(y, predict_forces(model, x))
+
+
+def test_causal_delay_setting_changes_latency_not_stamps(model):
+    x = synthetic_accel(800, seed=9)
+    stamps = sample_stamps(800)
+    stream = ForceStream(Predictor(model, causal_delay_samples=8), 32, 5.0)
+    assert stream.delay_samples == 8
+    s, y = run(stream, stamps, x, np.random.default_rng(2))
+    np.testing.assert_array_equal(s, stamps)
+    assert_close(y, predict_forces(model, x, causal_delay_samples=8))
+
+
+def test_bad_arguments(model):
+    with pytest.raises(ConfigError, match='block_size'):
+        ForceStream(Predictor(model), 0, 5.0)
+    with pytest.raises(ConfigError, match='sn_slope'):
+        ForceStream(Predictor(model), 8, -1.0)
+    stream = ForceStream(Predictor(model), 8, 5.0)
+    with pytest.raises(ShapeError, match='expected \\(12, 3\\)'):
+        stream.feed(sample_stamps(3), np.zeros((11, 3)))

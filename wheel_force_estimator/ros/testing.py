@@ -1,0 +1,148 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Helpers for tests and benchmarks of the ROS side: synthetic models, isolated DDS runs.
+
+Nothing here is used by the node itself.  DDS isolation follows DESIGN.md: participants stay on
+this machine (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) and on a domain drawn at random per
+run, so parallel runs never talk to each other.
+"""
+import os
+from pathlib import Path
+import random
+import subprocess
+import sys
+import time
+from typing import Dict, Mapping, Optional, Sequence
+
+import numpy as np
+
+from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.core.model import FrfModel
+
+NS_PER_S = 1_000_000_000
+
+
+def synthetic_model(fs_hz: float = 512.0, n_taps: int = 128, delay_samples: int = 48,
+                    seed: int = 0, input_channels: Sequence[str] = INPUT_CHANNELS,
+                    output_channels: Sequence[str] = OUTPUT_CHANNELS) -> FrfModel:
+    """
+    Return a model with random two-sided, decaying, zero-DC FIR taps (no fitting).
+
+    The FRF arrays are the taps' response on a 256-point grid; coherences are 1.  Static
+    force about 1-3 kN, static acceleration gravity on z.
+
+    Parameters
+    ----------
+    fs_hz : float
+        Sample rate [Hz].
+    n_taps : int
+        FIR length [samples].
+    delay_samples : int
+        Look-ahead (tap index of lag zero) [samples].
+    seed : int
+        Random seed.
+    input_channels, output_channels : sequence of str
+        Channel names.
+
+    Returns
+    -------
+    FrfModel
+
+    """
+    rng = np.random.default_rng(seed)
+    n_in, n_out = len(input_channels), len(output_channels)
+    lag = np.arange(n_taps) - delay_samples
+    taps = rng.normal(size=(n_out, n_in, n_taps)) * np.exp(-np.abs(lag) / (n_taps / 10)) * 40.0
+    taps -= taps.mean(axis=-1, keepdims=True)
+    f_hz = np.fft.rfftfreq(256, 1.0 / fs_hz)
+    h = np.einsum('fk,oik->foi', np.exp(-2j * np.pi * np.outer(f_hz, lag) / fs_hz), taps)
+    static_accel = np.zeros(n_in)
+    static_accel[2::3] = 9.81
+    return FrfModel(
+        fs_hz=fs_hz, input_channels=tuple(input_channels),
+        output_channels=tuple(output_channels), f_hz=f_hz, h=h,
+        coherence_ordinary=np.ones(h.shape), coherence_multiple=np.ones(h.shape[:2]),
+        cond_sxx=np.ones(f_hz.size), fir_taps=taps, fir_delay_samples=delay_samples,
+        static_force_n=rng.uniform(1000.0, 3000.0, n_out), static_accel_mps2=static_accel,
+        estimator='h1', fit={'source': 'synthetic_model (tests)'})
+
+
+def synthetic_accel(n_samples: int, fs_hz: float = 512.0, seed: int = 1) -> np.ndarray:
+    """Return ``(12, n_samples)`` spindle accelerations: low-passed noise plus gravity on z."""
+    rng = np.random.default_rng(seed)
+    white = rng.normal(size=(len(INPUT_CHANNELS), n_samples + 64)) * 3.0
+    kernel = np.hanning(9)
+    x = np.apply_along_axis(lambda r: np.convolve(r, kernel / kernel.sum(), 'same'), 1, white)
+    x = x[:, 64:]
+    x[2::3] += 9.81
+    return x
+
+
+def sample_stamps(n_samples: int, fs_hz: float = 512.0,
+                  start_ns: int = 1_700_000_000 * NS_PER_S) -> np.ndarray:
+    """Return ``n_samples`` stamps on the ideal clock of ``fs_hz`` [ns]."""
+    return start_ns + np.round(np.arange(n_samples) * (NS_PER_S / fs_hz)).astype(np.int64)
+
+
+def isolated_ros_env(base: Optional[Mapping[str, str]] = None) -> Dict[str, str]:
+    """Return an environment for DDS participants private to this run (random domain)."""
+    env = dict(os.environ if base is None else base)
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    # Domains 1..100 keep Fast DDS's port mapping clear of the Linux ephemeral port range.
+    env['ROS_DOMAIN_ID'] = str(random.SystemRandom().randint(1, 100))
+    env.setdefault('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')
+    return env
+
+
+def node_command(model_path, params: Mapping[str, object] = (),
+                 params_file: Optional[Path] = None) -> list:
+    """Return the command line running ``wheel_force_node`` with parameter overrides."""
+    cmd = [sys.executable, '-m', 'wheel_force_estimator.ros.node', '--ros-args']
+    if params_file is not None:
+        cmd += ['--params-file', str(params_file)]
+    cmd += ['-p', f'model_path:={model_path}']
+    for key, value in dict(params).items():
+        if isinstance(value, (list, tuple)):
+            value = '[' + ', '.join(f'"{v}"' if isinstance(v, str) else repr(v)
+                                    for v in value) + ']'
+        elif isinstance(value, float):
+            value = repr(value)
+        cmd += ['-p', f'{key}:={value}']
+    return cmd
+
+
+def start_node(model_path, env: Mapping[str, str], params: Mapping[str, object] = (),
+               log_path: Optional[Path] = None) -> subprocess.Popen:
+    """Start the node as a subprocess (stdout/stderr to ``log_path`` or discarded)."""
+    out = open(log_path, 'w') if log_path is not None else subprocess.DEVNULL
+    try:
+        return subprocess.Popen(node_command(model_path, params), env=dict(env), stdout=out,
+                                stderr=subprocess.STDOUT)
+    finally:
+        if log_path is not None:
+            out.close()
+
+
+def stop_node(proc: subprocess.Popen, timeout_s: float = 10.0) -> int:
+    """Stop the node with SIGINT (like Ctrl-C) and return its exit code."""
+    if proc.poll() is None:
+        proc.send_signal(2)
+        try:
+            return proc.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+            return -9
+    return proc.returncode
+
+
+def wait_until(predicate, timeout_s: float, period_s: float = 0.02) -> bool:
+    """Poll ``predicate`` until it is true or ``timeout_s`` passed; return its last value."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(period_s)
+    return bool(predicate())
