@@ -1,6 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""package.xml is a valid format-3 manifest with the dependencies the code needs.
+"""
+package.xml is a valid format-3 manifest with the dependencies the code needs.
 
 catkin_pkg is the parser colcon and rosdep use; it enforces the REP 149 (format 3) rules.
 """
