@@ -86,7 +86,7 @@ def main(argv=None) -> int:
     parser.add_argument('--out', default='demo_out', help='output directory')
     parser.add_argument('--duration-scale', type=float, default=1.0,
                         help='shorten the simulated sessions (1.0 = ~10 min training)')
-    parser.add_argument('--replay-rate', type=float, default=10.0,
+    parser.add_argument('--replay-rate', type=float, default=5.0,
                         help='replay speed through the live node (x real time)')
     parser.add_argument('--no-node', action='store_true', help='skip the live node step')
     args = parser.parse_args(argv)

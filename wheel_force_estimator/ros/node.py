@@ -29,6 +29,8 @@ finite timeout (without one it busy-spins and runs nothing).
 """
 import collections
 import gc
+import signal
+import threading
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -42,6 +44,7 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy
 from rclpy.qos import QoSProfile
 from rclpy.qos import ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import Imu
 from std_msgs.msg import String
 
@@ -354,12 +357,12 @@ def _slice(decoded, lo: int, hi: int):
                          decoded.nonfinite[lo:hi])
 
 
-def spin(node: Node, timeout_s: float = 0.1):
-    """Spin ``node`` with an EventsExecutor until the context shuts down (finite timeout)."""
+def spin(node: Node, timeout_s: float = 0.1, stop: threading.Event = None):
+    """Spin ``node`` with an EventsExecutor until the context shuts down or ``stop`` is set."""
     executor = EventsExecutor(context=node.context)
     executor.add_node(node)
     try:
-        while node.context.ok():
+        while node.context.ok() and not (stop is not None and stop.is_set()):
             executor.spin_once(timeout_sec=timeout_s)
     finally:
         executor.remove_node(node)
@@ -368,8 +371,12 @@ def spin(node: Node, timeout_s: float = 0.1):
 
 def main(args=None) -> int:
     """Run the node until shutdown; return 0, or 1 when it refuses to start."""
+    # SIGINT/SIGTERM only request a stop, checked between executor turns: rclpy's own handler
+    # would raise KeyboardInterrupt inside whatever callback is running (a FATAL log line and
+    # a half-processed block); this way the last block is finished and the counters logged.
+    stop = threading.Event()
     try:
-        rclpy.init(args=args)
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     except _RCLError as err:
         # e.g. an unreadable --params-file: rcl refuses before any node exists.
         rclpy.logging.get_logger(NODE_NAME).fatal(f'refusing to start: {err}')
@@ -384,8 +391,10 @@ def main(args=None) -> int:
     # run: keep it out of the cyclic collector, whose full passes otherwise stall the executor
     # for ~80 ms (measured), long enough to overflow the input queues at a fast replay.
     gc.freeze()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
     try:
-        spin(node)
+        spin(node, stop=stop)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
