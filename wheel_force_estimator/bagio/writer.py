@@ -3,36 +3,165 @@
 """
 Write recordings as rosbag2 (version 8, Jazzy types) that ``ros2 bag`` on Jazzy reads.
 
-Payloads are serialised in bulk (:func:`.fastcdr.encode_rows`, checked against rosbags'
-serialiser) and handed to rosbags' Writer sample by sample, all topics of a sample together,
-so the bag is in time order like a live recording.  Bag timestamps equal header stamps.
+The bag is written in bulk: every sample topic is a constant CDR payload template plus a few
+fields at fixed byte offsets (header stamp, x/y/z), and the storage writers
+(:mod:`.mcap_writer`, :mod:`.sqlite_writer`) stamp those fields into whole blocks of messages
+with numpy, never building one Python object per message.  The first and last payload of every
+topic are checked bit-exactly against rosbags' serialiser before anything is written.
+
+Messages are in time order like a live recording: all topics of a sample together (topic
+order as given), an event just before the first sample whose stamp is not earlier.  Bag
+timestamps equal header stamps.  Storage layout, metadata.yaml and the metadata kept inside the
+storage file follow what rosbags' ``Writer`` (version 8) writes for the same messages.
 """
+import contextlib
+from dataclasses import dataclass
+import functools
 from pathlib import Path
-from typing import Optional, Sequence
+import sqlite3
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
-from rosbags.rosbag2 import StoragePlugin
-from rosbags.rosbag2 import Writer
-from rosbags.rosbag2 import WriterError
 
 from wheel_force_estimator import CORNERS
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
-from wheel_force_estimator.bagio.fastcdr import encode_rows
+from wheel_force_estimator.bagio.fastcdr import body_offset
 from wheel_force_estimator.bagio.fastcdr import IMU
+from wheel_force_estimator.bagio.fastcdr import Layout
+from wheel_force_estimator.bagio.fastcdr import payload_length
 from wheel_force_estimator.bagio.fastcdr import STRING_TYPE
 from wheel_force_estimator.bagio.fastcdr import WRENCH
+from wheel_force_estimator.bagio.mcap_writer import write_mcap
 from wheel_force_estimator.bagio.reader import jazzy_typestore
+from wheel_force_estimator.bagio.sqlite_writer import write_sqlite
 from wheel_force_estimator.bagio.topics import default_topic_config
 from wheel_force_estimator.core.errors import BagError
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.validation import as_signals
+import yaml
 
 ROSBAG2_VERSION = 8  # Jazzy's rosbag2 reads up to 9; 8 keeps Humble/Iron readers happy too
-STORAGES = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}
+# storage identifier -> (file suffix, bulk storage writer)
+STORAGES = {'mcap': ('.mcap', write_mcap), 'sqlite3': ('.db3', write_sqlite)}
+# What rosbags' Writer records as the distro; kept so metadata equals rosbags' output.
+ROS_DISTRO = 'rosbags'
 _NS_PER_S = 1_000_000_000
 # header.stamp.sec is an int32
 _MAX_STAMP_NS = (2 ** 31) * _NS_PER_S
+
+
+@dataclass(frozen=True)
+class Connection:
+    """
+    One topic of the bag as rosbag2 registers it.
+
+    Attributes
+    ----------
+    topic, msgtype : str
+        Topic name and ROS 2 message type.
+    msgdef : str
+        Message definition text (``ros2msg``), as rosbags' typestore generates it.
+    rihs01 : str
+        Type description hash (``RIHS01_...``).
+    qos : str
+        Offered QoS profiles as stored (rosbags writes ``''`` when none are given).
+
+    """
+
+    topic: str
+    msgtype: str
+    msgdef: str
+    rihs01: str
+    qos: str = ''
+
+
+@dataclass(frozen=True, eq=False)  # holds arrays: compare fields, not objects
+class DenseTopic:
+    """
+    A topic with one fixed-length message per sample: a payload template plus fields.
+
+    Attributes
+    ----------
+    template : numpy.ndarray, shape (L,), uint8
+        Serialised message with the variable fields zeroed.
+    fields : tuple of (int, numpy.dtype, numpy.ndarray)
+        ``(byte offset in the payload, dtype, source)``; ``source[i]`` (scalar or row) is the
+        field value of sample ``i`` and already has ``dtype``.
+
+    """
+
+    template: np.ndarray
+    fields: Tuple[Tuple[int, np.dtype, np.ndarray], ...]
+
+    @property
+    def length(self) -> int:
+        """Return the payload length [bytes]."""
+        return self.template.size
+
+    def fill(self, out: np.ndarray, column: int, first: int, stop: int) -> None:
+        """
+        Write the fields of samples ``first..stop-1`` into rows of ``out``.
+
+        ``out`` is a C-contiguous (rows, width) uint8 block whose row ``j`` holds sample
+        ``first + j`` with this topic's payload at ``column``; the template bytes must be in
+        place already (storage writers keep them across blocks).
+        """
+        if stop == first:
+            return
+        for offset, dtype, source in self.fields:
+            part = source[first:stop]
+            inner = (dtype.itemsize,) if part.ndim == 2 else ()
+            view = np.ndarray(part.shape, dtype, out, column + offset, (out.strides[0],) + inner)
+            view[...] = part
+
+    def payloads(self, first: int, stop: int) -> np.ndarray:
+        """Return the payloads of samples ``first..stop-1`` as a (k, L) uint8 matrix."""
+        out = np.tile(self.template, (stop - first, 1))
+        self.fill(out, 0, first, stop)
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class BagPlan:
+    """
+    Everything a storage writer writes, in message order.
+
+    Attributes
+    ----------
+    connections : tuple of Connection
+        Channel / topic ``i`` gets id ``i + 1``; schemas are numbered by first appearance.
+    stamp_ns : numpy.ndarray, shape (n,), int64
+        Sample clock: log time of every dense message.
+    dense : tuple of DenseTopic
+        Payloads of ``connections[:len(dense)]``, one message per sample each.
+    sparse : tuple of (int, int, bytes)
+        ``(connection index, log time, payload)`` of the few other messages (events), sorted
+        by time; connection indexes ``>= len(dense)``.
+    sparse_at : numpy.ndarray, shape (len(sparse),), int64
+        Sample index each sparse message precedes (``n`` = after the last sample).
+
+    """
+
+    connections: Tuple[Connection, ...]
+    stamp_ns: np.ndarray
+    dense: Tuple[DenseTopic, ...]
+    sparse: Tuple[Tuple[int, int, bytes], ...]
+    sparse_at: np.ndarray
+
+    def message_counts(self) -> Tuple[int, ...]:
+        """Return the number of messages per connection."""
+        counts = [self.stamp_ns.size] * len(self.dense)
+        counts += [0] * (len(self.connections) - len(self.dense))
+        for index, _, _ in self.sparse:
+            counts[index] += 1
+        return tuple(counts)
+
+    def time_range(self) -> Tuple[int, int]:
+        """Return the first and last log time (rosbags' defaults when empty)."""
+        times = [int(t) for t in self.stamp_ns[[0, -1]]] if self.stamp_ns.size else []
+        times += [t for _, t, _ in self.sparse]
+        return (min(times), max(times)) if times else (2 ** 63 - 1, 0)
 
 
 def _frame_ids(given, default_suffix: str, name: str):
@@ -82,6 +211,46 @@ def _make_wrench(store, frame_id: str):
             wrench=types['geometry_msgs/msg/Wrench'](
                 force=vec3(x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2])), torque=zero))
     return make
+
+
+@functools.lru_cache(maxsize=None)
+def _connection_type(msgtype: str) -> Tuple[str, str]:
+    """Return rosbags' ``(msgdef, rihs01)`` for a Jazzy type (what its Writer stores)."""
+    store = jazzy_typestore()
+    msgdef, _ = store.generate_msgdef(msgtype, ros_version=2)
+    return msgdef, store.hash_rihs01(msgtype)
+
+
+def _connection(topic: str, msgtype: str) -> Connection:
+    msgdef, rihs01 = _connection_type(msgtype)
+    return Connection(topic, msgtype, msgdef, rihs01)
+
+
+def _dense_topic(layout: Layout, make_msg, stamp_fields, values: np.ndarray) -> DenseTopic:
+    """
+    Describe one Imu / WrenchStamped topic as template + fields, checked against rosbags.
+
+    ``values`` is (n, 3) float64; ``stamp_fields`` the shared (sec int32, nanosec uint32).
+    """
+    store = jazzy_typestore()
+
+    def serialize(stamp_ns, xyz):
+        return bytes(store.serialize_cdr(make_msg(stamp_ns, xyz), layout.msgtype))
+
+    template = np.frombuffer(serialize(0, (0.0, 0.0, 0.0)), np.uint8)
+    strlen = int(template[12:16].view('<u4')[0])  # frame_id length, NUL included
+    if template.size != payload_length(layout, strlen):
+        raise BagError(f'{layout.msgtype}: unexpected serialised length {template.size}')
+    sec, nanosec = stamp_fields
+    topic = DenseTopic(template, (
+        (4, np.dtype('<i4'), sec), (8, np.dtype('<u4'), nanosec),
+        (body_offset(strlen) + layout.value_offset, np.dtype('<f8'), values)))
+    stamp_ns = sec.astype(np.int64) * _NS_PER_S + nanosec
+    for i in {0, len(values) - 1} if len(values) else ():
+        if serialize(int(stamp_ns[i]), tuple(values[i])) != topic.payloads(i, i + 1).tobytes():
+            raise BagError(f'{layout.msgtype}: bulk CDR encoding differs from rosbags at '
+                           f'sample {i}')
+    return topic
 
 
 def _check_stamps(path: Path, stamp_ns) -> np.ndarray:
@@ -140,7 +309,8 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
     Raises
     ------
     BagError
-        Path exists, stamps invalid, or rosbags cannot write.
+        Path exists, stamps invalid, or the storage cannot be written (nothing is left
+        behind then).
     ShapeError, NonFiniteError
         Arrays of the wrong shape or with NaN / infinity.
     ConfigError
@@ -157,15 +327,16 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
         raise BagError(f'{path}: exists already, not overwriting')
     stamp = _check_stamps(path, stamp_ns)
     store = jazzy_typestore()
-    streams = []  # (topic, msgtype, rows)
+    stamp_fields = ((stamp // _NS_PER_S).astype('<i4'), (stamp % _NS_PER_S).astype('<u4'))
+    connections, dense = [], []
     if accel_mps2 is not None:
         accel = as_signals(accel_mps2, f'{path}: accel_mps2', INPUT_CHANNELS)
         _check_length(path, 'accel_mps2', accel, stamp)
         frames = _frame_ids(imu_frame_ids, 'spindle', 'imu_frame_ids')
         for i, topic in enumerate(topics.imu_topics):
-            rows = encode_rows(IMU, stamp, accel[3 * i:3 * i + 3].T,
-                               _make_imu(store, frames[i]), _serializer(store, IMU.msgtype))
-            streams.append((topic, IMU.msgtype, rows))
+            connections.append(_connection(topic, IMU.msgtype))
+            dense.append(_dense_topic(IMU, _make_imu(store, frames[i]), stamp_fields,
+                                      accel[3 * i:3 * i + 3].T))
     if force_n is not None:
         force = as_signals(force_n, f'{path}: force_n', OUTPUT_CHANNELS)
         _check_length(path, 'force_n', force, stamp)
@@ -176,12 +347,21 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
             frames = _frame_ids(wrench_frame_ids, 'wheel', 'wrench_frame_ids')
         names = topics.output_topics if output else topics.wft_topics
         for i, topic in enumerate(names):
-            rows = encode_rows(WRENCH, stamp, force[3 * i:3 * i + 3].T,
-                               _make_wrench(store, frames[i]),
-                               _serializer(store, WRENCH.msgtype))
-            streams.append((topic, WRENCH.msgtype, rows))
+            connections.append(_connection(topic, WRENCH.msgtype))
+            dense.append(_dense_topic(WRENCH, _make_wrench(store, frames[i]), stamp_fields,
+                                      force[3 * i:3 * i + 3].T))
     event_list = _check_events(path, events)
-    _write(path, storage, store, stamp, streams, topics.event_topic, event_list)
+    sparse = []
+    if event_list:
+        connections.append(_connection(topics.event_topic, STRING_TYPE))
+        string_t = store.types[STRING_TYPE]
+        sparse = [(len(dense), t, bytes(store.serialize_cdr(string_t(data=name), STRING_TYPE)))
+                  for t, name in event_list]
+    # An event goes before the first sample whose stamp is not earlier (ties: event first).
+    sparse_at = np.searchsorted(stamp, np.array([t for _, t, _ in sparse], np.int64), 'left')
+    plan = BagPlan(tuple(connections), stamp, tuple(dense), tuple(sparse),
+                   sparse_at.astype(np.int64))
+    _write(path, storage, plan)
     return path
 
 
@@ -189,12 +369,6 @@ def write_forces(path, stamp_ns, force_n, topics=None, storage: str = 'mcap') ->
     """Write forces on the output (virtual WFT) topics: ``wheel-force predict``'s bag."""
     return write_recording(path, stamp_ns, force_n=force_n, topics=topics, storage=storage,
                            output=True)
-
-
-def _serializer(store, msgtype):
-    def serialize(msg):
-        return store.serialize_cdr(msg, msgtype)
-    return serialize
 
 
 def _check_length(path, name, arr, stamp):
@@ -216,29 +390,72 @@ def _check_events(path, events):
     return sorted(out, key=lambda e: e[0])
 
 
-def _write(path, storage, store, stamp, streams, event_topic, events):
+def bag_metadata(plan: BagPlan, storage: str, file_name: str) -> dict:
+    """
+    Return the ``rosbag2_bagfile_information`` mapping rosbags' Writer (version 8) writes.
+
+    Parameters
+    ----------
+    plan : BagPlan
+        The bag's content.
+    storage : {'mcap', 'sqlite3'}
+        Storage identifier.
+    file_name : str
+        Name of the storage file inside the bag directory.
+
+    """
+    counts = plan.message_counts()
+    start, end = plan.time_range()
+    duration = max(0, end - start)
+    return {
+        'version': ROSBAG2_VERSION,
+        'storage_identifier': storage,
+        'relative_file_paths': [file_name],
+        'duration': {'nanoseconds': duration},
+        'starting_time': {'nanoseconds_since_epoch': start},
+        'message_count': sum(counts),
+        'topics_with_message_count': [
+            {'topic_metadata': {'name': c.topic, 'type': c.msgtype,
+                                'serialization_format': 'cdr',
+                                'offered_qos_profiles': c.qos,
+                                'type_description_hash': c.rihs01},
+             'message_count': count}
+            for c, count in zip(plan.connections, counts)],
+        'compression_format': '',
+        'compression_mode': '',
+        'files': [{'path': file_name, 'starting_time': {'nanoseconds_since_epoch': start},
+                   'duration': {'nanoseconds': duration}, 'message_count': sum(counts)}],
+        'custom_data': None,
+        'ros_distro': ROS_DISTRO,
+    }
+
+
+def _write(path: Path, storage: str, plan: BagPlan) -> None:
+    suffix, write_storage = STORAGES[storage]
     try:
-        writer = Writer(path, version=ROSBAG2_VERSION, storage_plugin=STORAGES[storage])
-        with writer:
-            conns = [writer.add_connection(topic, msgtype, typestore=store)
-                     for topic, msgtype, _ in streams]
-            event_conn = (writer.add_connection(event_topic, STRING_TYPE, typestore=store)
-                          if events else None)
-            string_t = store.types[STRING_TYPE]
-            datas = [rows.tobytes() for _, _, rows in streams]
-            lengths = [rows.shape[1] for _, _, rows in streams]
-            k = 0
-            for i, t in enumerate(stamp.tolist()):
-                while k < len(events) and events[k][0] <= t:
-                    writer.write(event_conn, events[k][0], bytes(
-                        store.serialize_cdr(string_t(data=events[k][1]), STRING_TYPE)))
-                    k += 1
-                for conn, data, length in zip(conns, datas, lengths):
-                    writer.write(conn, t, data[i * length:(i + 1) * length])
-            for ev_stamp, name in events[k:]:
-                writer.write(event_conn, ev_stamp, bytes(
-                    store.serialize_cdr(string_t(data=name), STRING_TYPE)))
-    except WriterError as err:
-        raise BagError(f'{path}: cannot write bag: {err}') from err
+        path.mkdir(mode=0o755, parents=True)
+    except FileExistsError as err:
+        raise BagError(f'{path}: exists already, not overwriting') from err
     except OSError as err:
-        raise BagError(f'{path}: cannot write bag: {err.strerror or err}') from err
+        raise BagError(f'{path}: cannot create bag directory: {err.strerror or err}') from err
+    file = path / f'{path.name}{suffix}'
+    meta_path = path / 'metadata.yaml'
+    tmp_path = path / 'metadata.yaml.tmp'
+    info = bag_metadata(plan, storage, file.name)
+    try:
+        write_storage(file, plan, ROSBAG2_VERSION,
+                      yaml.safe_dump(info, default_flow_style=False).strip())
+        tmp_path.write_text(yaml.safe_dump({'rosbag2_bagfile_information': info},
+                                           default_flow_style=False), 'utf8')
+        tmp_path.replace(meta_path)
+    except BaseException as err:
+        # the directory is ours (created above): leave nothing half-written behind, even
+        # when interrupted
+        with contextlib.suppress(OSError):
+            for leftover in (file, tmp_path, meta_path):
+                leftover.unlink(missing_ok=True)
+            path.rmdir()
+        if isinstance(err, (OSError, sqlite3.Error)):
+            reason = getattr(err, 'strerror', None) or err
+            raise BagError(f'{path}: cannot write bag: {reason}') from err
+        raise
