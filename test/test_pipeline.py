@@ -7,10 +7,14 @@ from scipy import signal
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.evaluation import EvalSegment
 from wheel_force_estimator.core.evaluation import evaluate_segments
 from wheel_force_estimator.core.fatigue import pseudo_damage
+from wheel_force_estimator.core.filtering import FirFilter
+from wheel_force_estimator.core.model import load_model
+from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.pipeline import coherence_summary
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import FitConfig
@@ -120,3 +124,92 @@ def test_evaluation_matches_independent_computation(model):
     assert doc['channels']['lf_fz']['rubric'] == 'perfect'
     assert set(doc['events']) == {'belgian_block', 'braking'}
     assert doc['sample_rate_hz'] == FS_HZ and doc['sn_slope'] == 5.0
+
+
+def lf_mode_system(n, seed):
+    """Two inputs, two outputs; output 0 has a 0.6 Hz mode only 0.12 Hz wide (Q = 5)."""
+    rng = np.random.default_rng(seed)
+    b_in, a_in = signal.butter(2, 20 / (FS_HZ / 2))
+    x = signal.lfilter(b_in, a_in, rng.normal(size=(2, n)), axis=1)
+    w0 = 2 * np.pi * 0.6
+    b, a = signal.bilinear([0.0, 0.0, 50.0 * w0 ** 2], [1.0, w0 / 5, w0 ** 2], FS_HZ)
+    y = np.zeros((2, n))
+    y[0] = 100.0 * x[0] + signal.lfilter(b, a, x[0]) + 30.0 * x[1]
+    y[1] = -50.0 * x[1] + 20.0 * x[0]
+    return x, y
+
+
+@pytest.fixture(scope='module')
+def lf_fits():
+    x, y = lf_mode_system(int(FS_HZ * 600), seed=11)
+    seg = [TrainingSegment(x, y, 'train')]
+    single = fit_model(seg, FS_HZ, FitConfig(), ('a', 'b'), ('p', 'q'))
+    double = fit_model(seg, FS_HZ, FitConfig(long_segment_length=8192), ('a', 'b'), ('p', 'q'))
+    return single, double
+
+
+def test_two_resolutions_resolve_a_narrow_low_frequency_mode(lf_fits):
+    single, double = lf_fits
+    x, y = lf_mode_system(int(FS_HZ * 120), seed=12)
+    edge = double.n_taps  # documented edge transients excluded
+    rmse = {}
+    for name, model in (('single', single), ('double', double)):
+        err = predict_forces(model, x)[:, edge:-edge] - y[:, edge:-edge]
+        rmse[name] = 100 * err.std(axis=1) / y[:, edge:-edge].std(axis=1)
+    # 0.5 Hz lines cannot represent a 0.12 Hz wide mode (measured 17 %); on the 1/16 Hz grid
+    # it is resolved, leaving the variance of 74 windows and the Tikhonov shrinkage of the
+    # default long_regularisation = 5e-2 (measured 3.6 %; 3.0 % with 1e-4).
+    assert rmse['single'][0] > 10.0, rmse
+    assert rmse['double'][0] < 5.0, rmse
+    # output q is broadband only: the single fit is exact (measured 0.01 %); the two-resolution
+    # one pays the same 5 % relative shrinkage below ~3 Hz (measured 1.6 %)
+    assert rmse['double'][1] < 3.0, rmse
+    assert double.n_taps == 8192 and double.f_hz.size == 4097
+    assert double.fit['n_windows_long'] == 74 and double.fit['crossover_hz'] == 2.0
+
+
+def test_two_resolutions_keep_the_short_fir_above_the_crossover(lf_fits):
+    single, double = lf_fits
+    fir = FirFilter(single.fir_taps, single.fir_delay_samples, FS_HZ)
+    high = double.f_hz >= 3.0  # 1.5 x crossover_hz: short estimate alone
+    # the FRF stored there is the single-resolution FIR's own response, to rounding
+    np.testing.assert_allclose(double.h[high], fir.frequency_response(double.f_hz[high]),
+                               rtol=0, atol=1e-9 * np.abs(single.h).max())
+    low = double.f_hz <= 2.0
+    assert np.all(double.coherence_multiple[low] >= 0.0)
+    assert np.isfinite(double.cond_sxx).all()
+
+
+def test_two_resolutions_config_and_short_segments():
+    with pytest.raises(ConfigError, match='long_segment_length'):
+        FitConfig(long_segment_length=512)
+    with pytest.raises(ConfigError, match='f_min_hz'):
+        FitConfig(long_segment_length=4096, f_min_hz=0.5)
+    with pytest.raises(ConfigError, match='crossover_hz'):
+        FitConfig(long_segment_length=4096, crossover_hz=0.0)
+    x, y = lf_mode_system(4000, seed=13)
+    with pytest.raises(InsufficientDataError, match='long_segment_length = 8192'):
+        fit_model([TrainingSegment(x, y, 'short')], FS_HZ, FitConfig(long_segment_length=8192),
+                  ('a', 'b'), ('p', 'q'))
+
+
+def test_two_resolution_model_streams_and_round_trips(lf_fits, tmp_path):
+    _, double = lf_fits
+    save_model(double, tmp_path / 'm.npz')
+    loaded = load_model(tmp_path / 'm.npz')
+    np.testing.assert_array_equal(loaded.fir_taps, double.fir_taps)
+    np.testing.assert_array_equal(loaded.h, double.h)
+    # the live node's short look-ahead on the long FIR: chunked stream == batch
+    x, _ = lf_mode_system(20000, seed=14)
+    batch = predict_forces(loaded, x, causal_delay_samples=128)
+    pred = Predictor(loaded, causal_delay_samples=128)
+    rng = np.random.default_rng(1)
+    parts, i = [], 0
+    while i < x.shape[1]:
+        m = int(rng.integers(1, 700))
+        parts.append(pred.process(x[:, i:i + m]))
+        i += m
+    parts.append(pred.flush())
+    stream = np.concatenate(parts, axis=1)[:, pred.delay_samples:]
+    # overlap-add vs one long FFT differ by rounding only
+    np.testing.assert_allclose(stream, batch, rtol=0, atol=1e-9 * np.abs(batch).max())

@@ -6,18 +6,32 @@ Fit a model from recorded segments (the ``fit`` command's numeric part).
 Each gap-free segment contributes its own Welch windows; the cross-spectra are averaged with
 weights equal to the window counts, so joining several recordings never creates a window that
 straddles two of them (no join artefact).
+
+Two resolutions (``long_segment_length > 0``, opt-in): Welch with ``segment_length`` trades
+frequency resolution (``fs / segment_length``) against the number of averaged windows.  Below
+``crossover_hz`` the loads are quasi-static (braking, cornering, long road waves such as a
+twist course at 0.25 Hz) and a 0.5 Hz grid cannot resolve them, while above it the extra
+windows of the short segments keep the variance low.  So a second estimate from
+``long_segment_length`` windows (with the stronger ``long_regularisation``: at low frequency
+the 12 inputs are nearly collinear rigid-body motions) is used below ``crossover_hz``, the
+short-segment FIR's own response (its taps zero-padded to the long length, i.e. exactly what
+the single-resolution model would do) above ``1.5 * crossover_hz``, with a raised-cosine blend
+between.  The model then holds the finer grid and a FIR of ``long_segment_length`` taps.
 """
 import dataclasses
 import datetime
 from typing import Mapping, Optional, Sequence, Tuple
 
 import numpy as np
+import scipy.fft
 
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.filtering import fir_from_frf
+from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.frf import estimate_frf
 from wheel_force_estimator.core.frf import FrfConfig
+from wheel_force_estimator.core.frf import FrfEstimate
 from wheel_force_estimator.core.model import FrfModel
 from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spectra import cross_spectra
@@ -55,6 +69,15 @@ class FitConfig:
         value (raised cosine from ``floor`` to ``2 * floor``) [-].  There the estimate is
         noise (e.g. above the road's input band): it predicts nothing useful, and its large
         gain would turn any step or spike in the accelerations into a force burst.  0 = off.
+    long_segment_length : int
+        0 (default) = one resolution.  Otherwise the Welch segment length of the second,
+        low-frequency estimate (> ``segment_length``) and the FIR length [samples]; see the
+        module notes.  Segments shorter than it contribute to the short estimate only.
+    crossover_hz : float
+        Below this frequency the long-segment estimate is used alone; above
+        ``1.5 * crossover_hz`` the short one; raised-cosine blend between [Hz].
+    long_regularisation : float
+        Relative regularisation of the long-segment estimate [-].
 
     Raises
     ------
@@ -72,9 +95,26 @@ class FitConfig:
     f_min_hz: float = 0.0
     f_max_hz: Optional[float] = None
     coherence_floor: float = 0.1
+    long_segment_length: int = 0
+    crossover_hz: float = 2.0
+    long_regularisation: float = 5e-2
 
     def __post_init__(self):
         """Validate values that the spectral and FRF configs do not check themselves."""
+        if isinstance(self.long_segment_length, (bool, np.bool_)) or not isinstance(
+                self.long_segment_length, (int, np.integer)):
+            raise ConfigError(
+                f'long_segment_length must be an integer, got {self.long_segment_length!r}')
+        if self.long_segment_length != 0 and self.long_segment_length <= self.segment_length:
+            raise ConfigError(
+                f'long_segment_length ({self.long_segment_length}) must be 0 (off) or longer '
+                f'than segment_length ({self.segment_length})')
+        if not (np.isfinite(self.crossover_hz) and self.crossover_hz > 0.0):
+            raise ConfigError(f'crossover_hz must be > 0, got {self.crossover_hz!r}')
+        if self.long_segment_length and self.f_min_hz > 0.0:
+            raise ConfigError('long_segment_length needs f_min_hz == 0 (it exists to resolve '
+                              f'the quasi-static band), got f_min_hz={self.f_min_hz!r}')
+        FrfConfig(estimator=self.estimator, regularisation=self.long_regularisation)
         if not 0.0 <= self.coherence_floor < 0.5:
             raise ConfigError(f'coherence_floor must be in [0, 0.5), got {self.coherence_floor!r}')
         if not np.isfinite(self.f_min_hz) or self.f_min_hz < 0:
@@ -91,6 +131,14 @@ class FitConfig:
     def frf(self) -> FrfConfig:
         """Return the FRF estimator configuration."""
         return FrfConfig(estimator=self.estimator, regularisation=self.regularisation)
+
+    def long_welch(self, fs_hz: float) -> WelchConfig:
+        """Return the Welch configuration of the low-frequency estimate (needs it enabled)."""
+        return dataclasses.replace(self.welch(fs_hz), segment_length=self.long_segment_length)
+
+    def long_frf(self) -> FrfConfig:
+        """Return the FRF estimator configuration of the low-frequency estimate."""
+        return FrfConfig(estimator=self.estimator, regularisation=self.long_regularisation)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,7 +172,8 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     ----------
     segments : sequence of TrainingSegment
         Gap-free segments, all at ``fs_hz``.  Segments shorter than one Welch segment are
-        refused (never padded).
+        refused (never padded); those shorter than ``long_segment_length`` feed only the
+        short-segment estimate.
     fs_hz : float
         Sample rate [Hz].
     config : FitConfig
@@ -141,7 +190,8 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     Raises
     ------
     InsufficientDataError
-        No segments, or a segment shorter than one Welch segment.
+        No segments, a segment shorter than one Welch segment, or (two resolutions) no
+        segment as long as ``long_segment_length``.
     ShapeError, NonFiniteError
         Bad arrays (the segment source is named).
 
@@ -149,7 +199,8 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     if not segments:
         raise InsufficientDataError('no recording segments to fit')
     welch = config.welch(fs_hz)
-    spectra = []
+    long_welch = config.long_welch(fs_hz) if config.long_segment_length else None
+    spectra, long_spectra = [], []
     sum_x = np.zeros(len(input_channels))
     sum_y = np.zeros(len(output_channels))
     n_total = 0
@@ -157,6 +208,8 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         x = as_signals(seg.accel_mps2, f'accelerations of {seg.source}', input_channels)
         y = as_signals(seg.force_n, f'forces of {seg.source}', output_channels)
         spectra.append(cross_spectra(x, y, welch, name=seg.source))
+        if long_welch is not None and x.shape[1] >= config.long_segment_length:
+            long_spectra.append(cross_spectra(x, y, long_welch, name=seg.source))
         sum_x += x.sum(axis=1)
         sum_y += y.sum(axis=1)
         n_total += x.shape[1]
@@ -166,6 +219,23 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     h = est.h * coherence_weight(est.coherence_multiple, config.coherence_floor)[:, :, None]
     fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
                        keep_dc=config.f_min_hz == 0.0)
+    extra = {}
+    if long_welch is not None:
+        if not long_spectra:
+            raise InsufficientDataError(
+                f'no segment is as long as long_segment_length = {config.long_segment_length} '
+                f'samples ({config.long_segment_length / fs_hz:g} s); longest: '
+                f'{max(seg.accel_mps2.shape[1] for seg in segments)} samples')
+        long_combined = combine_spectra(long_spectra)
+        long_est = estimate_frf(long_combined, config.long_frf())
+        h_long = long_est.h * coherence_weight(long_est.coherence_multiple,
+                                               config.coherence_floor)[:, :, None]
+        est, h = splice_estimates(long_est, h_long, est, fir, config.crossover_hz)
+        fir = fir_from_frf(est.f_hz, h, fs_hz, f_max_hz=f_max, keep_dc=True)
+        extra = {'long_segment_length': config.long_segment_length,
+                 'n_windows_long': int(long_combined.n_windows),
+                 'crossover_hz': config.crossover_hz,
+                 'long_regularisation': config.long_regularisation}
     info = {
         'segments': [seg.source for seg in segments],
         'durations_s': [seg.accel_mps2.shape[1] / fs_hz for seg in segments],
@@ -177,6 +247,7 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         'f_min_hz': config.f_min_hz, 'f_max_hz': f_max,
         'coherence_floor': config.coherence_floor,
     }
+    info.update(extra)
     info.update(dict(fit_info or {}))
     return FrfModel(
         fs_hz=fs_hz, input_channels=tuple(input_channels),
@@ -186,6 +257,75 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         static_force_n=sum_y / n_total, static_accel_mps2=sum_x / n_total,
         estimator=config.estimator, fit=info,
         created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds'))
+
+
+def _fir_response_on_grid(fir: FirFilter, n_fft: int) -> np.ndarray:
+    """Return the response (nf, n_out, n_in) of ``fir`` on the ``n_fft`` grid (exact)."""
+    lag_major = np.zeros((n_fft,) + fir.taps.shape[:2])
+    taps = np.moveaxis(fir.taps, -1, 0)
+    delay = fir.delay_samples
+    # circular placement with lag zero at index 0, so the rfft is relative to lag zero
+    lag_major[:fir.n_taps - delay] = taps[delay:]
+    if delay:
+        lag_major[n_fft - delay:] = taps[:delay]
+    return scipy.fft.rfft(lag_major, axis=0)
+
+
+def _interp_to(f_new: np.ndarray, f_old: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Linear interpolation along axis 0 (real arrays of any trailing shape)."""
+    flat = values.reshape(values.shape[0], -1)
+    out = np.empty((f_new.size, flat.shape[1]))
+    for k in range(flat.shape[1]):
+        out[:, k] = np.interp(f_new, f_old, flat[:, k])
+    return out.reshape((f_new.size,) + values.shape[1:])
+
+
+def splice_estimates(long_est: FrfEstimate, h_long: np.ndarray, short_est: FrfEstimate,
+                     short_fir: FirFilter, crossover_hz: float) -> Tuple[FrfEstimate, np.ndarray]:
+    """
+    Join a fine-grid low-frequency estimate and a coarse-grid one (see the module notes).
+
+    Parameters
+    ----------
+    long_est : FrfEstimate
+        Estimate on the fine grid (long Welch segments).
+    h_long : numpy.ndarray, shape (nf_long, n_out, n_in)
+        FRF to use from it (e.g. ``long_est.h`` with coherence weighting).
+    short_est : FrfEstimate
+        Estimate on the coarse grid (short segments); its indicators fill the high band.
+    short_fir : FirFilter
+        FIR realised from the coarse estimate; its exact response on the fine grid is the FRF
+        used above the crossover, so the high band behaves as in a single-resolution model.
+    crossover_hz : float
+        Long estimate alone below it, short alone above ``1.5 * crossover_hz`` [Hz].
+
+    Returns
+    -------
+    (FrfEstimate, numpy.ndarray)
+        Indicators on the fine grid (coherences blended with the same weight, the coarse ones
+        interpolated linearly; condition numbers from the dominant estimate, coarse ones from
+        the nearest line) and the spliced FRF ``h``.
+
+    """
+    f = long_est.f_hz
+    n_fft = 2 * (f.size - 1)
+    ramp = np.clip((1.5 * crossover_hz - f) / (0.5 * crossover_hz), 0.0, 1.0)
+    w = 0.5 - 0.5 * np.cos(np.pi * ramp)                # 1 below the crossover, 0 above 1.5x
+    h_short = _fir_response_on_grid(short_fir, n_fft)
+    h = w[:, None, None] * h_long + (1.0 - w[:, None, None]) * h_short
+
+    def blend(fine, coarse):
+        wb = w.reshape((-1,) + (1,) * (fine.ndim - 1))
+        return wb * fine + (1.0 - wb) * _interp_to(f, short_est.f_hz, coarse)
+
+    # condition numbers may be inf: take the nearer coarse line rather than interpolate
+    nearest = np.clip(np.rint(f / short_est.f_hz[1]).astype(int), 0, short_est.f_hz.size - 1)
+    short_cond = short_est.cond_sxx[nearest]
+    est = FrfEstimate(
+        f, h, blend(long_est.coherence_ordinary, short_est.coherence_ordinary),
+        blend(long_est.coherence_multiple, short_est.coherence_multiple),
+        np.where(w >= 0.5, long_est.cond_sxx, short_cond), long_est.config)
+    return est, h
 
 
 def coherence_weight(coherence_multiple: np.ndarray, floor: float) -> np.ndarray:
