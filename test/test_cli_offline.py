@@ -122,22 +122,22 @@ def test_evaluate_json_matches_independent_computation(model_path, bags):
 
 def test_two_bags_fit_equals_per_segment_average(model_path, bags):
     """The fit of two bags averages their Welch windows; it never joins them."""
-    from wheel_force_estimator.core.frf import estimate_frf
-    from wheel_force_estimator.core.frf import FrfConfig
-    from wheel_force_estimator.core.spectra import combine_spectra
-    from wheel_force_estimator.core.spectra import cross_spectra
-    from wheel_force_estimator.core.spectra import WelchConfig
-    cfg = WelchConfig(fs_hz=FS_HZ, segment_length=1024)
+    from wheel_force_estimator.cli.common import load_fit_config
+    from wheel_force_estimator.core.pipeline import fit_model
+    from wheel_force_estimator.core.pipeline import TrainingSegment
+    from wheel_force_estimator import INPUT_CHANNELS
+    from wheel_force_estimator import OUTPUT_CHANNELS
+    cfg = load_fit_config(None)
     segs = [read_recording(bags / b).segments[0] for b in ('train_a', 'train_b')]
-    avg = combine_spectra([cross_spectra(s.accel_mps2, s.force_n, cfg) for s in segs])
-    joined = cross_spectra(np.hstack([s.accel_mps2 for s in segs]),
-                           np.hstack([s.force_n for s in segs]), cfg)
-    frf = FrfConfig()
+    per_segment = fit_model([TrainingSegment(s.accel_mps2, s.force_n, 'x') for s in segs],
+                            FS_HZ, cfg, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    joined = fit_model([TrainingSegment(np.hstack([s.accel_mps2 for s in segs]),
+                                        np.hstack([s.force_n for s in segs]), 'joined')],
+                       FS_HZ, cfg, INPUT_CHANNELS, OUTPUT_CHANNELS)
     model = load_model(model_path)
-    h_avg = estimate_frf(avg, frf)
-    h_join = estimate_frf(joined, frf)
-    np.testing.assert_allclose(model.coherence_multiple, h_avg.coherence_multiple, rtol=1e-9)
-    assert not np.allclose(model.coherence_multiple, h_join.coherence_multiple, rtol=1e-6)
+    np.testing.assert_allclose(model.h, per_segment.h, rtol=1e-9, atol=1e-9)
+    assert model.fit['n_windows'] == joined.fit['n_windows'] - 1  # the straddling window
+    assert not np.allclose(model.h, joined.h, rtol=1e-6)
 
 
 def _cli(*args, cwd=None):

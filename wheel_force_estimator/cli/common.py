@@ -12,7 +12,15 @@ FIT_SECTION = 'wheel_force_fit'
 _FIT_KEYS = {
     'segment_length': int, 'overlap': float, 'window': str, 'detrend': str,
     'estimator': str, 'regularisation': float, 'f_min_hz': float, 'f_max_hz': float,
+    'coherence_floor': float, 'long_segment_length': int, 'crossover_hz': float,
+    'long_regularisation': float,
 }
+# What `wheel-force fit` uses when neither the params file nor the command line says
+# otherwise (the library's FitConfig() keeps the single-resolution paper method): the
+# two-resolution fit measured better on held-out simulated data on every Fz and most Fx/Fy
+# channels (bench/bench_accuracy.py, README).
+CLI_FIT_DEFAULTS = {'long_segment_length': 8192, 'crossover_hz': 2.0,
+                    'long_regularisation': 1e-2}
 
 
 def default_config_path() -> Optional[Path]:
@@ -47,7 +55,7 @@ def load_fit_config(path=None, **overrides):
 
     """
     from wheel_force_estimator.core.pipeline import FitConfig
-    values = {}
+    values = dict(CLI_FIT_DEFAULTS)
     if path is not None:
         try:
             doc = yaml.safe_load(Path(path).read_text()) or {}

@@ -24,6 +24,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--segment-length', type=int, metavar='N', help='Welch segment [samples]')
     p.add_argument('--regularisation', type=float, metavar='R')
     p.add_argument('--f-min-hz', type=float, metavar='HZ')
+    p.add_argument('--long-segment-length', type=int, metavar='N',
+                   help='long Welch segment below the crossover (0 = single resolution)')
     return p
 
 
@@ -39,7 +41,8 @@ def command(args: argparse.Namespace) -> int:
 
     config = load_fit_config(args.config, estimator=args.estimator,
                              segment_length=args.segment_length,
-                             regularisation=args.regularisation, f_min_hz=args.f_min_hz)
+                             regularisation=args.regularisation, f_min_hz=args.f_min_hz,
+                             long_segment_length=args.long_segment_length)
     topics = load_topic_config(args.config)
     recordings = read_recordings(args.bags, topics, require_wft=True)
     fs_hz = nominal_fs_hz(recordings)
@@ -67,6 +70,9 @@ def command(args: argparse.Namespace) -> int:
         print(f'  not used (too short for one Welch segment): {line}')
     print(f'estimator: {model.estimator}   segment: {config.segment_length}   '
           f'windows averaged: {model.fit["n_windows"]}')
+    if config.long_segment_length:
+        print(f'below {config.crossover_hz:g} Hz: segment {config.long_segment_length}, '
+              f'windows averaged: {model.fit["n_windows_long"]}   FIR taps: {model.n_taps}')
     print('multiple coherence (mean 0.5-50 Hz) and bands with coherence < 0.5:')
     for name in model.output_channels:
         bands = summary['low_bands_hz'][name]

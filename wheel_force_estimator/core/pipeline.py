@@ -225,7 +225,8 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
             raise InsufficientDataError(
                 f'no segment is as long as long_segment_length = {config.long_segment_length} '
                 f'samples ({config.long_segment_length / fs_hz:g} s); longest: '
-                f'{max(seg.accel_mps2.shape[1] for seg in segments)} samples')
+                f'{max(seg.accel_mps2.shape[1] for seg in segments)} samples; record longer '
+                f'runs or set long_segment_length: 0 (single resolution)')
         long_combined = combine_spectra(long_spectra)
         long_est = estimate_frf(long_combined, config.long_frf())
         h_long = long_est.h * coherence_weight(long_est.coherence_multiple,

@@ -10,12 +10,13 @@ Signal path per block::
 
     accel [m/s²] - static_accel  ->  FIR (overlap-add)  ->  + static_force  ->  physics terms
 
-Start and end: a FIR started from zero state sees a step at its first sample, and a step has
-energy at every frequency, including bands where the FRF is large and meaningless.  So on the
-first block (and after :meth:`Predictor.reset`) the filter is primed with ``n_taps`` copies of
-the first sample (discarded), and :meth:`Predictor.flush` feeds copies of the last sample: the
-filter sees the signal held constant outside the record instead of a step.  No recorded sample
-is changed, added or dropped.  The output stream lags the input by
+Start and end: the filter starts at the fit-time rest state (as if the car had been standing
+at its mean specific force before the first sample; low-coherence bands, where a step would be
+amplified, are faded out of the FRF at fit time).  Holding the *first sample* instead was
+measured worse: one noisy sample times the quasi-static gain leaves an error lasting the whole
+FIR length.  :meth:`Predictor.flush` fills the look-ahead with the mean of the last
+``delay_samples`` inputs held constant (a local, noise-averaged state, not a step to rest).
+No recorded sample is changed, added or dropped.  The output stream lags the input by
 ``delay_samples`` (the FIR look-ahead): output sample ``j`` is the estimate for input sample
 ``j - delay_samples``.
 """
@@ -85,8 +86,7 @@ class Predictor:
         self._static_force = np.asarray(model.static_force_n, dtype=np.float64)[:, None]
         self._physics = None
         self._accel_delay = None
-        self._primed = False
-        self._last = None
+        self._recent = np.empty((len(model.input_channels), 0))
         if model.physics:
             from wheel_force_estimator.core.physics import PhysicsStage
             from wheel_force_estimator.core.physics import PhysicsTerm
@@ -108,8 +108,7 @@ class Predictor:
     def reset(self):
         """Forget all state (after a gap or a stamp jump); the next block starts afresh."""
         self._filter.reset()
-        self._primed = False
-        self._last = None
+        self._recent = np.empty((len(self.model.input_channels), 0))
         if self._physics is not None:
             self._physics.reset()
             self._accel_delay.reset(self._static_accel)
@@ -139,33 +138,25 @@ class Predictor:
         x = as_signals(accel_mps2, 'accelerations', self.model.input_channels, min_samples=0)
         if x.shape[1] == 0:
             return np.empty((len(self.model.output_channels), 0))
-        if not self._primed:
-            self._prime(x[:, :1])
-        self._last = x[:, -1:]
+        keep = max(self.delay_samples, 1)
+        self._recent = np.concatenate([self._recent[:, -keep:], x[:, -keep:]], axis=1)[:, -keep:]
         y = self._filter.process(x - self._static_accel[:, None]) + self._static_force
         if self._physics is not None:
             y = self._physics.process(self._accel_delay.process(x), y)
         return y
 
-    def _prime(self, first: np.ndarray):
-        """Bring the filter to the steady state of ``first`` held constant (no step)."""
-        self._primed = True
-        held = np.repeat(first - self._static_accel[:, None], self.fir.n_taps, axis=1)
-        self._filter.process(held)
-        if self._physics is not None:
-            self._accel_delay.reset(first[:, 0])
-
     def flush(self) -> np.ndarray:
         """
         Return the last :attr:`delay_samples` outputs (end of a record or before a gap).
 
-        The look-ahead is filled with copies of the last sample (the signal held constant),
-        not with recorded data; the last samples of a record carry the FIR's edge effect.
-        Nothing is returned when no sample was processed since the last reset.
+        The look-ahead is filled with the mean of the last ``delay_samples`` inputs held
+        constant, not with recorded data; the last samples of a record carry the FIR's edge
+        effect.  Nothing is returned when no sample was processed since the last reset.
         """
-        if self._last is None:
+        if self._recent.shape[1] == 0:
             return np.empty((len(self.model.output_channels), 0))
-        return self.process(np.repeat(self._last, self.delay_samples, axis=1))
+        held = self._recent.mean(axis=1, keepdims=True)
+        return self.process(np.repeat(held, self.delay_samples, axis=1))
 
 
 def predict_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[int] = None,
