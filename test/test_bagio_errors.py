@@ -279,3 +279,31 @@ def test_nonexistent_path(tmp_path):
     (tmp_path / 'empty').mkdir()
     with pytest.raises(BagError, match=r'empty: cannot read'):
         read_recording(tmp_path / 'empty')
+
+
+@pytest.mark.parametrize('require_wft', [True, False], ids=['all_topics', 'imu_only'])
+def test_flipped_value_bit_caught_by_chunk_crc(tmp_path, monkeypatch, require_wft):
+    """
+    A flipped mantissa bit leaves a valid-looking message: only the chunk CRC sees it.
+
+    The damaged value is a force, so the Imu-only read must verify the whole chunk too.
+    """
+    from wheel_force_estimator.bagio import mcap_writer
+    from wheel_force_estimator.bagio import storage as storage_mod
+    monkeypatch.setattr(mcap_writer, 'CHUNK_BYTES', 8 << 10)  # many chunks and batches
+    monkeypatch.setattr(storage_mod, '_BATCH_BYTES', 20 << 10)
+    rng = np.random.default_rng(4)
+    stamp = T0_NS + PERIOD_NS * np.arange(2000, dtype=np.int64)
+    force = rng.standard_normal((12, 2000))
+    force[7, 1500] = 1234.5678  # a unique bit pattern in a late chunk
+    path = write_recording(tmp_path / 'w', stamp, rng.standard_normal((12, 2000)), force,
+                           storage='mcap')
+    data_file = next(path.glob('*.mcap'))
+    raw = bytearray(data_file.read_bytes())
+    pos = raw.find(np.float64(1234.5678).tobytes())
+    assert pos > len(raw) // 2 and raw.count(np.float64(1234.5678).tobytes()) == 1
+    raw[pos] ^= 1  # lowest mantissa bit: 1234.5678000000001, finite and plausible
+    data_file.write_bytes(bytes(raw))
+    with pytest.raises(BagError, match=rf'{data_file}: corrupt or truncated mcap: chunk CRC '
+                                       r'mismatch at offset \d+'):
+        read_recording(path, require_wft=require_wft)

@@ -4,10 +4,12 @@
 import numpy as np
 import pytest
 
+from wheel_force_estimator.bagio.fastcdr import decode_records
 from wheel_force_estimator.bagio.fastcdr import decode_rows
 from wheel_force_estimator.bagio.fastcdr import encode_rows
 from wheel_force_estimator.bagio.fastcdr import IMU
 from wheel_force_estimator.bagio.fastcdr import payload_length
+from wheel_force_estimator.bagio.fastcdr import TopicDecoder
 from wheel_force_estimator.bagio.fastcdr import WRENCH
 from wheel_force_estimator.bagio.reader import jazzy_typestore
 from wheel_force_estimator.bagio.writer import _make_imu
@@ -73,3 +75,45 @@ def test_unrecognised_rows_use_generic():
     stamp, values, n_fast = decode_rows(IMU, rows, deser)
     assert n_fast == 0 and len(calls) == 3
     assert np.all(stamp == 5 * 10**9 + 7) and np.all(values == [1.5, -2.5, 9.81])
+
+
+def test_records_decoded_in_place_at_any_offset():
+    """
+    Payloads scattered at odd offsets of one buffer decode like stacked rows.
+
+    Two frame ids give two payload lengths in one batch (the grouped path) and the odd
+    offsets make every field unaligned; the generic deserialiser sees only the first
+    N_VALIDATE messages of each layout.
+    """
+    rng = np.random.default_rng(12)
+    n = 50
+    stamp = 10**9 + 1_953_125 * np.arange(n, dtype=np.int64)
+    values = rng.standard_normal((n, 3))
+    short = encode_rows(IMU, stamp, values, _make_imu(STORE, 'lf'), _serialize(IMU))
+    long = encode_rows(IMU, stamp, values, _make_imu(STORE, 'lf_spindle_frame'),
+                       _serialize(IMU))
+    rows = [short[i] if i % 3 else long[i] for i in range(n)]
+    gaps = rng.integers(1, 40, n)  # junk bytes between payloads
+    buf, starts = bytearray(), []
+    for row, gap in zip(rows, gaps):
+        buf += rng.integers(0, 256, gap, dtype=np.uint8).tobytes()
+        starts.append(len(buf))
+        buf += row.tobytes()
+    buf = np.frombuffer(bytes(buf), np.uint8)
+    starts = np.array(starts, np.int64)
+    lengths = np.array([len(r) for r in rows], np.int64)
+    calls = []
+
+    def deser(data):
+        calls.append(data)
+        return STORE.deserialize_cdr(data, IMU.msgtype)
+
+    sink = TopicDecoder(IMU, deser)
+    sink.add(stamp, lengths, buf, starts)
+    got = sink.finish()
+    assert got.n_fast == n and len(calls) == 2 * 3
+    assert np.array_equal(got.stamp_ns, stamp) and np.array_equal(got.values, values)
+    one = lengths == lengths[1]
+    st, vals, n_fast = decode_records(IMU, buf, starts[one], int(lengths[1]), deser)
+    assert n_fast == one.sum()
+    assert np.array_equal(st, stamp[one]) and np.array_equal(vals, values[one])

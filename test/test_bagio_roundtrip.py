@@ -213,3 +213,32 @@ def test_bare_storage_file(tmp_path, storage):
     path = write_recording(tmp_path / 'bag', stamp, accel, force, storage=storage)
     rec = read_recording(next(path.glob('*.mcap' if storage == 'mcap' else '*.db3')))
     assert np.array_equal(rec.segments[0].force_n, force) and rec.n_bulk == 8 * 30
+
+
+def test_many_chunks_and_batches(tmp_path, monkeypatch):
+    """Chunks read in many small batches (CRCs one batch ahead) give the same samples."""
+    from wheel_force_estimator.bagio import mcap_writer
+    from wheel_force_estimator.bagio import storage as storage_mod
+    n = 1500
+    stamp, accel, force = _data(n=n, seed=5)
+    accel[4, 1000] = -7.25  # a value in a late chunk, checked below
+    # ~8 KiB chunks (about 20 samples of 8 topics each), batches of a few chunks, so chunk
+    # and batch boundaries fall everywhere in the record
+    monkeypatch.setattr(mcap_writer, 'CHUNK_BYTES', 8 << 10)
+    monkeypatch.setattr(storage_mod, '_BATCH_BYTES', 20 << 10)
+    path = write_recording(tmp_path / 'bag', stamp, accel, force, storage='mcap')
+    layout = storage_mod.bag_layout(path)
+    with layout.files[0].open('rb') as fh:
+        size = fh.seek(0, 2)
+    assert size > 60 * (20 << 10)  # so well over 60 batches
+    fast = read_recording(path)
+    slow = read_recording(path, bulk=False)
+    imu_only = read_recording(path, require_wft=False)
+    assert fast.n_bulk == 8 * n
+    for rec in (fast, slow, imu_only):
+        seg, = rec.segments
+        assert np.array_equal(seg.stamp_ns, stamp)
+        assert np.array_equal(seg.accel_mps2.view(np.int64), accel.view(np.int64))
+    assert np.array_equal(fast.segments[0].force_n.view(np.int64), force.view(np.int64))
+    assert imu_only.segments[0].force_n is None
+    assert fast.segments[0].accel_mps2[4, 1000] == -7.25

@@ -29,6 +29,10 @@ STRING_TYPE = 'std_msgs/msg/String'
 N_VALIDATE = 3
 _NS_PER_S = 1_000_000_000
 _CDR_LE = 0x0001  # encapsulation id, read big-endian from bytes 0..1
+# Encapsulation and the header fields before the frame_id characters.
+_HEAD_DTYPE = np.dtype({'names': ['enc', 'sec', 'nsec', 'strlen'],
+                        'formats': ['>u2', '<i4', '<u4', '<u4'],
+                        'offsets': [0, 4, 8, 12], 'itemsize': 16})
 
 
 @dataclass(frozen=True)
@@ -102,6 +106,17 @@ def _same_bits(a, b) -> bool:
                           np.asarray(b, np.float64).view(np.int64))
 
 
+def gather_bytes(buf: np.ndarray, starts: np.ndarray, length: int) -> np.ndarray:
+    """Copy ``buf[s:s + length]`` for every start into a (k, length) uint8 matrix."""
+    if length == 0 or not len(starts):
+        return np.zeros((len(starts), length), np.uint8)
+    # One void item of `length` bytes starting at every byte: indexing copies whole items
+    # (memcpy each) instead of walking a 2-D byte window element by element.
+    items = np.ndarray(shape=(buf.size - length + 1,), dtype=np.dtype((np.void, length)),
+                       buffer=buf, strides=(1,))
+    return items[starts].view(np.uint8).reshape(len(starts), length)
+
+
 def decode_rows(layout: Layout, rows: np.ndarray,
                 deserialize: Callable[[bytes], object], verdicts: Optional[dict] = None):
     """
@@ -112,7 +127,7 @@ def decode_rows(layout: Layout, rows: np.ndarray,
     layout : Layout
         Message layout (``IMU`` or ``WRENCH``).
     rows : numpy.ndarray, shape (n, L), uint8
-        One serialised CDR payload per row (C-contiguous).
+        One serialised CDR payload per row.
     deserialize : callable
         ``deserialize(raw_bytes) -> message``: the generic deserialiser used to validate the
         fast path and to decode whatever it does not recognise.
@@ -131,35 +146,77 @@ def decode_rows(layout: Layout, rows: np.ndarray,
 
     """
     n, length = rows.shape
+    buf = np.ascontiguousarray(rows).reshape(-1)
+    return decode_records(layout, buf, np.arange(n, dtype=np.int64) * length, length,
+                          deserialize, verdicts)
+
+
+def decode_records(layout: Layout, buf: np.ndarray, starts: np.ndarray, length: int,
+                   deserialize: Callable[[bytes], object], verdicts: Optional[dict] = None):
+    """
+    Decode equal-length payloads lying anywhere in one byte buffer, without copying them.
+
+    Only the bytes that are needed (header, frame_id terminator, three values) are read, at
+    the payload starts given, so a storage chunk is decoded in place.
+
+    Parameters
+    ----------
+    layout : Layout
+        Message layout (``IMU`` or ``WRENCH``).
+    buf : numpy.ndarray, shape (m,), uint8
+        Buffer holding the payloads.
+    starts : numpy.ndarray, shape (n,), int64
+        Offset of each payload in ``buf``; ``starts + length <= m`` (checked by the caller).
+    length : int
+        Length of every payload.
+    deserialize, verdicts
+        As for :func:`decode_rows`.
+
+    Returns
+    -------
+    stamp_ns, values, n_fast
+        As for :func:`decode_rows`.
+
+    """
+    n = len(starts)
     stamp_ns = np.empty(n, np.int64)
     values = np.empty((n, 3), np.float64)
     done = np.zeros(n, bool)
-    if length >= 16:
-        strlen = np.ascontiguousarray(rows[:, 12:16]).view('<u4')[:, 0].astype(np.int64)
-        enc_ok = (rows[:, 0] == 0) & (rows[:, 1] == 1)
-        fits = enc_ok & ((4 + ((12 + strlen + 7) // 8) * 8 + layout.tail_bytes) == length)
-        for s in np.unique(strlen[fits]):
-            sel = np.flatnonzero(fits & (strlen == s))
+    if length >= 16 and n:
+        # one gather of the 16 header bytes: each pass over the payloads is a cache miss
+        head = gather_bytes(buf, starts, 16).view(_HEAD_DTYPE)[:, 0]
+        strlen = head['strlen'].astype(np.int64)
+        fits = head['enc'] == _CDR_LE
+        fits &= (4 + ((12 + strlen + 7) // 8) * 8 + layout.tail_bytes) == length
+        uniform = bool(fits.all()) and strlen.min() == strlen.max()
+        for s in strlen[:1] if uniform else np.unique(strlen[fits]):
+            sel = slice(None) if uniform else np.flatnonzero(fits & (strlen == s))
+            at = starts[sel]
             # frame_id must be NUL terminated, as every ROS 2 serialiser writes it
-            if s < 1 or not np.all(rows[sel, 16 + s - 1] == 0):
+            if s < 1 or buf[at + 15 + s].any():
                 continue
-            group = rows if len(sel) == n else rows[sel]
-            rec = np.ascontiguousarray(group).view(_record_dtype(layout, int(s)))[:, 0]
-            st = rec['sec'].astype(np.int64) * _NS_PER_S + rec['nsec'].astype(np.int64)
-            vals = rec['values']
+            st = head['sec'][sel].astype(np.int64) * _NS_PER_S + head['nsec'][sel]
+            vals = gather_bytes(buf, at + body_offset(int(s)) + layout.value_offset,
+                                24).view('<f8')
             key = (length, int(s))
             if verdicts is None or key not in verdicts:
-                ok = _agrees(layout, group, st, vals, deserialize)
+                ok = _agrees(layout, gather_bytes(buf, at[:N_VALIDATE], length), st, vals,
+                             deserialize)
                 if verdicts is not None:
                     verdicts[key] = ok
             if not (verdicts[key] if verdicts is not None else ok):
                 continue
-            stamp_ns[sel] = st
-            values[sel] = vals
-            done[sel] = True
+            if uniform:
+                stamp_ns, values = st, vals.astype(np.float64, copy=False)
+                done[:] = True
+            else:
+                stamp_ns[sel] = st
+                values[sel] = vals
+                done[sel] = True
     n_fast = int(done.sum())
     for i in np.flatnonzero(~done):
-        stamp_ns[i], values[i] = extract(layout, deserialize(rows[i].tobytes()))
+        row = buf[starts[i]:starts[i] + length].tobytes()
+        stamp_ns[i], values[i] = extract(layout, deserialize(row))
     return stamp_ns, values, n_fast
 
 
@@ -205,7 +262,7 @@ class TopicDecoder:
     Storage sink that decodes each batch of payloads as it arrives.
 
     Keeps only stamps and values, not the payloads, so memory stays ~32 bytes per message
-    whatever the recording length.  ``add``/``finish`` follow the storage collector protocol.
+    whatever the recording length.  ``add``/``finish`` follow the storage sink protocol.
     """
 
     def __init__(self, layout: Layout, deserialize: Callable[[bytes], object]):
@@ -215,19 +272,28 @@ class TopicDecoder:
         self.parts: List[Tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self.n_fast = 0
 
-    def add(self, log_time: np.ndarray, lengths: np.ndarray, rows_of_length):
-        """Decode one batch; ``rows_of_length(L, index) -> (k, L) uint8`` gathers a group."""
-        n = len(log_time)
-        stamp = np.empty(n, np.int64)
-        values = np.empty((n, 3), np.float64)
-        for length in np.unique(lengths):
-            idx = np.flatnonzero(lengths == length)
-            st, vals, n_fast = decode_rows(self.layout, rows_of_length(int(length), idx),
-                                           self.deserialize, self.verdicts)
+    def add(self, log_time: np.ndarray, lengths: np.ndarray, buf: np.ndarray,
+            starts: np.ndarray):
+        """Decode one batch: payload ``i`` is ``buf[starts[i]:starts[i] + lengths[i]]``."""
+        if len(lengths) and lengths.min() == lengths.max():
+            groups = [(int(lengths[0]), slice(None))]
+        else:
+            groups = [(int(v), np.flatnonzero(lengths == v)) for v in np.unique(lengths)]
+        stamp = values = None
+        for length, idx in groups:
+            st, vals, n_fast = decode_records(self.layout, buf, starts[idx], length,
+                                              self.deserialize, self.verdicts)
+            self.n_fast += n_fast
+            if isinstance(idx, slice):
+                stamp, values = st, vals
+                break
+            if stamp is None:
+                stamp = np.empty(len(log_time), np.int64)
+                values = np.empty((len(log_time), 3), np.float64)
             stamp[idx] = st
             values[idx] = vals
-            self.n_fast += n_fast
-        self.parts.append((np.asarray(log_time, np.int64), stamp, values))
+        if stamp is not None:
+            self.parts.append((np.asarray(log_time, np.int64), stamp, values))
 
     def finish(self) -> DecodedTopic:
         """Concatenate the batches in bag-time order (stable: storage order breaks ties)."""

@@ -38,6 +38,7 @@ from wheel_force_estimator.bagio.align import check_same_clock
 from wheel_force_estimator.bagio.align import check_series
 from wheel_force_estimator.bagio.align import Gap
 from wheel_force_estimator.bagio.align import Segment
+from wheel_force_estimator.bagio.align import stack_corners
 from wheel_force_estimator.bagio.align import stamp_text
 from wheel_force_estimator.bagio.align import TopicSeries
 from wheel_force_estimator.bagio.fastcdr import extract
@@ -426,7 +427,7 @@ def read_wrench_topics(path, topics, *, bulk: bool = True):
         check_series(path, s)
     for s in series[1:]:
         check_same_clock(path, series[0], s)
-    return series[0].stamp_ns, np.concatenate([s.values.T for s in series], axis=0)
+    return series[0].stamp_ns, stack_corners(series)
 
 
 def read_string_topic(path, topic: str, *, bulk: bool = True) -> Tuple[Tuple[int, str], ...]:
