@@ -260,3 +260,27 @@ def test_predictor_applies_physics_like_the_batch_stage():
     # Same filters and state: the predictor primes its delay line with the first sample, the
     # batch stage starts at rest at the first sample; equal up to rounding in the filters.
     np.testing.assert_allclose(augmented, expected, rtol=1e-9, atol=1e-6)
+
+
+def test_load_driven_backlash_hand_values_and_stage():
+    np.testing.assert_allclose(ph.load_backlash_force([-500.0, 90.0, 100.0, 150.0, 900.0],
+                                                      100.0, 200.0, 0.5),
+                               [100.0, 5.0, 0.0, -25.0, -100.0])
+    term = ph.PhysicsTerm('backlash', ('lf_fx',),
+                          {'center_n': 3000.0, 'threshold_n': 300.0, 'gain': 0.8},
+                          state='load', state_lowpass_hz=5.0)
+    accel, force = _signals()
+    batch = ph.apply_physics([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force)
+    # Known answer: first-order low-pass of the channel's force started at its first value.
+    b, a = signal.butter(1, 5.0, fs=FS)
+    o = OUTPUT_CHANNELS.index('lf_fx')
+    state = signal.lfilter(b, a, force[o], zi=signal.lfilter_zi(b, a) * force[o, 0])[0]
+    expected = force[o] - 0.8 * np.clip(state - 3000.0, -300.0, 300.0)
+    # Same filter and law evaluated in another order: only rounding differs (1e-9 N on kN).
+    np.testing.assert_allclose(batch[o], expected, rtol=0.0, atol=1e-9)
+    assert np.array_equal(np.delete(batch, o, 0), np.delete(force, o, 0))
+    stage = ph.PhysicsStage([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    parts = [stage.process(accel[:, i:i + 700], force[:, i:i + 700]) for i in range(0, 6000, 700)]
+    assert np.array_equal(np.concatenate(parts, axis=1), batch)
+    back = ph.PhysicsTerm.from_dict(json.loads(json.dumps(term.to_dict())))
+    assert back == term

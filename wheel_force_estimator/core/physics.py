@@ -57,6 +57,7 @@ LOAD_PARAMETERS = {
     'bump_stop': ('threshold_n', 'gain', 'exponent'),
     'rebound_stop': ('threshold_n', 'gain', 'exponent'),
     'cubic_stiffness': ('center_n', 'gain'),
+    'backlash': ('center_n', 'threshold_n', 'gain'),
 }
 STATES = ('motion', 'load')
 QUANTITIES = ('displacement', 'velocity', 'acceleration')
@@ -98,6 +99,17 @@ def load_stop_force(load_n, threshold_n, gain, exponent, sign=1.0):
 def load_cubic_force(load_n, center_n, gain):
     """Symmetric hardening in the predicted load: ``gain * 1000 N * ((F - F0) / 1000 N)**3``."""
     return gain * REFERENCE_LOAD_N * ((np.asarray(load_n) - center_n) / REFERENCE_LOAD_N) ** 3
+
+
+def load_backlash_force(load_n, center_n, threshold_n, gain):
+    """
+    Clearance driven by the predicted load: ``-gain * clip(F - F0, -thr, thr)``.
+
+    The load through a bushing tracks its deflection; a dead zone of ``+-gap`` in a spring of
+    rate ``k`` loses ``k * clip(x, -gap, gap)``, i.e. up to ``thr = k * gap`` of force around
+    the unloaded point ``F0``.
+    """
+    return -gain * np.clip(np.asarray(load_n) - center_n, -threshold_n, threshold_n)
 
 
 def cubic_stiffness_force(disp_m, stiffness_n_per_m3):
@@ -597,6 +609,8 @@ class PhysicsStage:
             load = self._load_state(term, f[o], key)
             if name == 'cubic_stiffness':
                 return load_cubic_force(load, p['center_n'], p['gain'])
+            if name == 'backlash':
+                return load_backlash_force(load, p['center_n'], p['threshold_n'], p['gain'])
             return load_stop_force(load, p['threshold_n'], p['gain'], p['exponent'],
                                    1.0 if name == 'bump_stop' else -1.0)
         disp, vel, acc = feat['displacement'][s], feat['velocity'][s], feat['acceleration'][s]

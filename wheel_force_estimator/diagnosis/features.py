@@ -61,7 +61,8 @@ def pairing(output_channels: Sequence[str], input_channels: Sequence[str]
     """
     Source input channel and other-side partner input channel of every output channel.
 
-    Vehicle names pair ``lf_fz`` with ``lf_az`` (partner ``rf_az``); other recordings pair
+    Vehicle names pair ``lf_fz`` with ``lf_az`` (partner ``rf_az``; only vertical channels get
+    a partner: a roll bar couples vertical motion); other recordings pair
     outputs with inputs by position, or every output with a single input.
 
     Raises
@@ -78,9 +79,10 @@ def pairing(output_channels: Sequence[str], input_channels: Sequence[str]
     if sources and all(s in inputs for s in sources):
         partners = []
         for s in sources:
+            # A roll bar couples the vertical motion of the two sides of an axle only.
             corner, _, axis = s.partition('_')
             other = f'{PARTNER_CORNER.get(corner, "")}_{axis}'
-            partners.append(other if other in inputs else None)
+            partners.append(other if other in inputs and axis.endswith('z') else None)
         return sources, tuple(partners)
     if len(inputs) == len(output_channels):
         return inputs, (None,) * len(inputs)

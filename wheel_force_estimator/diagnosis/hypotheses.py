@@ -40,6 +40,10 @@ class Hypothesis:
         Operating regime where the effect shows (for the evidence text).
     priority : bool
         Tried before the ranking when applicable (effects visible in the raw inputs).
+    positive : bool
+        The fitted strength must be positive to mean this physics (load-driven forms: a stop
+        or hardening adds force in the direction of the load excess, a clearance loses it);
+        a negative fit is a different effect and explains nothing here.
 
     """
 
@@ -53,6 +57,7 @@ class Hypothesis:
     _params: Callable = None
     priority: bool = False
     state: str = 'motion'
+    positive: bool = False
 
     @property
     def key(self) -> str:
@@ -121,6 +126,17 @@ def _load_cubic_grid(contexts):
     return out
 
 
+def _load_backlash_grid(contexts):
+    out = []
+    for fc in LOAD_LOWPASS_HZ:
+        state = np.concatenate([load_state(c, fc) for c in contexts])
+        sd = float(np.std(state))
+        if sd > 0.0:
+            out.extend({'center_n': float(np.mean(state)), 'threshold_n': f * sd,
+                        'state_lowpass_hz': fc} for f in (0.05, 0.1, 0.2, 0.4))
+    return out
+
+
 def _backlash_grid(contexts):
     sd = float(np.std(_pooled(contexts, 'disp')))
     if sd <= 0.0:
@@ -144,9 +160,11 @@ def _coulomb_grid(contexts):
 
 
 def _lift_off_grid(contexts):
+    # Only a preloaded contact can lift off: the load must stay well above zero on average
+    # (a normal force), not swing around it (a tangential force such as Fx or Fy).
     load = _pooled(contexts, 'load')
     mean = float(np.mean(load))
-    if mean <= 0.0 or float(load.min()) > 0.2 * mean:
+    if mean <= 2.0 * float(np.std(load)) or float(load.min()) > 0.2 * mean:
         return []
     return [{'threshold_n': f * mean} for f in (0.0, 0.05, 0.15)]
 
@@ -256,20 +274,27 @@ HYPOTHESES: Tuple[Hypothesis, ...] = (
                lambda c, s: ph.load_stop_force(load_state(c, s['state_lowpass_hz']),
                                                s['threshold_n'], 1.0, s['exponent'], 1.0),
                lambda s, k: {'threshold_n': s['threshold_n'], 'gain': k,
-                             'exponent': s['exponent']}, state='load'),
+                             'exponent': s['exponent']}, state='load', positive=True),
     Hypothesis('rebound_stop', 2, False, 'progressive stiffening in extension, like a '
                'rebound stop (driven by the predicted load)', 'low load',
                _load_stop_grid(-1.0),
                lambda c, s: ph.load_stop_force(load_state(c, s['state_lowpass_hz']),
                                                s['threshold_n'], 1.0, s['exponent'], -1.0),
                lambda s, k: {'threshold_n': s['threshold_n'], 'gain': k,
-                             'exponent': s['exponent']}, state='load'),
+                             'exponent': s['exponent']}, state='load', positive=True),
     Hypothesis('cubic_stiffness', 1, False, 'symmetric hardening of the suspension (force '
                'grows with the cube of the predicted load change)', 'high load',
                _load_cubic_grid,
                lambda c, s: ph.load_cubic_force(load_state(c, s['state_lowpass_hz']),
                                                 s['center_n'], 1.0),
-               lambda s, k: {'center_n': s['center_n'], 'gain': k}, state='load'),
+               lambda s, k: {'center_n': s['center_n'], 'gain': k}, state='load', positive=True),
+    Hypothesis('backlash', 2, False, 'a clearance (dead zone) in the load path (force lost '
+               'while the predicted load crosses its unloaded point, e.g. a bushing)',
+               'small load around reversals', _load_backlash_grid,
+               lambda c, s: ph.load_backlash_force(load_state(c, s['state_lowpass_hz']),
+                                                   s['center_n'], s['threshold_n'], 1.0),
+               lambda s, k: {'center_n': s['center_n'], 'threshold_n': s['threshold_n'],
+                             'gain': k}, state='load', positive=True),
 )
 
 BY_NAME = {h.physics: h for h in HYPOTHESES if h.state == 'motion'}
@@ -296,6 +321,9 @@ def describe_shape(physics: str, params: Mapping[str, float],
         return f'beyond {params["gap_m"] * 1e3:.1f} mm compression'
     if physics == 'rebound_stop':
         return f'beyond {params["gap_m"] * 1e3:.1f} mm extension'
+    if physics == 'backlash' and 'threshold_n' in params:
+        return (f'{params["threshold_n"]:.4g} N of load lost around {params["center_n"]:.4g} N '
+                f'predicted load')
     if physics == 'backlash':
         kind = 'hysteretic (lost motion)' if params['hysteretic'] else 'centred dead zone'
         return f'clearance +/-{params["gap_m"] * 1e3:.2f} mm, {kind}'

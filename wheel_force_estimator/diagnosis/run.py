@@ -27,6 +27,7 @@ from wheel_force_estimator.core.metrics import rmse_pct
 from wheel_force_estimator.core.physics import apply_physics
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis import text
+from wheel_force_estimator.diagnosis.coupling import left_right_coupling
 from wheel_force_estimator.diagnosis.features import channel_contexts
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.features import motion_features
@@ -349,6 +350,9 @@ def _holdout_gate(findings, hold, before, channels, hp, fs_hz):
     """
     Drop findings whose terms make the holdout worse (backward elimination).
 
+    A finding is dropped when it raises the holdout RMSE by more than 0.05 points on average
+    over its channels (its parameters are shared, so it stands or falls on all of them).
+
     A term that fits the real recordings but makes unseen data worse did not find physics;
     it is reported under ``rejected``.  Linear companions were refitted jointly with all
     terms of their channel, so they stay in every model compared (and end up on the first
@@ -368,7 +372,8 @@ def _holdout_gate(findings, hold, before, channels, hp, fs_hz):
         worst, harm = None, 0.05
         for f in (g for g in kept if g.terms):
             without = score([g for g in kept if g is not f])
-            damage = max(full[c] - without[c] for c in f.channels)
+            # A shared-parameter finding is judged on all its channels together.
+            damage = float(np.mean([full[c] - without[c] for c in f.channels]))
             if damage > harm:
                 worst, harm, undo = f, damage, without
         if worst is None:
@@ -448,6 +453,20 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     builder = _Builder(prep, outcomes, channels, sources, partners, config, companions,
                        sim_prep)
     findings = builder.findings()
+    real_linear = None
+    if mode == 'sim' and reference.kind == 'frf':
+        coupling = None
+        try:
+            real_linear = _fit_linear(real, config, 'real', rec0)
+        except DiagnosisError:
+            pass  # real records too short for their own FRF: no linear comparison
+        else:
+            coupling = left_right_coupling(
+                real, reference, real_linear, channels,
+                settle_samples(fs_hz, rec0.input_quantity, config.features), hp)
+        if coupling is not None:
+            findings = sorted(findings + [coupling], key=lambda f: (
+                not BY_NAME[f.physics].priority, -f.explained_fraction))
     terms = [t for f in findings for t in f.terms]
     gated = []
     if holdout:
@@ -459,7 +478,7 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
         if mode == 'linear':
             linear_real = before
         else:
-            lin = _fit_linear(real, config, 'real', rec0)
+            lin = real_linear or _fit_linear(real, config, 'real', rec0)
             linear_real = _rmse(hold.targets, [lin.predict(r)[:, -t.shape[1]:] for r, t in
                                                zip(holdout, hold.targets)], channels, hp, fs_hz)
         fit = FitComparison(before, after, 'holdout', linear_real, hp)

@@ -322,7 +322,11 @@ class Selector:
         if hyp.fixed_coefficient:
             sse = self._sse(extra_offset=cols)
         else:
-            sse = self._sse(extra_cols=cols)
+            stats = block_stats(self.data, [b + [c] for b, c in zip(self._base_cols, cols)],
+                                self._offset)
+            if hyp.positive and not full_fit(stats)[-1] > 0.0:
+                return 0.0
+            sse = cv_sse(stats, self.data.fold, self.config.n_folds)
         reference = base_sse
         if self.sim is not None:
             strength = self.sim_strength(hyp, shape, shift_fraction)
