@@ -256,10 +256,14 @@ def test_predictor_applies_physics_like_the_batch_stage():
     terms = [t for t in _terms() if t.physics != 'time_delay']
     linear = predict_forces(model, accel)
     augmented = predict_forces(model.with_physics([t.to_dict() for t in terms]), accel)
-    expected = ph.apply_physics(terms, FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, linear)
-    # Same filters and state: the predictor primes its delay line with the first sample, the
-    # batch stage starts at rest at the first sample; equal up to rounding in the filters.
-    np.testing.assert_allclose(augmented, expected, rtol=1e-9, atol=1e-6)
+    expected = ph.apply_physics(terms, FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, linear,
+                                rest_inputs=model.static_accel_mps2)
+    # Same filters and state: the predictor starts its physics stage at the fit-time rest
+    # (static acceleration), like the batch stage given that rest.  The predictor's stage
+    # first runs through the 10 look-ahead samples of held rest, where the third-order
+    # integrators hold their steady state only to rounding: <= 2e-3 N (measured) on terms of
+    # 1e4 N in the first samples, 1e-7 N after 1 s; 1e-2 N bounds that.
+    np.testing.assert_allclose(augmented, expected, rtol=1e-9, atol=1e-2)
 
 
 def test_load_driven_backlash_hand_values_and_stage():

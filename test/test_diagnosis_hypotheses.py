@@ -1,0 +1,64 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""Candidate rules: sign of load-driven terms, lift-off only on preloaded loads, roll pairs."""
+import numpy as np
+
+from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.diagnosis.features import ChannelContext
+from wheel_force_estimator.diagnosis.features import pairing
+from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
+from wheel_force_estimator.diagnosis.selection import Piece
+from wheel_force_estimator.diagnosis.selection import SelectionConfig
+from wheel_force_estimator.diagnosis.selection import Selector
+
+FS_HZ = 256.0
+
+
+def _context(load):
+    zeros = np.zeros(load.size)
+    return ChannelContext(zeros, zeros, zeros, zeros, load, None, FS_HZ)
+
+
+def _selector(load, residual):
+    piece = Piece(_context(load), residual, load, 0, 'lf_fx')
+    return Selector([piece], SelectionConfig())
+
+
+def _load(seed=0, n=8192):
+    rng = np.random.default_rng(seed)
+    return 1000.0 * np.sin(2 * np.pi * 1.3 * np.arange(n) / FS_HZ) + rng.normal(0, 50, n)
+
+
+def test_load_backlash_explains_a_lost_force_but_not_its_opposite():
+    hyp = BY_KEY['backlash:load']
+    load = _load()
+    ctx = _context(load)
+    shape = hyp.grid([ctx])[5]
+    lost = hyp.basis(ctx, shape)
+    noise = np.random.default_rng(1).normal(0.0, 0.05 * np.std(lost), load.size)
+    forward = _selector(load, lost + noise)
+    # The exact law with 5 % noise: the held-out gain is close to 1 - 0.05**2.
+    assert forward.gain(hyp, shape, forward._sse()) > 0.9
+    backward = _selector(load, -lost + noise)
+    # A force gained (not lost) around the unloaded point is not a clearance.
+    assert backward.gain(hyp, shape, backward._sse()) == 0.0
+
+
+def test_lift_off_is_only_tried_on_a_preloaded_load():
+    hyp = BY_KEY['tire_lift_off']
+    swinging = _load()
+    assert hyp.grid([_context(swinging)]) == []
+    preloaded = 3000.0 + swinging
+    preloaded[::500] = -100.0
+    assert hyp.grid([_context(preloaded)]) != []
+
+
+def test_only_vertical_channels_get_a_roll_partner():
+    sources, partners = pairing(OUTPUT_CHANNELS, INPUT_CHANNELS)
+    for out, src, partner in zip(OUTPUT_CHANNELS, sources, partners):
+        assert src in INPUT_CHANNELS
+        if out.endswith('fz'):
+            assert partner == {'lf': 'rf', 'rf': 'lf', 'lr': 'rr', 'rr': 'lr'}[out[:2]] + '_az'
+        else:
+            assert partner is None
