@@ -29,10 +29,11 @@ from pathlib import Path
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 
 import numpy as np
+
+from wheel_force_estimator.ros.testing import SpinningParticipant
 
 FS_HZ = 512.0
 CORNERS = ('lf', 'rf', 'lr', 'rr')
@@ -160,18 +161,15 @@ def run_publisher():
 
 # -- consumer (this process) -----------------------------------------------------------------
 
-class Consumer:
+class Consumer(SpinningParticipant):
     """Counts one output corner, records its latency, follows the targets' counters."""
 
     def __init__(self):
-        rclpy, Context, EventsExecutor = _ros()
+        super().__init__('bench_consumer')
         from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import WrenchStamped
         from sensor_msgs.msg import Imu
         from std_msgs.msg import String
-        self.context = Context()
-        rclpy.init(context=self.context)
-        self.node = rclpy.create_node('bench_consumer', context=self.context)
         self.raw = {'node': [], 'relay': []}
         self.rx_ns = {'node': [], 'relay': []}
         self.status = {'node': None, 'relay': None}
@@ -183,15 +181,7 @@ class Consumer:
             self.node.create_subscription(DiagnosticArray, '/virtual_wft/damage',
                                           self._on_damage, 10),
             self.node.create_subscription(String, '/relay/status', self._on_relay, 10)]
-        self.executor = EventsExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.stop = threading.Event()
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-
-    def _spin(self):
-        while not self.stop.is_set():
-            self.executor.spin_once(timeout_sec=0.05)
+        self.start()
 
     def _cb(self, target):
         raws, rx = self.raw[target], self.rx_ns[target]
@@ -248,14 +238,6 @@ class Consumer:
             return lat
         keep = (stamps >= stamps[0] + skip_s * 1e9) & (stamps <= stamps[-1] - tail_s * 1e9)
         return lat[keep]
-
-    def close(self):
-        rclpy, _, _ = _ros()
-        self.stop.set()
-        self.thread.join()
-        self.executor.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
 
 
 # -- orchestration ---------------------------------------------------------------------------

@@ -1,15 +1,11 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """The running node through real rclpy/DDS: replay end to end, injected faults."""
-import threading
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 import numpy as np
 import pytest
-import rclpy
-from rclpy.context import Context
-from rclpy.experimental import EventsExecutor
 from rclpy.qos import HistoryPolicy
 from rclpy.qos import QoSProfile
 from rclpy.qos import ReliabilityPolicy
@@ -27,6 +23,7 @@ from wheel_force_estimator.ros.replay import replay_bag
 from wheel_force_estimator.ros.replay import ReplaySettings
 from wheel_force_estimator.ros.testing import isolated_ros_env
 from wheel_force_estimator.ros.testing import sample_stamps
+from wheel_force_estimator.ros.testing import SpinningParticipant
 from wheel_force_estimator.ros.testing import start_node
 from wheel_force_estimator.ros.testing import stop_node
 from wheel_force_estimator.ros.testing import synthetic_accel
@@ -140,35 +137,18 @@ def test_replay_through_node_equals_offline_prediction(node, model_and_file, tmp
     assert 'counters per corner' in log.read_text()
 
 
-class Injector:
+class Injector(SpinningParticipant):
     """Test publisher of raw Imu messages plus a damage subscriber, in its own context."""
 
     def __init__(self):
-        self.context = Context()
-        rclpy.init(context=self.context)
-        self.node = rclpy.create_node('fault_injector', context=self.context)
+        super().__init__('fault_injector')
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000,
                          reliability=ReliabilityPolicy.RELIABLE)
         self.pubs = [self.node.create_publisher(Imu, f'/spindle/{c}/imu', qos) for c in CORNERS]
         self.damage = []
         self.sub = self.node.create_subscription(DiagnosticArray, '/virtual_wft/damage',
                                                  self.damage.append, 50)
-        self.executor = EventsExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.stop = threading.Event()
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-
-    def _spin(self):
-        while not self.stop.is_set():
-            self.executor.spin_once(timeout_sec=0.05)
-
-    def close(self):
-        self.stop.set()
-        self.thread.join()
-        self.executor.shutdown()
-        self.node.destroy_node()
-        rclpy.try_shutdown(context=self.context)
+        self.start()
 
     def publish(self, stamps, accel, rng, rate, corners=(0, 1, 2, 3), burst=16):
         """Publish bursts of ``burst`` samples per corner in a random corner order."""

@@ -146,3 +146,48 @@ def wait_until(predicate, timeout_s: float, period_s: float = 0.02) -> bool:
             return True
         time.sleep(period_s)
     return bool(predicate())
+
+
+class SpinningParticipant:
+    """
+    A node in its own rclpy context, spun by an EventsExecutor in a background thread.
+
+    Subclasses create their publishers/subscriptions on ``self.node`` and then call
+    :meth:`start`.  The executor is spun with a finite timeout (the Jazzy wheels' EventsExecutor
+    spins at 100 % CPU and runs nothing without one).
+    """
+
+    def __init__(self, name: str):
+        import rclpy
+        from rclpy.context import Context
+        self._rclpy = rclpy
+        self.context = Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node(name, context=self.context)
+        self.executor = None
+        self.stop = None
+        self.thread = None
+
+    def start(self):
+        """Start spinning in a daemon thread."""
+        import threading
+
+        from rclpy.experimental import EventsExecutor
+        self.executor = EventsExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+
+    def _spin(self):
+        while not self.stop.is_set():
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def close(self):
+        """Stop spinning and shut the context down."""
+        if self.thread is not None:
+            self.stop.set()
+            self.thread.join()
+            self.executor.shutdown()
+        self.node.destroy_node()
+        self._rclpy.try_shutdown(context=self.context)
