@@ -9,6 +9,7 @@ plain Python (numba's ``py_func``, no JIT) on a slice, extrapolated to the hour.
 """
 import time
 
+from benchutil import best_of
 import numpy as np
 from scipy import signal
 
@@ -29,16 +30,6 @@ def road_force_n(rng, n):
         part = signal.sosfilt(sos, white)
         force += gain_n * part / part.std()
     return 4000.0 + force + 20.0 * rng.standard_normal(n)
-
-
-def best_of(func, repeat=3):
-    """Return the best wall time of ``repeat`` calls in seconds, and the last result."""
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        result = func()
-        best = min(best, time.perf_counter() - t0)
-    return best, result
 
 
 def python_stack_loop_s(points):

@@ -16,6 +16,7 @@ Usage: ``.venv/bin/python bench/bench_predict.py [--minutes 60] [--blocks 2000]`
 import argparse
 import time
 
+from benchutil import best_of
 import numpy as np
 from scipy import signal
 import scipy.fft
@@ -38,16 +39,6 @@ def make_fir(rng):
         w0 = 2 * np.pi * f0_hz * rng.uniform(0.8, 1.2, (N_CH, N_CH))
         h += rng.standard_normal((N_CH, N_CH)) * w0 ** 2 / (s ** 2 + 2 * zeta * w0 * s + w0 ** 2)
     return fir_from_frf(f_hz, h, FS_HZ)
-
-
-def best_of(func, repeat):
-    """Return the best wall time of ``repeat`` calls in seconds, and the last result."""
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        result = func()
-        best = min(best, time.perf_counter() - t0)
-    return best, result
 
 
 def pairwise(conv, fir, x, outputs):

@@ -23,6 +23,7 @@ import sys
 import tempfile
 import time
 
+from benchutil import best_of
 import numpy as np
 from rosbags.highlevel import AnyReader
 
@@ -49,16 +50,6 @@ def _baseline(path: Path, topics, decode: bool) -> float:
                 msg = store.deserialize_cdr(data, conn.msgtype)
                 out.append(msg.header.stamp.sec)
     return time.perf_counter() - t0
-
-
-def _best(repeat: int, func) -> float:
-    """Best wall time of ``repeat`` calls of ``func()`` [s]."""
-    best = float('inf')
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        func()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def main(argv=None) -> int:
@@ -99,8 +90,9 @@ def main(argv=None) -> int:
             assert np.array_equal(rec.segments[0].force_n, force)
             wanted = dict.fromkeys(topics.imu_topics, IMU_TYPE)
             wanted.update(dict.fromkeys(topics.wft_topics, WRENCH_TYPE))
-            t_decode = _best(args.repeat, lambda: _read_topics(path, wanted, {}))
-            t_imu = _best(args.repeat, lambda: read_recording(path, topics, require_wft=False))
+            t_decode = best_of(lambda: _read_topics(path, wanted, {}), args.repeat)[0]
+            t_imu = best_of(
+                lambda: read_recording(path, topics, require_wft=False), args.repeat)[0]
             t_raw = min(_baseline(path, names, False) for _ in range(args.repeat))
             t_deser = min(_baseline(path, names, True) for _ in range(args.repeat))
             ratio = t_deser / t_bulk

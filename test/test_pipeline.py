@@ -41,6 +41,17 @@ def known_system(n, seed, system_seed=99):
     return x + GRAVITY, y + 3000.0
 
 
+def stream_in_random_chunks(predictor, x, rng, low, high):
+    """Feed ``x`` in chunks of random length in [low, high), flush, undo the output lag."""
+    parts, i = [], 0
+    while i < x.shape[1]:
+        m = int(rng.integers(low, high))
+        parts.append(predictor.process(x[:, i:i + m]))
+        i += m
+    parts.append(predictor.flush())
+    return np.concatenate(parts, axis=1)[:, predictor.delay_samples:]
+
+
 @pytest.fixture(scope='module')
 def model():
     x, y = known_system(int(FS_HZ * 240), seed=1)
@@ -64,15 +75,7 @@ def test_fresh_record_predicted_within_2_percent(model):
 def test_streaming_predictor_equals_batch(model):
     x, _ = known_system(5000, seed=3)
     batch = predict_forces(model, x)
-    pred = Predictor(model)
-    rng = np.random.default_rng(0)
-    parts, i = [], 0
-    while i < x.shape[1]:
-        m = int(rng.integers(0, 300))
-        parts.append(pred.process(x[:, i:i + m]))
-        i += m
-    parts.append(pred.flush())
-    stream = np.concatenate(parts, axis=1)[:, pred.delay_samples:]
+    stream = stream_in_random_chunks(Predictor(model), x, np.random.default_rng(0), 0, 300)
     np.testing.assert_allclose(stream, batch, rtol=0, atol=1e-9 * np.abs(batch).max())
 
 
@@ -202,14 +205,7 @@ def test_two_resolution_model_streams_and_round_trips(lf_fits, tmp_path):
     # the live node's short look-ahead on the long FIR: chunked stream == batch
     x, _ = lf_mode_system(20000, seed=14)
     batch = predict_forces(loaded, x, causal_delay_samples=128)
-    pred = Predictor(loaded, causal_delay_samples=128)
-    rng = np.random.default_rng(1)
-    parts, i = [], 0
-    while i < x.shape[1]:
-        m = int(rng.integers(1, 700))
-        parts.append(pred.process(x[:, i:i + m]))
-        i += m
-    parts.append(pred.flush())
-    stream = np.concatenate(parts, axis=1)[:, pred.delay_samples:]
+    stream = stream_in_random_chunks(Predictor(loaded, causal_delay_samples=128), x,
+                                     np.random.default_rng(1), 1, 700)
     # overlap-add vs one long FFT differ by rounding only
     np.testing.assert_allclose(stream, batch, rtol=0, atol=1e-9 * np.abs(batch).max())
