@@ -214,10 +214,9 @@ def _chunk_data(chunk):
 @pytest.mark.parametrize('compression', ['', 'zstd'])
 def test_mcap_structure_with_independent_reader(tmp_path, monkeypatch, small_blocks,
                                                 compression):
-    monkeypatch.setitem(writer.STORAGES, 'mcap', ('.mcap', functools.partial(
-        mcap_writer.write_mcap, compression=compression)))
     stamp, accel, force, events = _data(seed=9)
-    path = write_recording(tmp_path / 'bag', stamp, accel, force, events=events)
+    path = write_recording(tmp_path / 'bag', stamp, accel, force, events=events,
+                           compression=compression)
     streams = _expected(stamp, accel, force, events)
     file = path / 'bag.mcap'
     with file.open('rb') as fh:

@@ -93,6 +93,31 @@ def test_predict_writes_virtual_wft_with_input_stamps(model_path, bags):
     assert np.all(rmse < 2.0), rmse
 
 
+@pytest.mark.parametrize('compression', ['zstd', 'none'])
+def test_predict_mcap_output_compression_read_by_rosbags(model_path, bags, compression):
+    from mcap.reader import make_reader
+    from rosbags.highlevel import AnyReader
+
+    out = bags / f'pred_{compression}'
+    assert main(['predict', str(model_path), str(bags / 'train_a'), '-o', str(out),
+                 '--compression', compression]) == 0
+    with (out / f'{out.name}.mcap').open('rb') as fh:
+        chunks = make_reader(fh).get_summary().chunk_indexes
+    stored = '' if compression == 'none' else 'zstd'
+    assert chunks and {c.compression for c in chunks} == {stored}
+    seg, = read_recording(bags / 'train_a').segments
+    expected = predict_forces(load_model(model_path), seg.accel_mps2)
+    # rosbags (an independent reader) decodes every message to the same bits
+    topics = TopicConfig().output_topics
+    got = {t: [] for t in topics}
+    with AnyReader([out]) as reader:
+        for conn, _, raw in reader.messages():
+            msg = reader.deserialize(raw, conn.msgtype)
+            got[conn.topic].append((msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z))
+    for k, topic in enumerate(topics):
+        np.testing.assert_array_equal(np.array(got[topic]).T, expected[3 * k:3 * k + 3])
+
+
 def test_evaluate_json_matches_independent_computation(model_path, bags):
     out = bags / 'eval.json'
     assert main(['evaluate', str(model_path), str(bags / 'val'), '--json', str(out),

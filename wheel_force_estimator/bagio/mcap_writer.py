@@ -20,6 +20,9 @@ SummaryOffsets, Footer (with summary CRC) and magic.
 
 ``plan`` is :class:`.writer.BagPlan` (duck-typed here to keep the import one-way).
 """
+from collections import deque
+from concurrent.futures import Future
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 import struct
 import sys
@@ -34,12 +37,15 @@ LIBRARY = 'wheel_force_estimator bagio'
 # Uncompressed bytes per chunk: large enough that per-chunk Python work vanishes, small
 # enough that readers (which load a chunk at a time) stay light.  rosbags uses 1 MiB.
 CHUNK_BYTES = 4 << 20
-# Chunk compression, '' (none, rosbags' default) or 'zstd'.  zstd at a fast negative level
-# packs ~1.9 GB/s per core to about a third of the size (constant headers, frame ids,
-# covariances), which pays off only when the disk takes less than ~1 GB/s; uncompressed
-# chunks cost nothing to write into the page cache and are the fastest to read back.
+# Default chunk compression, '' (none, rosbags' and ros2 bag's default) or 'zstd'.  zstd at
+# level -3 packs ~1.4 GB/s per core (in a worker thread, overlapped with assembly) to 29 %
+# (WrenchStamped) - 40 % (Imu) of the size: constant headers, frame ids, covariances.  It pays
+# whenever new page-cache memory or the disk is slower than that: on the benchmark VM each
+# fresh GB costs ~2 s of first-touch page faults, so `wheel-force predict` compresses.
 COMPRESSION = ''
 ZSTD_LEVEL = -3
+# Chunks compressed ahead of the one being written (memory: this many x CHUNK_BYTES).
+_CHUNKS_AHEAD = 2
 MESSAGE_ENCODING = 'cdr'
 SCHEMA_ENCODING = 'ros2msg'
 # Message record: opcode(1) length(8) channel(2) sequence(4) log_time(8) publish_time(8)
@@ -239,8 +245,29 @@ def _write(out: _Output, plan, metadata_text: str, compression: str) -> None:
     compress = _zstd_compressor() if compression == 'zstd' else None
     if compress is None:
         compression = ''
-    chunk_indexes = [_write_chunk(out, compression, compress, *chunks.assemble(*r))
-                     for r in chunks.ranges()]
+    chunk_indexes = []
+    if compression:
+        # CRC and compression of a chunk (both release the GIL) run in a worker while the
+        # next chunk is assembled; the reused assembly block is copied out first.
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            queued: deque = deque()
+            for r in chunks.ranges():
+                pieces, index = chunks.assemble(*r)
+                data = b''.join(pieces)
+                queued.append((pool.submit(_crc_and_compress, data, compress), len(data),
+                               index))
+                if len(queued) > _CHUNKS_AHEAD:
+                    chunk_indexes.append(_write_chunk(out, compression, *queued.popleft()))
+            while queued:
+                chunk_indexes.append(_write_chunk(out, compression, *queued.popleft()))
+    else:
+        for r in chunks.ranges():
+            pieces, index = chunks.assemble(*r)
+            size = sum(memoryview(p).nbytes for p in pieces)
+            crc = 0
+            for piece in pieces:
+                crc = zlib.crc32(piece, crc)
+            chunk_indexes.append(_write_chunk(out, compression, (crc, pieces), size, index))
     metadata_start = out.write(_record(_METADATA, _string('rosbag2') + _map(
         {'serialized_metadata': metadata_text})))
     metadata_length = out.pos - metadata_start
@@ -277,14 +304,20 @@ def _map(entries: Dict[str, str]) -> bytes:
     return struct.pack('<I', len(body)) + body
 
 
-def _write_chunk(out: _Output, compression: str, compress, pieces, index) -> bytes:
-    """Write one Chunk record and its MessageIndex records; return the ChunkIndex body."""
-    size = sum(memoryview(p).nbytes for p in pieces)
-    crc = 0
-    for piece in pieces:
-        crc = zlib.crc32(piece, crc)
-    if compression:
-        pieces = [compress(b''.join(pieces))]
+def _crc_and_compress(data: bytes, compress) -> Tuple[int, List[bytes]]:
+    return zlib.crc32(data), [compress(data)]
+
+
+def _write_chunk(out: _Output, compression: str, stored_pieces, size: int, index) -> bytes:
+    """
+    Write one Chunk record and its MessageIndex records; return the ChunkIndex body.
+
+    ``stored_pieces`` is ``(crc of the uncompressed records, pieces as stored)`` or a future
+    of it; ``size`` is the uncompressed size.
+    """
+    if isinstance(stored_pieces, Future):
+        stored_pieces = stored_pieces.result()
+    crc, pieces = stored_pieces
     stored = sum(memoryview(p).nbytes for p in pieces)
     times = [t for pairs in index.values() for t, _ in pairs if t.size]
     start_time = min(int(t.min()) for t in times) if times else 0

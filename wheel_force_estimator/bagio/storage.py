@@ -174,13 +174,17 @@ class _Collector:
 class _Sinks(dict):
     """Topic -> sink, created on first use (raw collector unless ``make_sink`` says else)."""
 
-    def __init__(self, make_sink):
+    def __init__(self, make_sink, expected_counts: Optional[Dict[str, int]] = None):
         super().__init__()
         self.make_sink = make_sink
+        self.expected_counts = expected_counts or {}
 
     def sink(self, topic: str, msgtype: str):
         if topic not in self:
             made = self.make_sink(topic, msgtype) if self.make_sink else None
+            if made is not None and hasattr(made, 'reserve') and (
+                    self.expected_counts.get(topic, 0) > 0):
+                made.reserve(self.expected_counts[topic])
             self[topic] = made if made is not None else _Collector(msgtype)
         return self[topic]
 
@@ -218,7 +222,7 @@ def read_raw_topics(path: Path, topics: Sequence[str], make_sink=None):
 
     """
     layout = bag_layout(path)
-    collectors = _Sinks(make_sink)
+    collectors = _Sinks(make_sink, layout.topic_counts)
     present: Dict[str, str] = {}
     for file in layout.files:
         if layout.storage == 'sqlite3':
@@ -249,7 +253,7 @@ _SQLITE_MMAP = 1 << 30
 
 def _read_sqlite(file: Path, topics: Sequence[str], collectors: '_Sinks'):
     try:
-        con = sqlite3.connect(f'file:{file}?immutable=1', uri=True)
+        con = sqlite3.connect(f'file:{file}?immutable=1', uri=True, check_same_thread=False)
     except sqlite3.Error as err:
         raise BagError(f'{file}: cannot open sqlite3 storage: {err}') from err
     try:
@@ -280,25 +284,39 @@ def _read_sqlite_messages(con, file, ids, collectors):
         "group_concat((topic_id << 32) + length(data), ' '), group_concat(timestamp, ' ') "
         f"FROM messages WHERE id >= ? AND id < ? AND topic_id IN ({','.join('?' * len(ids))})")
     con.execute(f'PRAGMA mmap_size = {_SQLITE_MMAP}')
-    first = con.execute('SELECT min(id) FROM messages').fetchone()[0]
-    while first is not None:
-        blob, *columns = con.execute(query, (first, first + _SQLITE_BATCH, *ids)).fetchone()
+
+    def fetch(first):
+        """Return one batch's (blob, packed, stamps) and the first id of the next batch."""
+        row = con.execute(query, (first, first + _SQLITE_BATCH, *ids)).fetchone()
         # ids are normally 1..n; jumping to the next existing id also copes with holes
-        first = con.execute('SELECT min(id) FROM messages WHERE id >= ?',
-                            (first + _SQLITE_BATCH,)).fetchone()[0]
-        if blob is None:
-            continue
-        packed, stamp = (np.fromstring(c, np.int64, sep=' ') for c in columns)
-        lengths = packed & 0xFFFFFFFF
-        if packed.size != stamp.size or lengths.sum() != len(blob):
-            raise BagError(f'{file}: corrupt sqlite3 storage: payload lengths do not add up')
-        table = np.stack([packed >> 32, stamp, lengths], axis=1)
-        buf = np.frombuffer(blob, np.uint8)
-        offsets = np.concatenate(([0], np.cumsum(table[:, 2])[:-1]))
-        for tid, (name, typ) in ids.items():
-            sel = np.flatnonzero(table[:, 0] == tid)
-            if sel.size:
-                collectors.sink(name, typ).add(table[sel, 1], table[sel, 2], buf, offsets[sel])
+        following = con.execute('SELECT min(id) FROM messages WHERE id >= ?',
+                                (first + _SQLITE_BATCH,)).fetchone()[0]
+        return row, following
+
+    # SQLite releases the GIL while it scans: a worker runs the next batch's query while this
+    # thread decodes the current one (only the worker touches the connection meanwhile).
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        first = con.execute('SELECT min(id) FROM messages').fetchone()[0]
+        upcoming = pool.submit(fetch, first) if first is not None else None
+        while upcoming is not None:
+            (blob, *columns), following = upcoming.result()
+            upcoming = pool.submit(fetch, following) if following is not None else None
+            if blob is not None:
+                _deliver_sqlite(file, ids, collectors, blob, columns)
+
+
+def _deliver_sqlite(file, ids, collectors, blob: bytes, columns) -> None:
+    packed, stamp = (np.fromstring(c, np.int64, sep=' ') for c in columns)
+    lengths = packed & 0xFFFFFFFF
+    if packed.size != stamp.size or lengths.sum() != len(blob):
+        raise BagError(f'{file}: corrupt sqlite3 storage: payload lengths do not add up')
+    table = np.stack([packed >> 32, stamp, lengths], axis=1)
+    buf = np.frombuffer(blob, np.uint8)
+    offsets = np.concatenate(([0], np.cumsum(table[:, 2])[:-1]))
+    for tid, (name, typ) in ids.items():
+        sel = np.flatnonzero(table[:, 0] == tid)
+        if sel.size:
+            collectors.sink(name, typ).add(table[sel, 1], table[sel, 2], buf, offsets[sel])
 
 
 def _zstd_decompress(data: bytes) -> bytes:

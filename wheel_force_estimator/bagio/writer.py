@@ -273,7 +273,7 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
                     events: Sequence = (), storage: str = 'mcap',
                     imu_frame_ids: Optional[Sequence[str]] = None,
                     wrench_frame_ids: Optional[Sequence[str]] = None,
-                    output: bool = False) -> Path:
+                    output: bool = False, compression: str = '') -> Path:
     """
     Write accelerations / forces on one sample clock as a new rosbag2.
 
@@ -300,6 +300,9 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
     output : bool
         Write the forces on ``topics.output_topics`` (virtual WFT, ``wheel-force predict``)
         instead of ``topics.wft_topics``.
+    compression : {'', 'zstd'}
+        mcap chunk compression ('' = none, as ``ros2 bag record`` writes by default; zstd
+        is read by ros2 bag's mcap plugin, rosbags and this package).  Ignored for sqlite3.
 
     Returns
     -------
@@ -323,6 +326,8 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
         raise ConfigError(f'storage must be one of {sorted(STORAGES)}, got {storage!r}')
     if accel_mps2 is None and force_n is None:
         raise ConfigError(f'{path}: nothing to write (accel_mps2 and force_n are None)')
+    if compression not in ('', 'zstd'):
+        raise ConfigError(f"{path}: compression must be '' or 'zstd', got {compression!r}")
     if path.exists():
         raise BagError(f'{path}: exists already, not overwriting')
     stamp = _check_stamps(path, stamp_ns)
@@ -361,7 +366,7 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
     sparse_at = np.searchsorted(stamp, np.array([t for _, t, _ in sparse], np.int64), 'left')
     plan = BagPlan(tuple(connections), stamp, tuple(dense), tuple(sparse),
                    sparse_at.astype(np.int64))
-    _write(path, storage, plan)
+    _write(path, storage, plan, compression)
     return path
 
 
@@ -430,7 +435,7 @@ def bag_metadata(plan: BagPlan, storage: str, file_name: str) -> dict:
     }
 
 
-def _write(path: Path, storage: str, plan: BagPlan) -> None:
+def _write(path: Path, storage: str, plan: BagPlan, compression: str = '') -> None:
     suffix, write_storage = STORAGES[storage]
     try:
         path.mkdir(mode=0o755, parents=True)
@@ -443,8 +448,11 @@ def _write(path: Path, storage: str, plan: BagPlan) -> None:
     tmp_path = path / 'metadata.yaml.tmp'
     info = bag_metadata(plan, storage, file.name)
     try:
-        write_storage(file, plan, ROSBAG2_VERSION,
-                      yaml.safe_dump(info, default_flow_style=False).strip())
+        text = yaml.safe_dump(info, default_flow_style=False).strip()
+        if storage == 'mcap':
+            write_storage(file, plan, ROSBAG2_VERSION, text, compression)
+        else:
+            write_storage(file, plan, ROSBAG2_VERSION, text)
         tmp_path.write_text(yaml.safe_dump({'rosbag2_bagfile_information': info},
                                            default_flow_style=False), 'utf8')
         tmp_path.replace(meta_path)

@@ -160,7 +160,7 @@ class Predictor:
 
 
 def predict_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[int] = None,
-                   block_size: int = 16384) -> np.ndarray:
+                   block_size: int = 1 << 20) -> np.ndarray:
     """
     Predict the forces of one contiguous recording, time-aligned with the input.
 
@@ -192,8 +192,21 @@ def predict_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[i
     if block_size < 1:
         raise ShapeError(f'block_size must be >= 1, got {block_size}')
     predictor = Predictor(model, causal_delay_samples)
-    parts = [predictor.process(x[:, i:i + block_size])
-             for i in range(0, x.shape[1], block_size)]
-    parts.append(predictor.flush())
-    y = np.concatenate(parts, axis=1) if parts else np.empty((len(model.output_channels), 0))
-    return y[:, predictor.delay_samples:]
+    n, delay = x.shape[1], predictor.delay_samples
+    # Filled in place (no list of blocks to join): the output is written once, so a long
+    # record needs one output array, not two.  Stream sample j estimates input j - delay.
+    y = np.empty((len(model.output_channels), n))
+    done = 0
+    for i in range(0, n, block_size):
+        done = _place(y, predictor.process(x[:, i:i + block_size]), done, delay)
+    _place(y, predictor.flush(), done, delay)
+    return y
+
+
+def _place(y: np.ndarray, block: np.ndarray, done: int, delay: int) -> int:
+    """Copy stream samples ``done..done+m-1`` into ``y`` (dropping the first ``delay``)."""
+    m = block.shape[1]
+    lo = max(done, delay)
+    if lo < done + m:
+        y[:, lo - delay:done + m - delay] = block[:, lo - done:]
+    return done + m
