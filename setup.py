@@ -29,6 +29,8 @@ setup(
         'numba>=0.58',
         'rosbags>=0.11',
     ],
+    # faster mcap chunk CRCs (bagio/checksum.py; the stdlib zlib fallback gives equal values)
+    extras_require={'fast': ['isal>=1.0']},
     zip_safe=True,
     maintainer='wheel_force_estimator maintainers',
     maintainer_email='wheel-force@example.com',

@@ -28,6 +28,7 @@ from rosbags.typesys import get_typestore
 from rosbags.typesys import Stores
 
 from wheel_force_estimator import CORNERS
+from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.bagio import mcap_writer
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import read_wrench_topics
@@ -36,7 +37,9 @@ from wheel_force_estimator.bagio import TopicConfig
 from wheel_force_estimator.bagio import write_forces
 from wheel_force_estimator.bagio import write_recording
 from wheel_force_estimator.bagio import writer
+from wheel_force_estimator.bagio.blocks import SignalBlocks
 from wheel_force_estimator.core.errors import BagError
+from wheel_force_estimator.core.errors import NonFiniteError
 import yaml
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
@@ -375,3 +378,51 @@ def test_imu_only_and_single_sample(tmp_path, storage):
     assert got == {topic: msgs for topic, _, msgs in expected}
     meta = _meta(path)
     assert meta['message_count'] == 5 and meta['duration'] == {'nanoseconds': 1}
+
+
+def _split(force, sizes):
+    """Consecutive column blocks of ``force`` with the given sizes (the last takes the rest)."""
+    edges = np.concatenate(([0], np.cumsum(sizes)[:-1], [force.shape[1]]))
+    edges = np.minimum(edges, force.shape[1])
+    return [force[:, a:b] for a, b in zip(edges[:-1], edges[1:])]
+
+
+def test_streamed_forces_write_the_same_bag(tmp_path, storage, small_blocks):
+    """Forces handed over as irregular blocks give the same storage file as one array."""
+    stamp, accel, force, events = _data(seed=4)
+    # same bag name: metadata.yaml and the storage's copy of it name the file
+    whole = write_recording(tmp_path / 'whole' / 'bag', stamp, accel, force, events=events,
+                            storage=storage)
+    blocks = _split(force, [1, 0, 7, 3, 40, 2, 1, N])  # empty, inside and across chunks
+    streamed = write_recording(
+        tmp_path / 'streamed' / 'bag', stamp, accel,
+        SignalBlocks(OUTPUT_CHANNELS, N, iter(blocks)), events=events, storage=storage)
+    suffix = writer.STORAGES[storage][0]
+    assert (streamed / f'bag{suffix}').read_bytes() == (whole / f'bag{suffix}').read_bytes()
+    assert (streamed / 'metadata.yaml').read_text() == (whole / 'metadata.yaml').read_text()
+
+
+def test_streamed_forces_wrong_length_refused(tmp_path):
+    stamp, _, force, _ = _data(n=N)
+    with pytest.raises(BagError, match=r'streamed force_n has 239 samples .* expected 240'):
+        write_recording(tmp_path / 'a', stamp, force_n=SignalBlocks(
+            OUTPUT_CHANNELS, N - 1, iter(_split(force, [10, N]))), output=True)
+    short = iter(_split(force[:, :N - 1], [10, N]))
+    with pytest.raises(BagError, match=r'force_n: the stream ended after 239 of 240 samples'):
+        write_recording(tmp_path / 'b', stamp, force_n=SignalBlocks(OUTPUT_CHANNELS, N, short),
+                        output=True)
+    long = iter(_split(force, [10, N]) + [force[:, :1]])
+    with pytest.raises(BagError, match=r'force_n: the stream holds more than 240 samples'):
+        write_recording(tmp_path / 'c', stamp, force_n=SignalBlocks(OUTPUT_CHANNELS, N, long),
+                        output=True)
+    assert not any((tmp_path / name).exists() for name in 'abc')  # nothing half-written
+
+
+def test_streamed_forces_non_finite_block_refused(tmp_path):
+    stamp, _, force, _ = _data(n=N)
+    force = force.copy()
+    force[4, N - 3] = np.nan
+    src = SignalBlocks(OUTPUT_CHANNELS, N, iter(_split(force, [N // 2, N])))
+    with pytest.raises(NonFiniteError, match=r'block at sample 120.*rf_fy'):
+        write_recording(tmp_path / 'bag', stamp, force_n=src, output=True)
+    assert not (tmp_path / 'bag').exists()

@@ -273,6 +273,9 @@ def align(path, imu: Sequence[TopicSeries], wft: Optional[Sequence[TopicSeries]]
 
 def stack_corners(series: Sequence[TopicSeries]) -> np.ndarray:
     """Corner-major (12, n) C-contiguous array from four (n, 3) topics."""
+    shared = _shared_stack(series)
+    if shared is not None:
+        return shared  # decoded in place already (reader._StackedValues): no copy
     out = np.empty((3 * len(series), series[0].values.shape[0]), np.float64)
     # row by row: concatenating the transposed views gives a Fortran-ordered array whose
     # C-ordered copy (and the transposed copy itself) cost ~15x more than these strided reads
@@ -280,3 +283,19 @@ def stack_corners(series: Sequence[TopicSeries]) -> np.ndarray:
         for k in range(3):
             out[3 * i + k] = s.values[:, k]
     return out
+
+
+def _shared_stack(series: Sequence[TopicSeries]) -> Optional[np.ndarray]:
+    """Return the array whose row triplets, in order, are exactly the series' values."""
+    base = series[0].values.base
+    n = series[0].values.shape[0]
+    if not (isinstance(base, np.ndarray) and base.shape == (3 * len(series), n)
+            and base.dtype == np.float64 and base.flags.c_contiguous):
+        return None
+    for k, s in enumerate(series):
+        view = s.values
+        if (view.base is not base or view.shape != (n, 3) or view.strides != base.T.strides
+                or view.__array_interface__['data'][0]
+                != base[3 * k].__array_interface__['data'][0]):
+            return None
+    return base

@@ -265,9 +265,11 @@ class TopicDecoder:
     whatever the recording length.  ``add``/``finish`` follow the storage sink protocol.
     """
 
-    def __init__(self, layout: Layout, deserialize: Callable[[bytes], object]):
+    def __init__(self, layout: Layout, deserialize: Callable[[bytes], object],
+                 values_out: Optional[Callable[[int], Optional[np.ndarray]]] = None):
         self.layout = layout
         self.deserialize = deserialize
+        self.values_out = values_out
         self.verdicts: dict = {}
         self.parts: List[Tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self.n_fast = 0
@@ -282,10 +284,13 @@ class TopicDecoder:
         which halves the peak memory of a long recording (and fresh memory is what costs most
         on a VM: ~2 s per GB on first touch on the benchmark machine).  A wrong count is
         harmless: batches beyond it are kept aside and everything is joined as before.
+        ``values_out(n)``, when given at construction, may supply the (n, 3) values array
+        (e.g. three rows of a shared corner-stacked array).
         """
         if n > 0 and self._reserved is None and not self.parts:
+            values = self.values_out(n) if self.values_out is not None else None
             self._reserved = (np.empty(n, np.int64), np.empty(n, np.int64),
-                              np.empty((n, 3), np.float64))
+                              np.empty((n, 3), np.float64) if values is None else values)
 
     def add(self, log_time: np.ndarray, lengths: np.ndarray, buf: np.ndarray,
             starts: np.ndarray):

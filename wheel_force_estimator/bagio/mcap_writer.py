@@ -27,9 +27,10 @@ from pathlib import Path
 import struct
 import sys
 from typing import BinaryIO, Callable, Dict, List, Optional, Tuple
-import zlib
 
 import numpy as np
+
+from wheel_force_estimator.bagio.checksum import crc32
 
 MAGIC = b'\x89MCAP0\r\n'
 PROFILE = 'ros2'
@@ -266,7 +267,7 @@ def _write(out: _Output, plan, metadata_text: str, compression: str) -> None:
             size = sum(memoryview(p).nbytes for p in pieces)
             crc = 0
             for piece in pieces:
-                crc = zlib.crc32(piece, crc)
+                crc = crc32(piece, crc)
             chunk_indexes.append(_write_chunk(out, compression, (crc, pieces), size, index))
     metadata_start = out.write(_record(_METADATA, _string('rosbag2') + _map(
         {'serialized_metadata': metadata_text})))
@@ -295,7 +296,7 @@ def _write(out: _Output, plan, metadata_text: str, compression: str) -> None:
     for opcode, start, length in groups:
         summary += _record(_SUMMARY_OFFSET, struct.pack('<BQQ', opcode, start, length))
     footer = struct.pack('<BQQQ', _FOOTER, 8 + 8 + 4, summary_start, offsets_start)
-    crc = zlib.crc32(footer, zlib.crc32(summary))
+    crc = crc32(footer, crc32(summary))
     out.write(bytes(summary) + footer + struct.pack('<I', crc) + MAGIC)
 
 
@@ -305,7 +306,7 @@ def _map(entries: Dict[str, str]) -> bytes:
 
 
 def _crc_and_compress(data: bytes, compress) -> Tuple[int, List[bytes]]:
-    return zlib.crc32(data), [compress(data)]
+    return crc32(data), [compress(data)]
 
 
 def _write_chunk(out: _Output, compression: str, stored_pieces, size: int, index) -> bytes:

@@ -27,10 +27,10 @@ import sqlite3
 import struct
 import sys
 from typing import Dict, List, Optional, Sequence, Tuple
-import zlib
 
 import numpy as np
 
+from wheel_force_estimator.bagio.checksum import crc32
 from wheel_force_estimator.bagio.fastcdr import gather_bytes
 from wheel_force_estimator.core.errors import BagError
 import yaml
@@ -481,7 +481,7 @@ class _McapFile:
             first, usize, crc, comp = self._chunk_header(view, rel, rel + length + index_length,
                                                          start)
             if crc and not comp:
-                checks.append((start, crc, pool.submit(zlib.crc32, view[first:first + usize])))
+                checks.append((start, crc, pool.submit(crc32, view[first:first + usize])))
         return checks
 
     def _check_crcs(self, checks):
@@ -548,7 +548,7 @@ class _McapFile:
             raise self._fail(f'chunk does not decompress ({err})', start) from err
         if len(data) != usize:
             raise self._fail(f'chunk holds {len(data)} bytes, header says {usize}', start)
-        if crc and zlib.crc32(data) != crc:
+        if crc and crc32(data) != crc:
             raise self._fail('chunk CRC mismatch', start)
         return np.frombuffer(data, np.uint8)
 

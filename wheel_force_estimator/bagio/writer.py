@@ -26,6 +26,9 @@ import numpy as np
 from wheel_force_estimator import CORNERS
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.bagio.blocks import BlockWindow
+from wheel_force_estimator.bagio.blocks import RowSource
+from wheel_force_estimator.bagio.blocks import SignalBlocks
 from wheel_force_estimator.bagio.fastcdr import body_offset
 from wheel_force_estimator.bagio.fastcdr import IMU
 from wheel_force_estimator.bagio.fastcdr import Layout
@@ -226,11 +229,12 @@ def _connection(topic: str, msgtype: str) -> Connection:
     return Connection(topic, msgtype, msgdef, rihs01)
 
 
-def _dense_topic(layout: Layout, make_msg, stamp_fields, values: np.ndarray) -> DenseTopic:
+def _dense_topic(layout: Layout, make_msg, stamp_fields, values) -> DenseTopic:
     """
     Describe one Imu / WrenchStamped topic as template + fields, checked against rosbags.
 
-    ``values`` is (n, 3) float64; ``stamp_fields`` the shared (sec int32, nanosec uint32).
+    ``values`` is (n, 3) float64 or a streamed :class:`.blocks.RowSource`; ``stamp_fields``
+    the shared (sec int32, nanosec uint32).
     """
     store = jazzy_typestore()
 
@@ -245,9 +249,19 @@ def _dense_topic(layout: Layout, make_msg, stamp_fields, values: np.ndarray) -> 
     topic = DenseTopic(template, (
         (4, np.dtype('<i4'), sec), (8, np.dtype('<u4'), nanosec),
         (body_offset(strlen) + layout.value_offset, np.dtype('<f8'), values)))
-    stamp_ns = sec.astype(np.int64) * _NS_PER_S + nanosec
-    for i in {0, len(values) - 1} if len(values) else ():
-        if serialize(int(stamp_ns[i]), tuple(values[i])) != topic.payloads(i, i + 1).tobytes():
+    # First and last sample against rosbags' serialiser (a streamed source is checked with
+    # stand-in values at those stamps: it cannot be read ahead)
+    rows = sorted({0, len(values) - 1}) if len(values) else []
+    if isinstance(values, np.ndarray):
+        probe_values = values[rows]
+    else:
+        probe_values = np.array([[1.5, -2.25, 3.0e5]] * len(rows))
+    probe = DenseTopic(template, ((4, np.dtype('<i4'), sec[rows]),
+                                  (8, np.dtype('<u4'), nanosec[rows]),
+                                  (topic.fields[2][0], np.dtype('<f8'), probe_values)))
+    for j, i in enumerate(rows):
+        stamp_ns = int(sec[i]) * _NS_PER_S + int(nanosec[i])
+        if serialize(stamp_ns, tuple(probe_values[j])) != probe.payloads(j, j + 1).tobytes():
             raise BagError(f'{layout.msgtype}: bulk CDR encoding differs from rosbags at '
                            f'sample {i}')
     return topic
@@ -286,8 +300,9 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
     accel_mps2 : array_like, shape (12, n), optional
         Accelerations in ``INPUT_CHANNELS`` order [m/s²]; written as sensor_msgs/Imu
         (linear_acceleration; orientation and angular velocity flagged as not measured).
-    force_n : array_like, shape (12, n), optional
+    force_n : array_like, shape (12, n), or SignalBlocks, optional
         Forces in ``OUTPUT_CHANNELS`` order [N]; written as geometry_msgs/WrenchStamped.
+        A :class:`.blocks.SignalBlocks` stream is consumed while the bag is written.
     topics : TopicConfig, optional
         Topic names (defaults: DESIGN.md).
     events : sequence of (int, str)
@@ -342,9 +357,18 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
             connections.append(_connection(topic, IMU.msgtype))
             dense.append(_dense_topic(IMU, _make_imu(store, frames[i]), stamp_fields,
                                       accel[3 * i:3 * i + 3].T))
-    if force_n is not None:
+    if isinstance(force_n, SignalBlocks):
+        if tuple(force_n.channels) != tuple(OUTPUT_CHANNELS) or force_n.n_samples != stamp.size:
+            raise BagError(f'{path}: streamed force_n has {force_n.n_samples} samples of '
+                           f'{tuple(force_n.channels)}; expected {stamp.size} of '
+                           f'{tuple(OUTPUT_CHANNELS)}')
+        window = BlockWindow(force_n, f'{path}: force_n')
+        force = [RowSource(window, 3 * i) for i in range(len(CORNERS))]
+    elif force_n is not None:
         force = as_signals(force_n, f'{path}: force_n', OUTPUT_CHANNELS)
         _check_length(path, 'force_n', force, stamp)
+        force = [force[3 * i:3 * i + 3].T for i in range(len(CORNERS))]
+    if force_n is not None:
         if output:
             frames = _frame_ids(wrench_frame_ids or topics.frame_ids, 'wheel',
                                 'wrench_frame_ids')
@@ -354,7 +378,7 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
         for i, topic in enumerate(names):
             connections.append(_connection(topic, WRENCH.msgtype))
             dense.append(_dense_topic(WRENCH, _make_wrench(store, frames[i]), stamp_fields,
-                                      force[3 * i:3 * i + 3].T))
+                                      force[i]))
     event_list = _check_events(path, events)
     sparse = []
     if event_list:

@@ -40,10 +40,52 @@ def predict_recording(model, recording, causal_delay_samples=None):
             for seg in recording.segments]
 
 
-def command(args: argparse.Namespace) -> int:
-    """Run ``predict``; return the exit code."""
+def stream_recording(model, recording, causal_delay_samples=None):
+    """
+    Return the stamps and the forces of every segment as one stream of blocks.
+
+    The forces are computed while the bag is written (:class:`..bagio.blocks.SignalBlocks`),
+    one block ahead in a worker thread, so an hour of forces is never held whole.
+    """
     import numpy as np
 
+    from wheel_force_estimator import OUTPUT_CHANNELS
+    from wheel_force_estimator.bagio.blocks import SignalBlocks
+    from wheel_force_estimator.core.predict import iter_forces
+
+    segments = recording.segments
+    stamps = (segments[0].stamp_ns if len(segments) == 1
+              else np.concatenate([seg.stamp_ns for seg in segments]))
+
+    def blocks():
+        for seg in segments:
+            yield from iter_forces(model, seg.accel_mps2, causal_delay_samples)
+    return stamps, SignalBlocks(OUTPUT_CHANNELS, stamps.size, prefetched(blocks()))
+
+
+def prefetched(items):
+    """
+    Yield ``items`` while a worker thread already computes the next one.
+
+    FFTs, matrix products and large copies release the GIL, so filtering overlaps the bag
+    writing.
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    it = iter(items)
+    done = object()
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        ahead = pool.submit(next, it, done)
+        while True:
+            item = ahead.result()
+            if item is done:
+                return
+            ahead = pool.submit(next, it, done)
+            yield item
+
+
+def command(args: argparse.Namespace) -> int:
+    """Run ``predict``; return the exit code."""
     from wheel_force_estimator.bagio import load_topic_config
     from wheel_force_estimator.bagio import write_recording
     from wheel_force_estimator.cli.common import read_recordings
@@ -53,17 +95,10 @@ def command(args: argparse.Namespace) -> int:
     topics = load_topic_config(args.config)
     (recording,) = read_recordings([args.bag], topics, require_wft=False,
                                    expected_fs_hz=model.fs_hz)
-    parts = predict_recording(model, recording, args.causal_delay_samples)
-    if len(parts) == 1:
-        ((stamps, force),) = parts  # no copy of a gap-free recording
-    else:
-        stamps = np.concatenate([s for s, _ in parts])
-        force = np.concatenate([f for _, f in parts], axis=1)
+    stamps, force = stream_recording(model, recording, args.causal_delay_samples)
     storage = args.storage or input_storage(args.bag)
-    n_segments = len(parts)
-    del parts, recording  # the accelerations are not needed any more: free them first
     write_recording(args.output, stamps, force_n=force, topics=topics, storage=storage,
                     output=True, compression=args.compression.replace('none', ''))
-    print(f'predicted {stamps.size} samples in {n_segments} segment(s) of {args.bag} '
-          f'-> {args.output} ({storage})')
+    print(f'predicted {stamps.size} samples in {len(recording.segments)} segment(s) of '
+          f'{args.bag} -> {args.output} ({storage})')
     return 0

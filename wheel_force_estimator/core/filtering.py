@@ -474,6 +474,16 @@ class OverlapAddFilter:
         return self._fir.delay_samples
 
     @property
+    def efficient_block(self) -> int:
+        """
+        Return the cheapest long block length [samples] for :meth:`process`.
+
+        A whole number of FFT segments (one batch of them): such calls use a single FFT
+        length, so one tap spectrum is cached, and no short remainder segment is transformed.
+        """
+        return _SEGMENTS_PER_BATCH * self._segment_len
+
+    @property
     def n_in(self) -> int:
         """Return the number of input channels."""
         return self._fir.n_in

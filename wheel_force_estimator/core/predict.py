@@ -20,7 +20,7 @@ No recorded sample is changed, added or dropped.  The output stream lags the inp
 ``delay_samples`` (the FIR look-ahead): output sample ``j`` is the estimate for input sample
 ``j - delay_samples``.
 """
-from typing import Optional
+from typing import Iterator, Optional
 
 import numpy as np
 
@@ -101,6 +101,11 @@ class Predictor:
         return int(self._filter.delay_samples)
 
     @property
+    def efficient_block(self) -> int:
+        """Return the cheapest long block length [samples] (see the filter's)."""
+        return int(self._filter.efficient_block)
+
+    @property
     def n_inputs(self) -> int:
         """Return the number of input channels."""
         return len(self.model.input_channels)
@@ -160,7 +165,7 @@ class Predictor:
 
 
 def predict_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[int] = None,
-                   block_size: int = 1 << 20) -> np.ndarray:
+                   block_size: Optional[int] = None) -> np.ndarray:
     """
     Predict the forces of one contiguous recording, time-aligned with the input.
 
@@ -172,8 +177,9 @@ def predict_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[i
         Specific force [m/s²] of one gap-free segment.
     causal_delay_samples : int, optional
         As for :class:`Predictor`.
-    block_size : int
-        Samples per call to the streaming filter (affects speed only, not the result).
+    block_size : int, optional
+        Samples per call to the streaming filter (affects speed and memory, and the result
+        only by FFT rounding); default as for :func:`iter_forces`.
 
     Returns
     -------
@@ -189,24 +195,61 @@ def predict_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[i
 
     """
     x = as_signals(accel_mps2, 'accelerations', model.input_channels, min_samples=0)
-    if block_size < 1:
-        raise ShapeError(f'block_size must be >= 1, got {block_size}')
-    predictor = Predictor(model, causal_delay_samples)
-    n, delay = x.shape[1], predictor.delay_samples
-    # Filled in place (no list of blocks to join): the output is written once, so a long
-    # record needs one output array, not two.  Stream sample j estimates input j - delay.
-    y = np.empty((len(model.output_channels), n))
+    # Filled in place (no list of blocks to join): a long record needs one output array.
+    y = np.empty((len(model.output_channels), x.shape[1]))
     done = 0
-    for i in range(0, n, block_size):
-        done = _place(y, predictor.process(x[:, i:i + block_size]), done, delay)
-    _place(y, predictor.flush(), done, delay)
+    for block in iter_forces(model, x, causal_delay_samples, block_size):
+        y[:, done:done + block.shape[1]] = block
+        done += block.shape[1]
     return y
 
 
-def _place(y: np.ndarray, block: np.ndarray, done: int, delay: int) -> int:
-    """Copy stream samples ``done..done+m-1`` into ``y`` (dropping the first ``delay``)."""
-    m = block.shape[1]
-    lo = max(done, delay)
-    if lo < done + m:
-        y[:, lo - delay:done + m - delay] = block[:, lo - done:]
-    return done + m
+def iter_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[int] = None,
+                block_size: Optional[int] = None) -> Iterator[np.ndarray]:
+    """
+    Yield the forces of one contiguous recording block by block, time-aligned with the input.
+
+    The blocks, concatenated, are exactly :func:`predict_forces`' result (same code path);
+    a consumer can write each block away before the next is computed, so a long recording
+    never needs its whole force array in memory.
+
+    Parameters
+    ----------
+    model, accel_mps2, causal_delay_samples
+        As for :func:`predict_forces`.
+    block_size : int, optional
+        Samples per filter call; default :attr:`Predictor.efficient_block` (a whole batch of
+        FFT segments, ~230 k samples for 8192 taps: little memory, one FFT length).
+
+    Yields
+    ------
+    numpy.ndarray, shape (n_outputs, m)
+        Forces [N] of the next ``m >= 1`` input samples, in order.
+
+    Raises
+    ------
+    ShapeError
+        Wrong channel count or block size.
+    NonFiniteError
+        NaN or infinity in the input (checked before the first block).
+
+    """
+    x = as_signals(accel_mps2, 'accelerations', model.input_channels, min_samples=0)
+    predictor = Predictor(model, causal_delay_samples)
+    if block_size is None:
+        block_size = predictor.efficient_block
+    if block_size < 1:
+        raise ShapeError(f'block_size must be >= 1, got {block_size}')
+    # Stream sample j estimates input sample j - delay: the first `delay` outputs are dropped.
+    skip = predictor.delay_samples
+
+    def stream():
+        for i in range(0, x.shape[1], block_size):
+            yield predictor.process(x[:, i:i + block_size])
+        yield predictor.flush()  # only after the last block: the look-ahead is drained
+
+    for block in stream():
+        drop = min(skip, block.shape[1])
+        skip -= drop
+        if block.shape[1] > drop:
+            yield block[:, drop:]
