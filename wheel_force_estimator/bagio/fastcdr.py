@@ -152,7 +152,8 @@ def decode_rows(layout: Layout, rows: np.ndarray,
 
 
 def decode_records(layout: Layout, buf: np.ndarray, starts: np.ndarray, length: int,
-                   deserialize: Callable[[bytes], object], verdicts: Optional[dict] = None):
+                   deserialize: Callable[[bytes], object], verdicts: Optional[dict] = None,
+                   head: Optional[np.ndarray] = None):
     """
     Decode equal-length payloads lying anywhere in one byte buffer, without copying them.
 
@@ -171,6 +172,8 @@ def decode_records(layout: Layout, buf: np.ndarray, starts: np.ndarray, length: 
         Length of every payload.
     deserialize, verdicts
         As for :func:`decode_rows`.
+    head : numpy.ndarray, shape (n, 16), uint8, optional
+        The first 16 bytes of every payload when the caller gathered them already.
 
     Returns
     -------
@@ -184,7 +187,9 @@ def decode_records(layout: Layout, buf: np.ndarray, starts: np.ndarray, length: 
     done = np.zeros(n, bool)
     if length >= 16 and n:
         # one gather of the 16 header bytes: each pass over the payloads is a cache miss
-        head = gather_bytes(buf, starts, 16).view(_HEAD_DTYPE)[:, 0]
+        if head is None:
+            head = gather_bytes(buf, starts, 16)
+        head = head.view(_HEAD_DTYPE)[:, 0]
         strlen = head['strlen'].astype(np.int64)
         fits = head['enc'] == _CDR_LE
         fits &= (4 + ((12 + strlen + 7) // 8) * 8 + layout.tail_bytes) == length
@@ -293,8 +298,12 @@ class TopicDecoder:
                               np.empty((n, 3), np.float64) if values is None else values)
 
     def add(self, log_time: np.ndarray, lengths: np.ndarray, buf: np.ndarray,
-            starts: np.ndarray):
-        """Decode one batch: payload ``i`` is ``buf[starts[i]:starts[i] + lengths[i]]``."""
+            starts: np.ndarray, head: Optional[np.ndarray] = None):
+        """
+        Decode one batch: payload ``i`` is ``buf[starts[i]:starts[i] + lengths[i]]``.
+
+        ``head`` (k, 16), if given, holds the first 16 bytes of every payload.
+        """
         if len(lengths) and lengths.min() == lengths.max():
             groups = [(int(lengths[0]), slice(None))]
         else:
@@ -302,7 +311,8 @@ class TopicDecoder:
         stamp = values = None
         for length, idx in groups:
             st, vals, n_fast = decode_records(self.layout, buf, starts[idx], length,
-                                              self.deserialize, self.verdicts)
+                                              self.deserialize, self.verdicts,
+                                              None if head is None else head[idx])
             self.n_fast += n_fast
             if isinstance(idx, slice):
                 stamp, values = st, vals

@@ -148,8 +148,9 @@ class _Collector:
         self.count = 0
 
     def add(self, log_time: np.ndarray, lengths: np.ndarray, buf: np.ndarray,
-            starts: np.ndarray):
+            starts: np.ndarray, head: Optional[np.ndarray] = None):
         """Add a batch: payload ``i`` is ``buf[starts[i]:starts[i] + lengths[i]]``."""
+        del head  # raw payloads are kept whole
         for length in np.unique(lengths):
             idx = np.flatnonzero(lengths == length)
             self.rows.setdefault(int(length), []).append(
@@ -201,8 +202,9 @@ def read_raw_topics(path: Path, topics: Sequence[str], make_sink=None):
         Topic names; topics absent from the storage are absent from the result.
     make_sink : callable, optional
         ``make_sink(topic, msgtype)`` returns the object receiving that topic's batches
-        (``add(log_time, lengths, buf, starts)`` with payload ``i`` at
-        ``buf[starts[i]:starts[i] + lengths[i]]``, valid only during the call, and
+        (``add(log_time, lengths, buf, starts, head=None)`` with payload ``i`` at
+        ``buf[starts[i]:starts[i] + lengths[i]]``, valid only during the call, optionally its
+        first 16 bytes already gathered in ``head`` (k, 16), and
         ``finish()``; e.g. a decoder), or None to keep the raw payloads.
 
     Returns
@@ -562,7 +564,9 @@ class _McapFile:
         if op != 0x07 or index_cid != cid or pos + 15 + arr_len > hi or arr_len % 16:
             raise self._fail(f'bad message index for channel {cid}', start + pos - lo)
         pairs = np.frombuffer(view, '<u8', count=arr_len // 8, offset=pos + 15)
-        pairs = pairs.astype(np.int64).reshape(-1, 2)  # one copy: the mapping is released
+        # a view (times and offsets are far below 2**63): _deliver_all copies what it keeps
+        # before the batch's pages are released
+        pairs = pairs.view(np.int64).reshape(-1, 2)
         return pairs[:, 0], pairs[:, 1]
 
     def _deliver_all(self, buf: np.ndarray, pending, wanted, collectors):
@@ -572,7 +576,12 @@ class _McapFile:
                 continue
             log_time, starts = (np.concatenate([p[i] for p in parts]) for i in (0, 1))
             ends = np.repeat([p[2] for p in parts], [len(p[1]) for p in parts])
-            head = gather_bytes(buf, starts, 11).view(_RECORD_DTYPE)[:, 0]  # one pass
+            # One gather per message for the record header and the CDR header after it
+            # (each pass over scattered messages is a cache miss per message); the CDR part
+            # is only meaningful for payloads of >= 16 bytes, which is all its user reads.
+            combined = starts.size and int(starts.max()) + _MSG_HEADER + 16 <= buf.size
+            rows = gather_bytes(buf, starts, _MSG_HEADER + 16 if combined else 11)
+            head = rows[:, :11].view(_RECORD_DTYPE)[:, 0]
             rec_len = head['length'].astype(np.int64)
             bad = head['opcode'] != 0x05
             bad |= head['channel'] != cid
@@ -583,8 +592,9 @@ class _McapFile:
                                                   side='right'))][3]
                 raise self._fail(f'bad message record for channel {cid} in chunk', chunk)
             topic, msgtype = wanted[cid]
-            collectors.sink(topic, msgtype).add(log_time, rec_len - 22, buf,
-                                                starts + _MSG_HEADER)
+            collectors.sink(topic, msgtype).add(
+                log_time, rec_len - 22, buf, starts + _MSG_HEADER,
+                head=rows[:, _MSG_HEADER:] if combined else None)
             parts.clear()
 
 
