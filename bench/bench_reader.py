@@ -30,6 +30,7 @@ from rosbags.highlevel import AnyReader
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import TopicConfig
 from wheel_force_estimator.bagio import write_recording
+from wheel_force_estimator.bagio.checksum import CRC32_LIBRARY
 from wheel_force_estimator.bagio.fastcdr import IMU_TYPE
 from wheel_force_estimator.bagio.fastcdr import WRENCH_TYPE
 from wheel_force_estimator.bagio.reader import _read_topics
@@ -111,13 +112,13 @@ def main(argv=None) -> int:
                   f'{n_msgs / t_deser / 1e3:8.0f} k msg/s')
             print(f'  speed-up vs baseline: {ratio:.1f}x (goal >= 10x); '
                   f'vs raw iteration: {t_raw / t_bulk:.1f}x')
-    print('\nWhat limits the bulk path: mcap - the chunk CRC32s (zlib, ~5 GB/s, in a worker '
-          'thread one batch ahead) and first touches of the memory-mapped chunks by the '
-          'few gathers per message (record header, CDR header, values); an Imu-only read '
-          'still CRCs whole chunks, since every chunk interleaves all topics.  sqlite3 - '
-          'SQLite itself scanning the rows and formatting the per-row (topic, timestamp, '
-          'length) text, since the sqlite3 module has no way to hand back integer columns '
-          'in bulk.')
+    print(f'\nWhat limits the bulk path: mcap - the two gathers per message (record + CDR '
+          f'header, then the values), each a cache miss on scattered messages, and the chunk '
+          f'CRC32s ({CRC32_LIBRARY}, in a worker thread one batch ahead; an Imu-only read '
+          f'still CRCs whole chunks, since every chunk interleaves all topics).  sqlite3 - '
+          f'SQLite itself scanning the rows and formatting the per-row (topic, timestamp, '
+          f'length) text, since the sqlite3 module has no way to hand back integer columns '
+          f'in bulk (the next query runs in a worker while a batch is decoded).')
     if min(ratios) < 10.0:
         print('GOAL NOT MET on this run (shared machine? rerun when idle)')
     return 0
