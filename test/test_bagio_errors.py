@@ -288,10 +288,10 @@ def test_flipped_value_bit_caught_by_chunk_crc(tmp_path, monkeypatch, require_wf
 
     The damaged value is a force, so the Imu-only read must verify the whole chunk too.
     """
+    from wheel_force_estimator.bagio import mcap_reader
     from wheel_force_estimator.bagio import mcap_writer
-    from wheel_force_estimator.bagio import storage as storage_mod
     monkeypatch.setattr(mcap_writer, 'CHUNK_BYTES', 8 << 10)  # many chunks and batches
-    monkeypatch.setattr(storage_mod, '_BATCH_BYTES', 20 << 10)
+    monkeypatch.setattr(mcap_reader, '_BATCH_BYTES', 20 << 10)
     rng = np.random.default_rng(4)
     stamp = T0_NS + PERIOD_NS * np.arange(2000, dtype=np.int64)
     force = rng.standard_normal((12, 2000))

@@ -217,6 +217,7 @@ def test_bare_storage_file(tmp_path, storage):
 
 def test_many_chunks_and_batches(tmp_path, monkeypatch):
     """Chunks read in many small batches (CRCs one batch ahead) give the same samples."""
+    from wheel_force_estimator.bagio import mcap_reader
     from wheel_force_estimator.bagio import mcap_writer
     from wheel_force_estimator.bagio import storage as storage_mod
     n = 1500
@@ -225,7 +226,7 @@ def test_many_chunks_and_batches(tmp_path, monkeypatch):
     # ~8 KiB chunks (about 20 samples of 8 topics each), batches of a few chunks, so chunk
     # and batch boundaries fall everywhere in the record
     monkeypatch.setattr(mcap_writer, 'CHUNK_BYTES', 8 << 10)
-    monkeypatch.setattr(storage_mod, '_BATCH_BYTES', 20 << 10)
+    monkeypatch.setattr(mcap_reader, '_BATCH_BYTES', 20 << 10)
     path = write_recording(tmp_path / 'bag', stamp, accel, force, storage='mcap')
     layout = storage_mod.bag_layout(path)
     with layout.files[0].open('rb') as fh:

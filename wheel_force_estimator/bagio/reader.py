@@ -47,7 +47,7 @@ from wheel_force_estimator.bagio.fastcdr import LAYOUTS
 from wheel_force_estimator.bagio.fastcdr import STRING_TYPE
 from wheel_force_estimator.bagio.fastcdr import TopicDecoder
 from wheel_force_estimator.bagio.fastcdr import WRENCH_TYPE
-from wheel_force_estimator.bagio.storage import FastPathUnavailable
+from wheel_force_estimator.bagio.fastpath import FastPathUnavailable
 from wheel_force_estimator.bagio.storage import read_raw_topics
 from wheel_force_estimator.bagio.topics import default_topic_config
 from wheel_force_estimator.core.errors import BagError
