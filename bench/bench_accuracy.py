@@ -26,8 +26,8 @@ from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.core.evaluation import EvalSegment
 from wheel_force_estimator.core.evaluation import evaluate_segments
 from wheel_force_estimator.core.filtering import FirFilter
-from wheel_force_estimator.core.filtering import OverlapAddFilter
 from wheel_force_estimator.core.filtering import with_delay
+from wheel_force_estimator.core.overlap_add import OverlapAddFilter
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.pipeline import TrainingSegment

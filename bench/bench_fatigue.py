@@ -14,6 +14,7 @@ import numpy as np
 from scipy import signal
 
 from wheel_force_estimator.core import fatigue
+from wheel_force_estimator.core import rainflow
 
 FS_HZ = 512.0
 DURATION_S = 3600.0
@@ -34,16 +35,16 @@ def road_force_n(rng, n):
 
 def python_stack_loop_s(points):
     """Time the four-point loop as plain Python (no JIT) on ``points``."""
-    jitted = fatigue._push_point
-    fatigue._push_point = jitted.py_func  # the py_func below looks the helper up here
+    jitted = rainflow._push_point
+    rainflow._push_point = jitted.py_func  # the py_func below looks the helper up here
     try:
         stack = np.empty(points.size)
         cycles = np.empty((2, points.size // 2))
         t0 = time.perf_counter()
-        fatigue._count_points.py_func(points, stack, cycles)
+        rainflow._count_points.py_func(points, stack, cycles)
         return time.perf_counter() - t0
     finally:
-        fatigue._push_point = jitted
+        rainflow._push_point = jitted
 
 
 def main():
@@ -52,7 +53,7 @@ def main():
     n = int(FS_HZ * DURATION_S)
     x = road_force_n(rng, n)
     fatigue.pseudo_damage(x[:1000])  # JIT compile / cache load outside the timings
-    fatigue.rainflow(x[:1000])
+    rainflow.rainflow(x[:1000])
     stream = fatigue.StreamingDamage(N_CHANNELS)
     stream.update(np.zeros((N_CHANNELS, 3)))
     stream.damage()
@@ -60,10 +61,10 @@ def main():
     print(f'one channel, {DURATION_S / 3600:.0f} h at {FS_HZ:.0f} Hz = {n} samples')
     t_sort, _ = best_of(lambda: np.sort(x))
     print(f'  baseline numpy.sort                 {t_sort * 1e3:8.1f} ms')
-    t_tp, points = best_of(lambda: fatigue.turning_points(x))
+    t_tp, points = best_of(lambda: rainflow.turning_points(x))
     print(f'  turning_points                      {t_tp * 1e3:8.1f} ms '
           f'({points.size} points)')
-    t_rf, cycles = best_of(lambda: fatigue.rainflow(x))
+    t_rf, cycles = best_of(lambda: rainflow.rainflow(x))
     print(f'  rainflow                            {t_rf * 1e3:8.1f} ms '
           f'({int(np.sum(cycles.counts == 1.0))} closed, {int(np.sum(cycles.counts < 1.0))} '
           'residue half cycles)')
@@ -71,7 +72,7 @@ def main():
     print(f'  pseudo_damage                       {t_pd * 1e3:8.1f} ms')
     part = points[:100_000]
     t_py = python_stack_loop_s(part) * points.size / part.size
-    t_jit, _ = best_of(lambda: fatigue._count_points(
+    t_jit, _ = best_of(lambda: rainflow._count_points(
         points, np.empty(points.size), np.empty((2, points.size // 2))))
     print(f'  stack loop numba                    {t_jit * 1e3:8.1f} ms')
     print(f'  baseline stack loop plain Python    {t_py * 1e3:8.1f} ms '

@@ -21,9 +21,9 @@ import numpy as np
 from scipy import signal
 import scipy.fft
 
-from wheel_force_estimator.core.filtering import apply_fir
 from wheel_force_estimator.core.filtering import fir_from_frf
-from wheel_force_estimator.core.filtering import OverlapAddFilter
+from wheel_force_estimator.core.overlap_add import apply_fir
+from wheel_force_estimator.core.overlap_add import OverlapAddFilter
 
 FS_HZ = 512.0
 N_CH = 12

@@ -1,6 +1,6 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""Tests of core.fatigue: turning points, rainflow, pseudo damage, RDS, streaming damage."""
+"""Tests of core.rainflow and core.fatigue: turning points, rainflow, pseudo damage, RDS."""
 from collections import Counter
 
 import numpy as np
@@ -13,11 +13,11 @@ from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.fatigue import damage_bands_hz
 from wheel_force_estimator.core.fatigue import PAPER_BANDS_HZ
 from wheel_force_estimator.core.fatigue import pseudo_damage
-from wheel_force_estimator.core.fatigue import rainflow
-from wheel_force_estimator.core.fatigue import RainflowCycles
 from wheel_force_estimator.core.fatigue import relative_damage_spectrum
 from wheel_force_estimator.core.fatigue import StreamingDamage
-from wheel_force_estimator.core.fatigue import turning_points
+from wheel_force_estimator.core.rainflow import rainflow
+from wheel_force_estimator.core.rainflow import RainflowCycles
+from wheel_force_estimator.core.rainflow import turning_points
 
 ASTM_HISTORY = [-2.0, 1.0, -3.0, 5.0, -1.0, 3.0, -4.0, 4.0, -2.0]
 

@@ -10,12 +10,12 @@ from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.errors import NonFiniteError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filtering import acausal_energy_fraction
-from wheel_force_estimator.core.filtering import apply_fir
 from wheel_force_estimator.core.filtering import choose_causal_delay
 from wheel_force_estimator.core.filtering import fir_from_frf
 from wheel_force_estimator.core.filtering import FirFilter
-from wheel_force_estimator.core.filtering import OverlapAddFilter
 from wheel_force_estimator.core.filtering import with_delay
+from wheel_force_estimator.core.overlap_add import apply_fir
+from wheel_force_estimator.core.overlap_add import OverlapAddFilter
 
 FS_HZ = 512.0
 N_FFT = 1024         # the production size: 2 s Welch segments at 512 Hz

@@ -14,9 +14,19 @@ from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import NonFiniteError
 from wheel_force_estimator.core.errors import ShapeError
-from wheel_force_estimator.report import plots
 from wheel_force_estimator.report import tables
+from wheel_force_estimator.report.evaluation_plots import _envelope
+from wheel_force_estimator.report.evaluation_plots import _MAX_LINE_POINTS
+from wheel_force_estimator.report.evaluation_plots import plot_damage_ratio
+from wheel_force_estimator.report.evaluation_plots import plot_relative_damage_spectrum
+from wheel_force_estimator.report.evaluation_plots import plot_rmse_colormap
+from wheel_force_estimator.report.evaluation_plots import plot_time_overlay
+from wheel_force_estimator.report.figures import RUBRIC_COLORS
 from wheel_force_estimator.report.markdown import ReportWriter
+from wheel_force_estimator.report.spectral_plots import plot_asd
+from wheel_force_estimator.report.spectral_plots import plot_coherence
+from wheel_force_estimator.report.spectral_plots import plot_condition_number
+from wheel_force_estimator.report.spectral_plots import plot_frf_diagonal
 
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 FS_HZ = 128.0
@@ -56,16 +66,16 @@ def f_hz():
 def test_plot_coherence_writes_png_of_documented_size(tmp_path, rng, f_hz):
     multiple = rng.uniform(0.3, 1.0, (f_hz.size, 12))
     ordinary = multiple * rng.uniform(0.5, 1.0, multiple.shape)
-    out = plots.plot_coherence(tmp_path / 'coherence.png', f_hz, multiple, ordinary,
-                               OUTPUT_CHANNELS, f_max_hz=40.0)
+    out = plot_coherence(tmp_path / 'coherence.png', f_hz, multiple, ordinary,
+                         OUTPUT_CHANNELS, f_max_hz=40.0)
     assert out == tmp_path / 'coherence.png'
     # 4 corner rows x 3 axis columns of 4.2 x 2.3 in cells + margins, 150 dpi: 13.2 x 10.2 in.
     _assert_png(out, size_px=(1530, 1980))
 
 
 def test_plot_coherence_without_ordinary(tmp_path, rng, f_hz):
-    out = plots.plot_coherence(tmp_path / 'c.png', f_hz, rng.uniform(0, 1, (f_hz.size, 12)),
-                               None, OUTPUT_CHANNELS)
+    out = plot_coherence(tmp_path / 'c.png', f_hz, rng.uniform(0, 1, (f_hz.size, 12)),
+                         None, OUTPUT_CHANNELS)
     _assert_png(out)
 
 
@@ -76,24 +86,24 @@ def test_plot_frf_diagonal(tmp_path, rng, f_hz):
                 + 1j * rng.standard_normal((f_hz.size, 12, 12)))
     for k in range(12):
         h[:, k, k] += 400.0 * wn**2 / (s**2 + 0.4 * wn * s + wn**2)
-    _assert_png(plots.plot_frf_diagonal(tmp_path / 'frf.png', f_hz, h, INPUT_CHANNELS,
-                                        OUTPUT_CHANNELS, f_max_hz=50.0))
+    _assert_png(plot_frf_diagonal(tmp_path / 'frf.png', f_hz, h, INPUT_CHANNELS,
+                                  OUTPUT_CHANNELS, f_max_hz=50.0))
 
 
 def test_plot_frf_diagonal_without_same_axis_pair(tmp_path, f_hz):
     h = np.ones((f_hz.size, 1, 1), complex)
     with pytest.raises(ConfigError, match='same-axis'):
-        plots.plot_frf_diagonal(tmp_path / 'frf.png', f_hz, h, ['lf_ax'], ['rf_fx'])
+        plot_frf_diagonal(tmp_path / 'frf.png', f_hz, h, ['lf_ax'], ['rf_fx'])
 
 
 def test_plot_time_overlay_full_and_zoom(tmp_path, rng):
     t_s = np.arange(4096) / FS_HZ
     target = rng.standard_normal((12, t_s.size)) * 1000.0
     prediction = target + rng.standard_normal(target.shape) * 100.0
-    full = plots.plot_time_overlay(tmp_path / 'full.png', t_s, target, prediction,
-                                   OUTPUT_CHANNELS, title='run1')
-    zoom = plots.plot_time_overlay(tmp_path / 'zoom.png', t_s, target, prediction,
-                                   OUTPUT_CHANNELS, window_s=(10.0, 12.0), title='run1')
+    full = plot_time_overlay(tmp_path / 'full.png', t_s, target, prediction,
+                             OUTPUT_CHANNELS, title='run1')
+    zoom = plot_time_overlay(tmp_path / 'zoom.png', t_s, target, prediction,
+                             OUTPUT_CHANNELS, window_s=(10.0, 12.0), title='run1')
     _assert_png(full)
     _assert_png(zoom)
     assert not np.array_equal(_rgb(full), _rgb(zoom))
@@ -106,8 +116,8 @@ def test_plot_time_overlay_long_record_keeps_peaks():
         for sign in (1.0, -1.0):
             y = np.zeros(t_s.size)
             y[index] = sign * 7.0
-            t_env, y_env = plots._envelope(t_s, y)
-            assert y_env.size <= plots._MAX_LINE_POINTS
+            t_env, y_env = _envelope(t_s, y)
+            assert y_env.size <= _MAX_LINE_POINTS
             assert (y_env.max(), y_env.min()) == (max(sign * 7.0, 0.0), min(sign * 7.0, 0.0))
             assert np.all(np.diff(t_env) >= 0.0)
 
@@ -116,46 +126,46 @@ def test_plot_asd_with_and_without_frf(tmp_path, rng, f_hz):
     asd_target = rng.uniform(1e2, 1e4, (12, f_hz.size))
     asd_error = asd_target * 0.01
     mag = rng.uniform(10.0, 1000.0, (12, f_hz.size))
-    _assert_png(plots.plot_asd(tmp_path / 'a.png', f_hz, asd_target, asd_target * 0.9,
-                               asd_error, OUTPUT_CHANNELS, frf_mag=mag))
+    _assert_png(plot_asd(tmp_path / 'a.png', f_hz, asd_target, asd_target * 0.9,
+                         asd_error, OUTPUT_CHANNELS, frf_mag=mag))
     # Without the FRF overlay on one corner only: a 1 x 3 grid, and constrained layout of a
     # 12-panel log figure costs ~2 s, which one call above already covers.
-    _assert_png(plots.plot_asd(tmp_path / 'b.png', f_hz, asd_target[:3], asd_target[:3] * 0.9,
-                               asd_error[:3], OUTPUT_CHANNELS[:3]))
+    _assert_png(plot_asd(tmp_path / 'b.png', f_hz, asd_target[:3], asd_target[:3] * 0.9,
+                         asd_error[:3], OUTPUT_CHANNELS[:3]))
 
 
 def test_plot_damage_ratio_including_zero(tmp_path):
     ratio = [0.57, 0.52, 0.93, 0.69, 0.54, 0.93, 0.99, 0.72, 0.94, 0.97, 0.0, 2.5]
-    _assert_png(plots.plot_damage_ratio(tmp_path / 'r.png', OUTPUT_CHANNELS, ratio))
+    _assert_png(plot_damage_ratio(tmp_path / 'r.png', OUTPUT_CHANNELS, ratio))
 
 
 def test_plot_relative_damage_spectrum(tmp_path, rng):
     target = 10.0 ** rng.uniform(14, 18, (12, 5))
     prediction = target * 10.0 ** rng.uniform(-0.5, 0.2, target.shape)
     prediction[3, 4] = 0.0
-    _assert_png(plots.plot_relative_damage_spectrum(tmp_path / 'rds.png', OUTPUT_CHANNELS,
-                                                    PAPER_BANDS, target, prediction))
+    _assert_png(plot_relative_damage_spectrum(tmp_path / 'rds.png', OUTPUT_CHANNELS,
+                                              PAPER_BANDS, target, prediction))
 
 
 def test_plot_relative_damage_spectrum_all_zero_is_drawn(tmp_path):
     zeros = np.zeros((12, 5))
-    _assert_png(plots.plot_relative_damage_spectrum(tmp_path / 'rds.png', OUTPUT_CHANNELS,
-                                                    PAPER_BANDS, zeros, zeros))
+    _assert_png(plot_relative_damage_spectrum(tmp_path / 'rds.png', OUTPUT_CHANNELS,
+                                              PAPER_BANDS, zeros, zeros))
 
 
 def test_plot_condition_number(tmp_path, f_hz):
-    _assert_png(plots.plot_condition_number(tmp_path / 'k.png', f_hz, 10 ** (1 + f_hz / 20)))
+    _assert_png(plot_condition_number(tmp_path / 'k.png', f_hz, 10 ** (1 + f_hz / 20)))
 
 
 def test_plot_rmse_colormap_cells_take_rubric_colours(tmp_path):
     # One row, levels in reverse order left to right: bad cells are on the left while the
     # legend lists the levels left to right from perfect, so the big cells decide the mean x.
     values = [[150.0, 90.0, 60.0, 30.0, 10.0]]
-    out = plots.plot_rmse_colormap(tmp_path / 'rmse.png', ['belgian_block'],
-                                   ['lf_fx', 'lf_fy', 'lf_fz', 'rf_fx', 'rf_fy'], values)
+    out = plot_rmse_colormap(tmp_path / 'rmse.png', ['belgian_block'],
+                             ['lf_fx', 'lf_fy', 'lf_fz', 'rf_fx', 'rf_fy'], values)
     img = _rgb(out)
     mean_x = []
-    for colour in plots.RUBRIC_COLORS:
+    for colour in RUBRIC_COLORS:
         # imshow with nearest interpolation paints exact colours; 1/255 covers PNG quantising.
         hit = np.all(np.abs(img - np.array(to_rgb(colour))) < 1.5 / 255, axis=2)
         assert hit.sum() > 1000, f'{colour} barely present'
@@ -164,7 +174,8 @@ def test_plot_rmse_colormap_cells_take_rubric_colours(tmp_path):
 
 
 def test_plots_do_not_import_pyplot():
-    code = ('import sys; import wheel_force_estimator.report.plots; '
+    code = ('import sys; import wheel_force_estimator.report.spectral_plots; '
+            'import wheel_force_estimator.report.evaluation_plots; '
             'sys.exit(int("matplotlib.pyplot" in sys.modules))')
     assert subprocess.run([sys.executable, '-c', code], check=False).returncode == 0
 
@@ -173,33 +184,33 @@ def test_plots_do_not_import_pyplot():
 def test_shape_mismatch_names_the_argument(tmp_path, rng, f_hz):
     good = rng.uniform(0, 1, (f_hz.size, 12))
     with pytest.raises(ShapeError, match='coherence_multiple'):
-        plots.plot_coherence(tmp_path / 'c.png', f_hz, good[:, :11], None, OUTPUT_CHANNELS)
+        plot_coherence(tmp_path / 'c.png', f_hz, good[:, :11], None, OUTPUT_CHANNELS)
     with pytest.raises(ShapeError, match='coherence_ordinary_diag'):
-        plots.plot_coherence(tmp_path / 'c.png', f_hz, good, good[1:], OUTPUT_CHANNELS)
+        plot_coherence(tmp_path / 'c.png', f_hz, good, good[1:], OUTPUT_CHANNELS)
     with pytest.raises(ShapeError, match='h: expected shape'):
-        plots.plot_frf_diagonal(tmp_path / 'f.png', f_hz, np.ones((f_hz.size, 12, 11)),
-                                INPUT_CHANNELS, OUTPUT_CHANNELS)
+        plot_frf_diagonal(tmp_path / 'f.png', f_hz, np.ones((f_hz.size, 12, 11)),
+                          INPUT_CHANNELS, OUTPUT_CHANNELS)
     t_s = np.arange(100) / FS_HZ
     with pytest.raises(ShapeError, match='prediction'):
-        plots.plot_time_overlay(tmp_path / 't.png', t_s, np.zeros((12, 100)),
-                                np.zeros((12, 99)), OUTPUT_CHANNELS)
+        plot_time_overlay(tmp_path / 't.png', t_s, np.zeros((12, 100)),
+                          np.zeros((12, 99)), OUTPUT_CHANNELS)
     with pytest.raises(ShapeError, match='asd_prediction'):
-        plots.plot_asd(tmp_path / 'a.png', f_hz, good.T, good.T[:3], good.T, OUTPUT_CHANNELS)
+        plot_asd(tmp_path / 'a.png', f_hz, good.T, good.T[:3], good.T, OUTPUT_CHANNELS)
     with pytest.raises(ShapeError, match='ratio'):
-        plots.plot_damage_ratio(tmp_path / 'r.png', OUTPUT_CHANNELS, np.ones(11))
+        plot_damage_ratio(tmp_path / 'r.png', OUTPUT_CHANNELS, np.ones(11))
     with pytest.raises(ShapeError, match='bands_hz'):
-        plots.plot_relative_damage_spectrum(tmp_path / 'd.png', OUTPUT_CHANNELS,
-                                            [0.0, 2.2], np.ones((12, 1)), np.ones((12, 1)))
+        plot_relative_damage_spectrum(tmp_path / 'd.png', OUTPUT_CHANNELS,
+                                      [0.0, 2.2], np.ones((12, 1)), np.ones((12, 1)))
     with pytest.raises(ShapeError, match='rds_prediction'):
-        plots.plot_relative_damage_spectrum(tmp_path / 'd.png', OUTPUT_CHANNELS, PAPER_BANDS,
-                                            np.ones((12, 5)), np.ones((12, 4)))
+        plot_relative_damage_spectrum(tmp_path / 'd.png', OUTPUT_CHANNELS, PAPER_BANDS,
+                                      np.ones((12, 5)), np.ones((12, 4)))
     with pytest.raises(ShapeError, match='rmse_pct'):
-        plots.plot_rmse_colormap(tmp_path / 'm.png', ['a', 'b'], OUTPUT_CHANNELS,
-                                 np.ones((3, 12)))
+        plot_rmse_colormap(tmp_path / 'm.png', ['a', 'b'], OUTPUT_CHANNELS,
+                           np.ones((3, 12)))
     with pytest.raises(ShapeError, match='cond'):
-        plots.plot_condition_number(tmp_path / 'k.png', f_hz, np.ones(3))
+        plot_condition_number(tmp_path / 'k.png', f_hz, np.ones(3))
     with pytest.raises(ShapeError, match='duplicated'):
-        plots.plot_damage_ratio(tmp_path / 'r.png', ['lf_fx', 'lf_fx'], [1.0, 1.0])
+        plot_damage_ratio(tmp_path / 'r.png', ['lf_fx', 'lf_fx'], [1.0, 1.0])
     assert not list(tmp_path.iterdir()), 'a rejected plot still wrote a file'
 
 
@@ -208,38 +219,38 @@ def test_non_finite_is_rejected_with_argument_named(tmp_path, f_hz):
     bad = asd.copy()
     bad[4, 7] = np.nan
     with pytest.raises(NonFiniteError, match=r'asd_error: .*index \(4, 7\)'):
-        plots.plot_asd(tmp_path / 'a.png', f_hz, asd, asd, bad, OUTPUT_CHANNELS)
+        plot_asd(tmp_path / 'a.png', f_hz, asd, asd, bad, OUTPUT_CHANNELS)
     h = np.ones((f_hz.size, 12, 12), complex)
     h[3, 0, 0] = complex(np.inf, 0.0)
     with pytest.raises(NonFiniteError, match='h: '):
-        plots.plot_frf_diagonal(tmp_path / 'f.png', f_hz, h, INPUT_CHANNELS, OUTPUT_CHANNELS)
+        plot_frf_diagonal(tmp_path / 'f.png', f_hz, h, INPUT_CHANNELS, OUTPUT_CHANNELS)
     with pytest.raises(NonFiniteError, match='ratio'):
-        plots.plot_damage_ratio(tmp_path / 'r.png', ['lf_fx'], [np.inf])
+        plot_damage_ratio(tmp_path / 'r.png', ['lf_fx'], [np.inf])
     with pytest.raises(NonFiniteError, match='f_hz'):
-        plots.plot_condition_number(tmp_path / 'k.png', [0.0, np.nan, 2.0], [1.0, 1.0, 1.0])
+        plot_condition_number(tmp_path / 'k.png', [0.0, np.nan, 2.0], [1.0, 1.0, 1.0])
 
 
 def test_invalid_arguments_are_config_errors(tmp_path, f_hz):
     cond = np.ones(f_hz.size)
     with pytest.raises(ConfigError, match='.png'):
-        plots.plot_condition_number(tmp_path / 'k.jpg', f_hz, cond)
+        plot_condition_number(tmp_path / 'k.jpg', f_hz, cond)
     with pytest.raises(ConfigError, match='does not exist'):
-        plots.plot_condition_number(tmp_path / 'missing' / 'k.png', f_hz, cond)
+        plot_condition_number(tmp_path / 'missing' / 'k.png', f_hz, cond)
     with pytest.raises(ConfigError, match='strictly increasing'):
-        plots.plot_condition_number(tmp_path / 'k.png', f_hz[::-1], cond)
+        plot_condition_number(tmp_path / 'k.png', f_hz[::-1], cond)
     with pytest.raises(ConfigError, match='f_max_hz'):
-        plots.plot_coherence(tmp_path / 'c.png', f_hz, np.ones((f_hz.size, 12)), None,
-                             OUTPUT_CHANNELS, f_max_hz=-1.0)
+        plot_coherence(tmp_path / 'c.png', f_hz, np.ones((f_hz.size, 12)), None,
+                       OUTPUT_CHANNELS, f_max_hz=-1.0)
     t_s = np.arange(100) / FS_HZ
     with pytest.raises(ConfigError, match='window_s'):
-        plots.plot_time_overlay(tmp_path / 't.png', t_s, np.zeros((12, 100)),
-                                np.zeros((12, 100)), OUTPUT_CHANNELS, window_s=(50.0, 60.0))
+        plot_time_overlay(tmp_path / 't.png', t_s, np.zeros((12, 100)),
+                          np.zeros((12, 100)), OUTPUT_CHANNELS, window_s=(50.0, 60.0))
     with pytest.raises(ConfigError, match='ratio: negative value -0.5 for channel lf_fy'):
-        plots.plot_damage_ratio(tmp_path / 'r.png', ['lf_fx', 'lf_fy'], [1.0, -0.5])
+        plot_damage_ratio(tmp_path / 'r.png', ['lf_fx', 'lf_fy'], [1.0, -0.5])
     with pytest.raises(ConfigError, match='asd_target: negative value .* channel rf_fx'):
         neg = np.ones((12, f_hz.size))
         neg[3, 0] = -1.0
-        plots.plot_asd(tmp_path / 'a.png', f_hz, neg, neg, neg, OUTPUT_CHANNELS)
+        plot_asd(tmp_path / 'a.png', f_hz, neg, neg, neg, OUTPUT_CHANNELS)
 
 
 # ---------------------------------------------------------------- tables
@@ -365,10 +376,10 @@ def test_count_rubric():
 def test_report_writer_links_images_relatively(tmp_path, f_hz):
     report = ReportWriter(tmp_path / 'out' / 'report')
     assert report.directory.is_dir()
-    png = plots.plot_condition_number(report.path('cond.png'), f_hz, np.ones(f_hz.size))
+    png = plot_condition_number(report.path('cond.png'), f_hz, np.ones(f_hz.size))
     (report.directory / 'plots').mkdir()
-    nested = plots.plot_condition_number(report.directory / 'plots' / 'my cond.png', f_hz,
-                                         np.ones(f_hz.size))
+    nested = plot_condition_number(report.directory / 'plots' / 'my cond.png', f_hz,
+                                   np.ones(f_hz.size))
     report.heading('Fit report', 1)
     report.paragraph('Two segments, 512 Hz.')
     report.table(tables.rubric_counts_table({'perfect': 1}, markdown=True))

@@ -7,9 +7,10 @@ rosbags yields one ``(connection, timestamp, bytes)`` tuple per message, which c
 a few hundred thousand messages per second before any decoding.  Here payloads come out in
 batches of numpy arrays: sqlite3 through aggregate queries over rowid ranges
 (:mod:`.sqlite_reader`), mcap memory-mapped through its chunk and message indexes
-(:mod:`.mcap_reader`).  This module reads metadata.yaml and dispatches.  Each batch is handed to a per-topic sink as (buffer,
-payload starts, lengths), valid during the call: a raw collector here, or a decoder
-(:class:`.fastcdr.TopicDecoder`) that reads only the fields it needs in place.
+(:mod:`.mcap_reader`).  This module reads metadata.yaml and dispatches.  Each batch is
+handed to a per-topic sink as (buffer, payload starts, lengths), valid during the call: a raw
+collector here, or a decoder (:class:`.fastcdr.TopicDecoder`) that reads only the fields it
+needs in place.
 
 Topics are matched by name (and type), as ``ros2 bag`` does; QoS profiles are not compared.
 Whatever this module cannot do in bulk (file/message compression, an mcap file without

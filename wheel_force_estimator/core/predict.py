@@ -27,9 +27,9 @@ import numpy as np
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filtering import FirFilter
-from wheel_force_estimator.core.filtering import OverlapAddFilter
 from wheel_force_estimator.core.filtering import with_delay
 from wheel_force_estimator.core.model import FrfModel
+from wheel_force_estimator.core.overlap_add import OverlapAddFilter
 from wheel_force_estimator.core.validation import as_signals
 
 

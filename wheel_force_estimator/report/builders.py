@@ -5,9 +5,16 @@ from pathlib import Path
 
 import numpy as np
 
-from wheel_force_estimator.report import plots
 from wheel_force_estimator.report import tables
+from wheel_force_estimator.report.evaluation_plots import plot_damage_ratio
+from wheel_force_estimator.report.evaluation_plots import plot_relative_damage_spectrum
+from wheel_force_estimator.report.evaluation_plots import plot_rmse_colormap
+from wheel_force_estimator.report.evaluation_plots import plot_time_overlay
 from wheel_force_estimator.report.markdown import ReportWriter
+from wheel_force_estimator.report.spectral_plots import plot_asd
+from wheel_force_estimator.report.spectral_plots import plot_coherence
+from wheel_force_estimator.report.spectral_plots import plot_condition_number
+from wheel_force_estimator.report.spectral_plots import plot_frf_diagonal
 
 
 def evaluation_text(evaluation) -> str:
@@ -44,8 +51,8 @@ def write_fit_report(directory, model, summary) -> Path:
         f'`{model.estimator}`, segment length {model.fit.get("segment_length")}, '
         f'{model.fit.get("n_windows")} windows averaged.')
     out.heading('Coherence', 2)
-    out.image(plots.plot_coherence(d / 'coherence.png', model.f_hz, model.coherence_multiple,
-                                   diag, model.output_channels),
+    out.image(plot_coherence(d / 'coherence.png', model.f_hz, model.coherence_multiple,
+                             diag, model.output_channels),
               'Multiple coherence per output and ordinary coherence of the same-axis pair')
     rows = '\n'.join(f'| {n} | {summary["mean_coherence"][n]:.3f} | '
                      + (', '.join(f'{a:.1f}-{b:.1f}' for a, b in summary['low_bands_hz'][n])
@@ -54,12 +61,12 @@ def write_fit_report(directory, model, summary) -> Path:
     out.table('| output | mean multiple coherence 0.5-50 Hz | bands < 0.5 [Hz] |\n'
               '|---|---|---|\n' + rows)
     out.heading('FRF diagonal', 2)
-    out.image(plots.plot_frf_diagonal(d / 'frf_diagonal.png', model.f_hz, model.h,
-                                      model.input_channels, model.output_channels),
+    out.image(plot_frf_diagonal(d / 'frf_diagonal.png', model.f_hz, model.h,
+                                model.input_channels, model.output_channels),
               'Same-axis FRF per corner: magnitude and phase')
     out.heading('Conditioning', 2)
-    out.image(plots.plot_condition_number(d / 'condition_number.png', model.f_hz,
-                                          model.cond_sxx),
+    out.image(plot_condition_number(d / 'condition_number.png', model.f_hz,
+                                    model.cond_sxx),
               'Condition number of the input cross-spectral matrix')
     return out.write()
 
@@ -83,7 +90,7 @@ def write_evaluation_report(directory, model, evaluation, segments) -> Path:
         events = sorted(evaluation.events)
         values = np.array([evaluation.events[e]['rmse_pct'] for e in events])
         out.heading('RMSE per road event', 2)
-        out.image(plots.plot_rmse_colormap(d / 'rmse_events.png', events, ch, values),
+        out.image(plot_rmse_colormap(d / 'rmse_events.png', events, ch, values),
                   'RMSE % per event and channel (paper Table 2 / Figure 9)')
     out.heading('Pseudo damage', 2)
     out.table(tables.damage_table(ch, evaluation.damage_target, evaluation.damage_prediction,
@@ -91,31 +98,31 @@ def write_evaluation_report(directory, model, evaluation, segments) -> Path:
     ratio = evaluation.damage_ratio
     finite = np.isfinite(ratio)  # a target without cycles has no ratio (n/a in the table)
     if finite.any():
-        out.image(plots.plot_damage_ratio(d / 'damage_ratio.png',
-                                          [c for c, ok in zip(ch, finite) if ok], ratio[finite]),
+        out.image(plot_damage_ratio(d / 'damage_ratio.png',
+                                    [c for c, ok in zip(ch, finite) if ok], ratio[finite]),
                   'Prediction/target pseudo damage (0.5-2 is good)')
-    out.image(plots.plot_relative_damage_spectrum(
+    out.image(plot_relative_damage_spectrum(
         d / 'relative_damage_spectrum.png', ch, evaluation.bands_hz, evaluation.rds_target,
         evaluation.rds_prediction), 'Relative damage spectrum (paper Figure 13)')
     out.heading('Spectra', 2)
     diag = np.stack([np.abs(model.h[:, o, o]) for o in range(len(ch))])
     mag = np.stack([np.interp(evaluation.f_hz, model.f_hz, row) for row in diag])
-    out.image(plots.plot_asd(d / 'asd.png', evaluation.f_hz, evaluation.asd_target,
-                             evaluation.asd_prediction, evaluation.asd_error, ch,
-                             frf_mag=mag),
+    out.image(plot_asd(d / 'asd.png', evaluation.f_hz, evaluation.asd_target,
+                       evaluation.asd_prediction, evaluation.asd_error, ch,
+                       frf_mag=mag),
               'ASD of target, prediction and error with the same-axis FRF (Figures 10-12)')
-    out.image(plots.plot_coherence(d / 'coherence.png', model.f_hz, model.coherence_multiple,
-                                   None, model.output_channels),
+    out.image(plot_coherence(d / 'coherence.png', model.f_hz, model.coherence_multiple,
+                             None, model.output_channels),
               'Model multiple coherence (Figure 6)')
     out.heading('Time histories', 2)
     longest = max(segments, key=lambda s: s.target_n.shape[1])
     t_s = (longest.stamp_ns - longest.stamp_ns[0]) * 1e-9
-    out.image(plots.plot_time_overlay(d / 'time_history.png', t_s, longest.target_n,
-                                      longest.prediction_n, ch, title=longest.source),
+    out.image(plot_time_overlay(d / 'time_history.png', t_s, longest.target_n,
+                                longest.prediction_n, ch, title=longest.source),
               f'Target vs prediction, {longest.source}')
     mid = t_s[-1] / 2
-    out.image(plots.plot_time_overlay(d / 'time_history_zoom.png', t_s, longest.target_n,
-                                      longest.prediction_n, ch, window_s=(mid, mid + 5.0),
-                                      title=f'{longest.source} (5 s zoom)'),
+    out.image(plot_time_overlay(d / 'time_history_zoom.png', t_s, longest.target_n,
+                                longest.prediction_n, ch, window_s=(mid, mid + 5.0),
+                                title=f'{longest.source} (5 s zoom)'),
               'Zoom on 5 s')
     return out.write()
