@@ -33,6 +33,8 @@ _RECORD_DTYPE = np.dtype({'names': ['opcode', 'length', 'channel'],
 _BATCH_BYTES = 64 << 20
 # Bytes of unwanted records between two wanted chunks still read rather than skipped.
 _MAX_SKIP = 1 << 20
+# Threads decoding the channels of a batch side by side (the machine has 2 cores).
+_DECODE_THREADS = 2
 
 
 def _zstd_decompress(data: bytes) -> bytes:
@@ -164,6 +166,11 @@ class McapFile:
         previous: List[tuple] = []
         previous_range = (0, 0)
         pool = ThreadPoolExecutor(max_workers=1)
+        # The channels of a batch are checked and decoded in parallel (numpy's gathers,
+        # comparisons and copies release the GIL); every sink exists before that starts.
+        for topic, msgtype in wanted.values():
+            collectors.sink(topic, msgtype)
+        self._decoders = ThreadPoolExecutor(max_workers=_DECODE_THREADS)
         try:
             upcoming = self._submit_crcs(mm, batches[0], pool)
             for k, (batch, lo, hi) in enumerate(batches):
@@ -182,6 +189,7 @@ class McapFile:
             self._check_crcs(previous)
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
+            self._decoders.shutdown(wait=True, cancel_futures=True)
             try:
                 mm.close()
             except BufferError:  # views still referenced by a traceback: unmapped by GC
@@ -285,31 +293,38 @@ class McapFile:
 
     def _deliver_all(self, buf: np.ndarray, pending, wanted, collectors):
         """Check the pending message records of every channel and hand them to the sinks."""
-        for cid, parts in pending.items():
-            if not parts:
-                continue
-            log_time, starts = (np.concatenate([p[i] for p in parts]) for i in (0, 1))
-            ends = np.repeat([p[2] for p in parts], [len(p[1]) for p in parts])
-            # One gather per message for the record header and the CDR header after it
-            # (each pass over scattered messages is a cache miss per message); the CDR part
-            # is only meaningful for payloads of >= 16 bytes, which is all its user reads.
-            combined = starts.size and int(starts.max()) + _MSG_HEADER + 16 <= buf.size
-            rows = gather_bytes(buf, starts, _MSG_HEADER + 16 if combined else 11)
-            head = rows[:, :11].view(_RECORD_DTYPE)[:, 0]
-            rec_len = head['length'].astype(np.int64)
-            bad = head['opcode'] != 0x05
-            bad |= head['channel'] != cid
-            bad |= (rec_len < 22) | (rec_len > ends - starts - 9)
-            if bad.any():
-                i = int(np.argmax(bad))
-                chunk = parts[int(np.searchsorted(np.cumsum([len(p[1]) for p in parts]), i,
-                                                  side='right'))][3]
-                raise self._fail(f'bad message record for channel {cid} in chunk', chunk)
-            topic, msgtype = wanted[cid]
-            collectors.sink(topic, msgtype).add(
-                log_time, rec_len - 22, buf, starts + _MSG_HEADER,
-                head=rows[:, _MSG_HEADER:] if combined else None)
-            parts.clear()
+        jobs = [(cid, self._decoders.submit(self._deliver, buf, cid, list(parts), wanted,
+                                            collectors))
+                for cid, parts in pending.items() if parts]
+        for _, job in jobs:  # every job ends before an error (the first channel's) is raised
+            job.exception()
+        for cid, job in jobs:
+            job.result()
+            pending[cid].clear()
+
+    def _deliver(self, buf: np.ndarray, cid: int, parts, wanted, collectors):
+        """Check one channel's pending message records and hand them to its sink."""
+        log_time, starts = (np.concatenate([p[i] for p in parts]) for i in (0, 1))
+        ends = np.repeat([p[2] for p in parts], [len(p[1]) for p in parts])
+        # One gather per message for the record header and the CDR header after it
+        # (each pass over scattered messages is a cache miss per message); the CDR part
+        # is only meaningful for payloads of >= 16 bytes, which is all its user reads.
+        combined = starts.size and int(starts.max()) + _MSG_HEADER + 16 <= buf.size
+        rows = gather_bytes(buf, starts, _MSG_HEADER + 16 if combined else 11)
+        head = rows[:, :11].view(_RECORD_DTYPE)[:, 0]
+        rec_len = head['length'].astype(np.int64)
+        bad = head['opcode'] != 0x05
+        bad |= head['channel'] != cid
+        bad |= (rec_len < 22) | (rec_len > ends - starts - 9)
+        if bad.any():
+            i = int(np.argmax(bad))
+            chunk = parts[int(np.searchsorted(np.cumsum([len(p[1]) for p in parts]), i,
+                                              side='right'))][3]
+            raise self._fail(f'bad message record for channel {cid} in chunk', chunk)
+        topic, msgtype = wanted[cid]
+        collectors.sink(topic, msgtype).add(
+            log_time, rec_len - 22, buf, starts + _MSG_HEADER,
+            head=rows[:, _MSG_HEADER:] if combined else None)
 
 
 def _release(mm: mmap.mmap, lo: int, hi: int):
