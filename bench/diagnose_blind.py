@@ -7,7 +7,12 @@ Three parts, each printed with a baseline measured in the same run:
 
 1. Known-answer synthetic pairs (diagnosis/synthetic.py): one concealed effect per case.
 2. Simulator pairs (sim.simulate: nominal car vs car with one effect, holdout on another
-   seed), linear MIMO FRF fitted on the simulation.
+   seed), linear MIMO FRF fitted on the simulation.  Seed 0 uses the default effect sizes,
+   every further seed draws them (x0.7..1.4, :func:`draw_params`).  Nulls: the matched pair,
+   the nominal car on other roads, and small linear parameter drift.  Per case the holdout
+   Fz RMSE (1 Hz high-passed, mean of the 4 corners) of the sim FRF (before), the augmented
+   model (after), the best linear FRF fitted on the real data (linear real) and that FRF plus
+   the named physics refitted on it (aug. real); a confusion matrix per seed and pooled.
 3. The real datasets in ../shared/data (friction damper, MR damper) through the generic path.
 
 Baseline ("naive"): the same candidates ranked by held-out gain alone - no sim contrast, no
@@ -15,7 +20,8 @@ time-shifted-feature null, no practical thresholds - naming the best one.  A goo
 names the true effect as often and "none" far more often when nothing is there.
 
 Usage: ``.venv/bin/python bench/diagnose_blind.py [--seeds N] [--sim-seeds N]
-[--duration-scale X] [--skip-sim] [--effects a,b]``
+[--duration-scale X] [--skip-sim] [--effects a,b]`` (defaults: 3 synthetic seeds, 3 simulator
+seeds at duration scale 0.2 = 2-minute recordings, ~15 min on a 2-core machine).
 """
 import argparse
 from collections import Counter
@@ -40,7 +46,17 @@ SYNTHETIC = ('none', 'offset_drift', 'bump_stop', 'rebound_stop', 'cubic_stiffne
              'stiffness_error', 'damping_error')
 NAIVE = SelectionConfig(n_null=1, null_factor=1e-9, min_gain=1e-9, min_improvement_pct=0.0,
                         max_terms=1)
-NULLS = ('none', 'none_reseeded')
+NULLS = ('none', 'none_reseeded', 'small_drift')
+#: Small linear parameter drift (a null: no finding expected).
+SMALL_DRIFT = {'mass_error': {'fraction': 0.01}, 'stiffness_error': {'fraction': 0.02},
+               'damping_error': {'fraction': -0.03}}
+#: Magnitude parameters scaled by the per-seed draw (gaps and thresholds kept).
+DRAWN = {'bump_stop': ('stiffness_n_per_m', 'progressive_n_per_m3'),
+         'rebound_stop': ('stiffness_n_per_m',), 'cubic_stiffness': ('coefficient_n_per_m3',),
+         'coulomb_friction': ('force_n',), 'backlash': ('gap_m',),
+         'anti_roll_bar': ('front_n_per_m', 'rear_n_per_m'), 'time_delay': ('delay_s',),
+         'mass_error': ('fraction',), 'stiffness_error': ('fraction',),
+         'damping_error': ('fraction',)}
 SHARED = Path(__file__).resolve().parents[1].parent / 'shared' / 'data'
 
 
@@ -51,6 +67,24 @@ def named(result) -> str:
 
 def truth_of(effect: str) -> str:
     return 'none' if effect in NULLS + ('offset_drift',) else effect
+
+
+def draw_params(effect: str, seed: int):
+    """Effect parameters of one simulator case: defaults for seed 0, else scaled x0.7..1.4."""
+    import numpy as np
+    from wheel_force_estimator.sim.effects import EFFECT_DEFAULTS
+    if effect == 'small_drift':
+        return SMALL_DRIFT, 1.0
+    if seed == 0 or effect not in EFFECT_DEFAULTS:
+        return None, 1.0
+    factor = float(np.random.default_rng([seed, len(effect)]).uniform(0.7, 1.4))
+    params = {k: v * factor for k, v in EFFECT_DEFAULTS[effect].items()
+              if k in DRAWN.get(effect, ())}
+    if effect == 'damper_asymmetry':
+        params = {'rebound_to_compression_ratio': 1.0 + 2.0 * factor}
+    if effect == 'sensor_saturation':
+        params = {'limit_mps2': EFFECT_DEFAULTS[effect]['limit_mps2'] / factor}
+    return {effect: params}, factor
 
 
 def print_confusion(title, rows):
@@ -80,7 +114,7 @@ def run_synthetic(seeds, effects):
     config = DiagnosisConfig(linear='regression')
     print('\n== synthetic known-answer pairs (2 corners, 60 s real x2, holdout 60 s)')
     print(f'{"effect":18s} seed  named             naive             lf_fz RMSE % before -> '
-          f'after (best linear on real)')
+          f'after (best linear on real; + named physics)')
     for effect in effects:
         for seed in seeds:
             sim, real, holdout, _ = synthetic_pair(effect, seed=seed)
@@ -92,7 +126,8 @@ def run_synthetic(seeds, effects):
                          fit.after['lf_fz']))
             print(f'{effect:18s} {seed:4d}  {named(result):17s} {named(naive):17s} '
                   f'{fit.before["lf_fz"]:6.1f} -> {fit.after["lf_fz"]:6.1f} '
-                  f'({fit.linear_real["lf_fz"]:.1f})', flush=True)
+                  f'({fit.linear_real["lf_fz"]:.1f}; {fit.augmented_real["lf_fz"]:.1f})',
+                  flush=True)
     print_confusion('synthetic', rows)
 
 
@@ -107,35 +142,50 @@ def run_sim(seeds, duration_scale, effects):
     rows = []
     config = DiagnosisConfig()
     print(f'\n== simulator pairs (proving ground x {duration_scale:g}, MIMO FRF on the sim, '
-          f'RMSE % with 1 Hz high-pass)')
-    print(f'{"effect":18s} seed  named             naive             all named; Fz RMSE '
-          f'before -> after (mean of 4)')
+          f'holdout Fz RMSE % with 1 Hz high-pass, mean of 4 corners)')
+    print(f'{"effect":18s} seed  draw  named             naive             before  after  '
+          f'lin.real aug.real  all named')
     for seed in seeds:
+        seed_rows = []
         sim = [_rec(simulate('proving_ground', (), seed, duration_scale), 'sim')]
         ref = FrfReference.fit(sim, 'sim', None)
         for effect in effects:
             if effect not in NULLS and effect not in EFFECT_NAMES:
                 continue
-            physics = () if effect in NULLS else (effect,)
+            params, factor = draw_params(effect, seed)
+            physics = ((() if effect != 'small_drift' else tuple(SMALL_DRIFT))
+                       if effect in NULLS else (effect,))
             t0 = time.time()
             # 'none' is the matched pair (real == sim); 'none_reseeded' drives the nominal car
             # over other roads, so the sim FRF meets data it was not fitted on.
             real_seed = seed + 50 if effect == 'none_reseeded' else seed
-            real = [_rec(simulate('proving_ground', physics, real_seed, duration_scale),
-                         'real')]
-            holdout = [_rec(simulate('proving_ground', physics, seed + 100, duration_scale),
-                            'holdout')]
+            real = [_rec(simulate('proving_ground', physics, real_seed, duration_scale,
+                                  effect_params=params), 'real')]
+            holdout = [_rec(simulate('proving_ground', physics, seed + 100, duration_scale,
+                                     effect_params=params), 'holdout')]
             result = diagnose(real, sim, holdout, config)
             naive = diagnose(real, ref, holdout, replace(config, selection=NAIVE))
             fz = [c for c in OUTPUT_CHANNELS if c.endswith('fz')]
-            before = sum(result.fit.before[c] for c in fz) / 4
-            after = sum(result.fit.after[c] for c in fz) / 4
-            rows.append((truth_of(effect), named(result), named(naive), before, after))
+            fit = result.fit
+            figures = [sum(getattr(fit, k)[c] for c in fz) / 4 for k in (
+                'before', 'after', 'linear_real', 'augmented_real')]
+            row = (truth_of(effect), named(result), named(naive)) + tuple(figures)
+            seed_rows.append(row)
             everything = ', '.join(dict.fromkeys(f.physics for f in result.findings)) or '-'
-            print(f'{effect:18s} {seed:4d}  {named(result):17s} {named(naive):17s} '
-                  f'{everything}; {before:.1f} -> {after:.1f}  ({time.time() - t0:.0f} s)',
-                  flush=True)
-    print_confusion('simulator', rows)
+            print(f'{effect:18s} {seed:4d}  {factor:4.2f}  {named(result):17s} '
+                  f'{named(naive):17s} {figures[0]:6.1f} {figures[1]:6.1f} {figures[2]:8.1f} '
+                  f'{figures[3]:8.1f}  {everything} ({time.time() - t0:.0f} s)', flush=True)
+        print_confusion(f'simulator seed {seed}', seed_rows)
+        rows += seed_rows
+    if len(seeds) > 1:
+        print_confusion(f'simulator, {len(seeds)} seeds pooled', rows)
+    nonlinear = [r for r in rows if r[0] not in ('none', 'mass_error', 'stiffness_error',
+                                                 'damping_error', 'anti_roll_bar')
+                 and r[0] == r[1]]
+    print(f'named nonlinear cases where the augmented model beats the best linear FRF fitted '
+          f'on the real data (holdout Fz): sim FRF + terms {sum(r[4] < r[5] for r in nonlinear)}'
+          f'/{len(nonlinear)}, real FRF + terms {sum(r[6] < r[5] for r in nonlinear)}/'
+          f'{len(nonlinear)}')
 
 
 def run_real():
@@ -177,7 +227,7 @@ def _report_real(title, real, hold):
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     parser.add_argument('--seeds', type=int, default=3, help='synthetic seeds per effect')
-    parser.add_argument('--sim-seeds', type=int, default=1, help='simulator seeds per effect')
+    parser.add_argument('--sim-seeds', type=int, default=3, help='simulator seeds per effect')
     parser.add_argument('--duration-scale', type=float, default=0.2,
                         help='proving-ground duration scale (1 = ~10 min per recording)')
     parser.add_argument('--skip-sim', action='store_true')

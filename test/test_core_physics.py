@@ -288,3 +288,26 @@ def test_load_driven_backlash_hand_values_and_stage():
     assert np.array_equal(np.concatenate(parts, axis=1), batch)
     back = ph.PhysicsTerm.from_dict(json.loads(json.dumps(term.to_dict())))
     assert back == term
+
+
+@pytest.mark.parametrize('physics', ['mass_error', 'stiffness_error'])
+def test_load_driven_linear_omission_hand_values_and_stage(physics):
+    np.testing.assert_allclose(ph.load_linear_force([900.0, 1000.0, 1500.0], 1000.0, 0.1),
+                               [-10.0, 0.0, 50.0])
+    term = ph.PhysicsTerm(physics, ('lf_fz', 'rf_fz'), {'center_n': 2500.0, 'gain': 0.07},
+                          state='load', state_lowpass_hz=1.0)
+    accel, force = _signals()
+    batch = ph.apply_physics([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force)
+    b, a = signal.butter(1, 1.0, fs=FS)
+    for channel in ('lf_fz', 'rf_fz'):
+        o = OUTPUT_CHANNELS.index(channel)
+        state = signal.lfilter(b, a, force[o], zi=signal.lfilter_zi(b, a) * force[o, 0])[0]
+        # Same filter and law in another order: only rounding differs (1e-9 N on kN).
+        np.testing.assert_allclose(batch[o], force[o] + 0.07 * (state - 2500.0), rtol=0.0,
+                                   atol=1e-9)
+    stage = ph.PhysicsStage([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    parts = [stage.process(accel[:, i:i + 500], force[:, i:i + 500]) for i in range(0, 6000, 500)]
+    assert np.array_equal(np.concatenate(parts, axis=1), batch)
+    assert ph.PhysicsTerm.from_dict(json.loads(json.dumps(term.to_dict()))) == term
+    with pytest.raises(ConfigError, match='parameters must be'):
+        ph.PhysicsTerm(physics, ('lf_fz',), {'gain': 0.1}, state='load', state_lowpass_hz=1.0)

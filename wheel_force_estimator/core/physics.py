@@ -58,6 +58,8 @@ LOAD_PARAMETERS = {
     'rebound_stop': ('threshold_n', 'gain', 'exponent'),
     'cubic_stiffness': ('center_n', 'gain'),
     'backlash': ('center_n', 'threshold_n', 'gain'),
+    'mass_error': ('center_n', 'gain'),
+    'stiffness_error': ('center_n', 'gain'),
 }
 STATES = ('motion', 'load')
 QUANTITIES = ('displacement', 'velocity', 'acceleration')
@@ -110,6 +112,17 @@ def load_backlash_force(load_n, center_n, threshold_n, gain):
     the unloaded point ``F0``.
     """
     return -gain * np.clip(np.asarray(load_n) - center_n, -threshold_n, threshold_n)
+
+
+def load_linear_force(load_n, center_n, gain):
+    """
+    Linear omission seen through the predicted load: ``gain * (F - F0)``.
+
+    A wrong sprung mass scales every quasi-static load (``gain`` = relative mass error, load
+    low-passed below the body mode); a wrong spring scales the spring part ``k x`` of the
+    suspension force, which is the suspension force through ``k / (k + c s)``.
+    """
+    return gain * (np.asarray(load_n) - center_n)
 
 
 def cubic_stiffness_force(disp_m, stiffness_n_per_m3):
@@ -611,6 +624,8 @@ class PhysicsStage:
                 return load_cubic_force(load, p['center_n'], p['gain'])
             if name == 'backlash':
                 return load_backlash_force(load, p['center_n'], p['threshold_n'], p['gain'])
+            if name in ('mass_error', 'stiffness_error'):
+                return load_linear_force(load, p['center_n'], p['gain'])
             return load_stop_force(load, p['threshold_n'], p['gain'], p['exponent'],
                                    1.0 if name == 'bump_stop' else -1.0)
         disp, vel, acc = feat['displacement'][s], feat['velocity'][s], feat['acceleration'][s]

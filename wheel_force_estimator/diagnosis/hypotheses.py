@@ -297,8 +297,23 @@ HYPOTHESES: Tuple[Hypothesis, ...] = (
                              'gain': k}, state='load', positive=True),
 )
 
+
+def _load_linear_grid(contexts):
+    return [{'center_n': float(np.mean(np.concatenate([load_state(c, fc) for c in contexts]))),
+             'state_lowpass_hz': fc} for fc in (1.0, 2.0, 4.0)]
+
+
+#: Linear omission in the load state: judged against the hardening candidates on pooled
+#: vertical channels by :mod:`diagnosis.omissions` (not a per-channel candidate: on a single
+#: channel it would also absorb a mass error or an FRF estimation scatter).
+LOAD_LINEAR = Hypothesis(
+    'stiffness_error', 1, False, 'a spring rate is wrong (force in phase with the spring part '
+    'of the predicted suspension force)', 'body motion', _load_linear_grid,
+    lambda c, s: ph.load_linear_force(load_state(c, s['state_lowpass_hz']), s['center_n'], 1.0),
+    lambda s, k: {'center_n': s['center_n'], 'gain': k}, state='load')
+
 BY_NAME = {h.physics: h for h in HYPOTHESES if h.state == 'motion'}
-BY_KEY = {h.key: h for h in HYPOTHESES}
+BY_KEY = {h.key: h for h in HYPOTHESES + (LOAD_LINEAR,)}
 
 
 def term_parameters(hyp: Hypothesis, shape: Shape, coefficient: float,

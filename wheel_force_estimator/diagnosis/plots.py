@@ -173,13 +173,15 @@ def _markdown(result, rec, images) -> str:
     if not result.findings:
         lines += ['None beyond noise.', '']
     lines += ['', '## Not accepted', ''] + [f'- {r}' for r in result.rejected]
-    lines += ['', f'## Fit ({result.fit.data})', '', '| channel | before % | after % |'
-              + (' best linear on real % |' if result.fit.linear_real else ''),
-              '|---|---|---|' + ('---|' if result.fit.linear_real else '')]
-    for ch, b in result.fit.before.items():
-        row = f'| {ch} | {b:.1f} | {result.fit.after[ch]:.1f} |'
-        if result.fit.linear_real:
-            row += f' {result.fit.linear_real[ch]:.1f} |'
-        lines.append(row)
+    fit = result.fit
+    extra = [(name, values) for name, values in (
+        ('best linear on real %', fit.linear_real),
+        ('best linear on real + physics %', fit.augmented_real)) if values]
+    lines += ['', f'## Fit ({fit.data})', '', '| channel | before % | after % |'
+              + ''.join(f' {name} |' for name, _ in extra),
+              '|---|---|---|' + '---|' * len(extra)]
+    for ch, b in fit.before.items():
+        lines.append(f'| {ch} | {b:.1f} | {fit.after[ch]:.1f} |'
+                     + ''.join(f' {values[ch]:.1f} |' for _, values in extra))
     lines += ['', f'Plots from {rec.name}:', ''] + [f'![{i}]({i})' for i in images]
     return '\n'.join(lines) + '\n'

@@ -98,6 +98,9 @@ class FitComparison:
     RMSE % per channel of the reference (before) and the augmented model (after).
 
     ``highpass_hz`` > 0: both signals high-passed first (``rmse_hp`` of the paper).
+    ``linear_real``: the best linear model fitted on the real recordings themselves;
+    ``augmented_real``: that model plus the named physics terms, their strengths refitted on
+    its residual (shapes kept) - what the named physics add to the best linear fit.
     """
 
     before: Mapping[str, float]
@@ -105,6 +108,7 @@ class FitComparison:
     data: str
     linear_real: Optional[Mapping[str, float]] = None
     highpass_hz: float = 0.0
+    augmented_real: Optional[Mapping[str, float]] = None
 
     def __post_init__(self):
         if self.data not in ('holdout', 'cross_validation'):
@@ -112,7 +116,7 @@ class FitComparison:
                                  f'{self.data!r}')
 
     def to_dict(self) -> Dict:
-        """Return the DESIGN.md ``fit`` entry (plus ``linear_real`` when known)."""
+        """Return the DESIGN.md ``fit`` entry (plus ``linear_real`` / ``augmented_real``)."""
         out = {'before': {k: _round(v) for k, v in self.before.items()},
                'after': {k: _round(v) for k, v in self.after.items()},
                'data': self.data,
@@ -120,6 +124,8 @@ class FitComparison:
                           else 'rmse_pct')}
         if self.linear_real is not None:
             out['linear_real'] = {k: _round(v) for k, v in self.linear_real.items()}
+        if self.augmented_real is not None:
+            out['augmented_real'] = {k: _round(v) for k, v in self.augmented_real.items()}
         return out
 
 

@@ -23,8 +23,6 @@ import numpy as np
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
-from wheel_force_estimator.core.metrics import rmse_pct
-from wheel_force_estimator.core.physics import apply_physics
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis import text
 from wheel_force_estimator.diagnosis.coupling import left_right_coupling
@@ -33,12 +31,17 @@ from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.features import motion_features
 from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.features import settle_samples
+from wheel_force_estimator.diagnosis.holdout import augmented
+from wheel_force_estimator.diagnosis.holdout import holdout_gate
+from wheel_force_estimator.diagnosis.holdout import refitted
+from wheel_force_estimator.diagnosis.holdout import rmse_by_channel
 from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
 from wheel_force_estimator.diagnosis.hypotheses import BY_NAME
 from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
 from wheel_force_estimator.diagnosis.hypotheses import term_parameters
 from wheel_force_estimator.diagnosis.locate import locate_channel
 from wheel_force_estimator.diagnosis.locate import regime_ratios
+from wheel_force_estimator.diagnosis.omissions import linear_omissions
 from wheel_force_estimator.diagnosis.recording import check_compatible
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 from wheel_force_estimator.diagnosis.reference import FrfReference
@@ -51,6 +54,11 @@ from wheel_force_estimator.diagnosis.selection import SelectionConfig
 from wheel_force_estimator.diagnosis.selection import Selector
 
 LINEAR_COMPANIONS = ('stiffness_error', 'damping_error', 'mass_error')
+#: Hardening candidates a wrong spring rate can pass for (compared on pooled Fz channels).
+STIFFENING = ('cubic_stiffness:load', 'bump_stop:load', 'rebound_stop:load', 'cubic_stiffness',
+              'bump_stop', 'rebound_stop')
+#: A linear spring-rate error must explain this many times what the best hardening explains.
+LINEAR_OVER_HARDENING = 1.3
 
 
 @dataclass(frozen=True)
@@ -326,68 +334,111 @@ class _Builder:
         return out
 
 
-def _rmse(targets, predictions, channels, highpass_hz=0.0, fs_hz=1.0) -> Dict[str, float]:
-    """RMSE % per channel over records (each record high-passed on its own first)."""
-    if highpass_hz > 0.0:
-        targets = [highpass(t, fs_hz, highpass_hz, 'RMSE target') for t in targets]
-        predictions = [highpass(p, fs_hz, highpass_hz, 'RMSE prediction') for p in predictions]
-    t = np.concatenate(targets, axis=1)
-    p = np.concatenate(predictions, axis=1)
-    return dict(zip(channels, (float(v) for v in rmse_pct(t, p, channels))))
+def _pooled_gain(prep, sim_prep, channels, group, key, config) -> float:
+    """Held-out gain of one candidate fitted with shared parameters over ``group``."""
+    pieces = [p for c in group for p in _pieces(prep, channels.index(c), c)]
+    sim_pieces = None
+    if sim_prep is not None:
+        sim_pieces = [p for c in group for p in _pieces(sim_prep, channels.index(c), c)]
+    return Selector(pieces, config.selection, (), sim_pieces).fit_single(BY_KEY[key])[1]
 
 
-def _augmented(prep: _Prepared, terms) -> List[np.ndarray]:
-    """Return the reference prediction plus the physics stage, over the trimmed records."""
-    out = []
-    for rec, pred, target in zip(prep.recordings, prep.full_predictions, prep.targets):
-        y = apply_physics(terms, rec.fs_hz, rec.input_channels, rec.output_channels,
-                          rec.inputs, pred, rest_inputs=rec.inputs.mean(axis=1))
-        out.append(y[:, -target.shape[1]:])
-    return out
-
-
-def _holdout_gate(findings, hold, before, channels, hp, fs_hz):
+def _hardening_winner(findings, pooled) -> Optional[str]:
     """
-    Drop findings whose terms make the holdout worse (backward elimination).
+    Return the hardening that best explains all vertical channels where any was found.
 
-    A finding is dropped when it raises the holdout RMSE by more than 0.05 points on average
-    over its channels (its parameters are shared, so it stands or falls on all of them).
-
-    A term that fits the real recordings but makes unseen data worse did not find physics;
-    it is reported under ``rejected``.  Linear companions were refitted jointly with all
-    terms of their channel, so they stay in every model compared (and end up on the first
-    finding kept).  Returns ``(kept, rejection lines)``.
+    Per-corner selections may call the same stiffening a cubic spring on three corners and a
+    rebound stop on the fourth; one car has one kind of spring, so the candidates compete on
+    the pooled channels (``pooled(group, key)`` = held-out gain with shared parameters).
     """
-    companions = [t for f in findings for t in f.terms if t.physics != f.physics]
-    kept = [replace(f, terms=tuple(t for t in f.terms if t.physics == f.physics))
-            for f in findings]
-    gated = []
+    names = ('cubic_stiffness', 'bump_stop', 'rebound_stop')
+    hard = [f for f in findings if f.physics in names and f.terms]
+    if len({f.physics for f in hard}) < 2:
+        return None
+    group = sorted({c for f in hard for c in f.channels})
+    scores = {n: max(pooled(group, k) for k in (n, f'{n}:load'))
+              for n in {f.physics for f in hard}}
+    return max(scores, key=scores.get)
 
-    def score(items):
-        terms = [t for g in items for t in g.terms]
-        terms += companions if terms else []
-        return _rmse(hold.targets, _augmented(hold, terms), channels, hp, fs_hz)
-    while True:
-        full = score(kept)
-        worst, harm = None, 0.05
-        for f in (g for g in kept if g.terms):
-            without = score([g for g in kept if g is not f])
-            # A shared-parameter finding is judged on all its channels together.
-            damage = float(np.mean([full[c] - without[c] for c in f.channels]))
-            if damage > harm:
-                worst, harm, undo = f, damage, without
-        if worst is None:
-            break
-        gated.append(f'{text.channel_list(worst.channels)}: {worst.physics} fitted the real '
-                     f'data but worsens the holdout RMSE of ' + ', '.join(
-                         f'{c} ({undo[c]:.1f} % -> {full[c]:.1f} %)' for c in worst.channels)
-                     + '; not kept')
-        kept = [g for g in kept if g is not worst]
-    kept = [replace(f, rmse_after_pct={c: full[c] for c in f.channels}) for f in kept]
-    if companions and any(f.terms for f in kept):
-        i = next(i for i, f in enumerate(kept) if f.terms)
-        kept[i] = replace(kept[i], terms=kept[i].terms + tuple(companions))
-    return kept, gated
+
+def _add_omissions(findings, real, sim, reference, prep, sim_prep, channels, sources, config):
+    """
+    Return ``(findings, omissions)``: a wrong sprung mass / spring rate found by :mod:`omissions`.
+
+    A spring-rate error and a hardening both make the real FRF look stiffer; the linear one is
+    named only when a load-proportional term explains clearly more of the pooled vertical
+    residual than the best hardening candidate (or physics found on those channels), and then
+    replaces the hardening findings of those channels (they were its linearisation).
+    """
+    rec0 = real[0]
+    skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
+    filters = config.features.resolved(rec0.fs_hz, rec0.input_quantity)
+    hp = config.selection.highpass_hz
+    extra = linear_omissions(real, sim, reference, channels, skip, hp, sources,
+                             rec0.input_quantity, filters)
+    kept = []
+    for f in extra:
+        if f.physics == 'stiffness_error':
+            group = list(f.channels)
+            linear = _pooled_gain(prep, sim_prep, channels, group, 'stiffness_error:load',
+                                  config)
+            # Any per-channel physics found on these channels competes too (a friction
+            # also adds body-band force in phase with the load).
+            rivals = set(STIFFENING) | {
+                t.physics if t.state == 'motion' else f'{t.physics}:{t.state}'
+                for g in findings for t in g.terms
+                if t.physics not in LINEAR_COMPANIONS and set(t.channels) & set(group)}
+            hardening = max(_pooled_gain(prep, sim_prep, channels, group, k, config)
+                            for k in sorted(rivals & set(BY_KEY)))
+            if linear < LINEAR_OVER_HARDENING * max(hardening, 0.0):
+                continue
+            f = replace(f, evidence=f.evidence + (
+                f'; pooled over these channels it explains {linear:.1%} of the held-out '
+                f'residual, the best hardening candidate {hardening:.1%}'),
+                explained_fraction=linear, null_fraction=max(hardening, 0.0))
+            findings = [g for g in findings if not (
+                g.physics in ('cubic_stiffness', 'bump_stop', 'rebound_stop')
+                and set(g.channels) <= set(group))]
+        kept.append(f)
+    return findings, kept
+
+
+def _ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
+    """
+    Order findings: effects seen in the raw inputs first, then by the residual they explain.
+
+    Findings of the whole-vehicle FRF comparisons (``structural``: ids of a left-right
+    coupling, a wrong mass or spring rate) come before the per-channel ones: they passed a
+    test across all corners and their side effects on other channels are often picked up
+    per channel by a stand-in candidate (a missing roll bar as lateral "damping").
+
+    A physics' weight is the sum over its findings of the explained fraction times the
+    squared relative residual of the channels (the drop of RMSE squared), so an effect found
+    on four corners outranks one found on a single corner; competing hardenings are settled
+    by :func:`_hardening_winner`.
+    """
+    rel = {}
+    for o, c in enumerate(channels):
+        t = [x[o][np.newaxis] for x in prep.targets]
+        r = [x[o][np.newaxis] - p[o][np.newaxis] for x, p in zip(prep.targets, prep.predictions)]
+        if hp > 0.0:
+            t = [highpass(x, fs_hz, hp, 'ranking target') for x in t]
+            r = [highpass(x, fs_hz, hp, 'ranking residual') for x in r]
+        ts = sum(float(np.sum(x ** 2)) for x in t)
+        rel[c] = sum(float(np.sum(x ** 2)) for x in r) / ts if ts > 0.0 else 0.0
+
+    def weight(f):
+        return max(f.explained_fraction, 0.0) * sum(rel.get(c, 0.0) for c in f.channels)
+    total: Dict[str, float] = {}
+    for f in findings:
+        total[f.physics] = total.get(f.physics, 0.0) + weight(f)
+    winner = _hardening_winner(findings, pooled) if pooled is not None else None
+    if winner is not None:
+        total[winner] = max(v for k, v in total.items() if k in (
+            'cubic_stiffness', 'bump_stop', 'rebound_stop')) * (1.0 + 1e-9) + 1e-300
+    first = set(structural)
+    return sorted(findings, key=lambda f: (not BY_NAME[f.physics].priority, id(f) not in first,
+                                           -total[f.physics], -weight(f)))
 
 
 def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
@@ -453,6 +504,7 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     builder = _Builder(prep, outcomes, channels, sources, partners, config, companions,
                        sim_prep)
     findings = builder.findings()
+    structural = []
     real_linear = None
     if mode == 'sim' and reference.kind == 'frf':
         coupling = None
@@ -464,24 +516,34 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
             coupling = left_right_coupling(
                 real, reference, real_linear, channels,
                 settle_samples(fs_hz, rec0.input_quantity, config.features), hp)
-        if coupling is not None:
-            findings = sorted(findings + [coupling], key=lambda f: (
-                not BY_NAME[f.physics].priority, -f.explained_fraction))
+        added = [coupling] if coupling is not None else []
+        findings, omitted = _add_omissions(findings, real, sim, reference, prep, sim_prep,
+                                           channels, sources, config)
+        added += omitted
+        findings = findings + added
+        structural = [id(f) for f in added]
+    findings = _ranked(findings, prep, channels, hp, fs_hz, structural,
+                       lambda g, k: _pooled_gain(prep, sim_prep, channels, g, k, config))
     terms = [t for f in findings for t in f.terms]
     gated = []
     if holdout:
         hold = _prepare(holdout, reference, sources, partners, config)
-        before = _rmse(hold.targets, hold.predictions, channels, hp, fs_hz)
-        findings, gated = _holdout_gate(findings, hold, before, channels, hp, fs_hz)
+        before = rmse_by_channel(hold.targets, hold.predictions, channels, hp, fs_hz)
+        findings, gated = holdout_gate(findings, hold, before, channels, hp, fs_hz)
         terms = [t for f in findings for t in f.terms]
-        after = _rmse(hold.targets, _augmented(hold, terms), channels, hp, fs_hz)
+        after = rmse_by_channel(hold.targets, augmented(hold, terms), channels, hp, fs_hz)
         if mode == 'linear':
-            linear_real = before
+            linear_real, augmented_real = before, after
         else:
             lin = real_linear or _fit_linear(real, config, 'real', rec0)
-            linear_real = _rmse(hold.targets, [lin.predict(r)[:, -t.shape[1]:] for r, t in
-                                               zip(holdout, hold.targets)], channels, hp, fs_hz)
-        fit = FitComparison(before, after, 'holdout', linear_real, hp)
+            real_lin = _prepare(real, lin, sources, partners, config)
+            hold_lin = _prepare(holdout, lin, sources, partners, config)
+            linear_real = rmse_by_channel(hold_lin.targets, hold_lin.predictions, channels,
+                                          hp, fs_hz)
+            augmented_real = rmse_by_channel(
+                hold_lin.targets, refitted(findings, real_lin, hold_lin, hp), channels, hp,
+                fs_hz)
+        fit = FitComparison(before, after, 'holdout', linear_real, hp, augmented_real)
     else:
         fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},
                             {c: outcomes[c].cv_after_pct for c in channels},

@@ -60,4 +60,11 @@ def summary(findings, fit, rejected: Sequence[str]) -> List[str]:
         lines.append(f'Augmented model vs best linear FRF fitted on the real data: better on '
                      f'{len(set(beaten))} of {len({c for f in findings for c in f.channels})} '
                      f'affected channels {where}.')
+    if fit.augmented_real is not None and fit.linear_real is not None and findings:
+        affected = {c for f in findings if f.terms for c in f.channels}
+        beaten = [c for c in affected if fit.augmented_real[c] < fit.linear_real[c]]
+        if affected:
+            lines.append(f'Best linear FRF fitted on the real data plus the named physics '
+                         f'(strengths refitted on it) vs that FRF alone: better on '
+                         f'{len(beaten)} of {len(affected)} modelled channels {where}.')
     return lines
