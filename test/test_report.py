@@ -15,6 +15,7 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import NonFiniteError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.report import tables
+from wheel_force_estimator.report.builders import paired_inputs
 from wheel_force_estimator.report.evaluation_plots import _envelope
 from wheel_force_estimator.report.evaluation_plots import _MAX_LINE_POINTS
 from wheel_force_estimator.report.evaluation_plots import plot_damage_ratio
@@ -27,6 +28,7 @@ from wheel_force_estimator.report.spectral_plots import plot_asd
 from wheel_force_estimator.report.spectral_plots import plot_coherence
 from wheel_force_estimator.report.spectral_plots import plot_condition_number
 from wheel_force_estimator.report.spectral_plots import plot_frf_diagonal
+from wheel_force_estimator.report.spectral_plots import plot_frf_matrix
 
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 FS_HZ = 128.0
@@ -132,6 +134,35 @@ def test_plot_asd_with_and_without_frf(tmp_path, rng, f_hz):
     # 12-panel log figure costs ~2 s, which one call above already covers.
     _assert_png(plot_asd(tmp_path / 'b.png', f_hz, asd_target[:3], asd_target[:3] * 0.9,
                          asd_error[:3], OUTPUT_CHANNELS[:3]))
+
+
+def test_plots_for_generic_channel_names(tmp_path, rng, f_hz):
+    # DAQ exports: any names and counts, units passed in instead of read from the names.
+    h = rng.normal(size=(f_hz.size, 2, 7)) + 1j * rng.normal(size=(f_hz.size, 2, 7))
+    names_in = [f'data[{k}]' for k in range(7)]
+    _assert_png(plot_frf_matrix(tmp_path / 'm.png', f_hz, h, names_in, ['force', 'f_b'],
+                                input_unit='m', output_unit='N', max_inputs=3))
+    _assert_png(plot_frf_matrix(tmp_path / 'one.png', f_hz, h[:, :1, :1], ['disp'], ['force']))
+    asd = rng.uniform(1.0, 10.0, (1, f_hz.size))
+    _assert_png(plot_asd(tmp_path / 'a.png', f_hz, asd, asd, asd * 0.1, ['force'],
+                         frf_mag=asd, units=['N'], frf_unit='N/m'))
+    t = np.arange(200) / FS_HZ
+    _assert_png(plot_time_overlay(tmp_path / 't.png', t, np.sin(t)[None], np.cos(t)[None],
+                                  ['force'], units=['N']))
+    with pytest.raises(ShapeError, match='units: expected 1 entries'):
+        plot_time_overlay(tmp_path / 'u.png', t, np.sin(t)[None], np.cos(t)[None], ['force'],
+                          units=['N', 'N'])
+    with pytest.raises(ConfigError, match='max_inputs'):
+        plot_frf_matrix(tmp_path / 'x.png', f_hz, h, names_in, ['force', 'f_b'], max_inputs=0)
+
+
+def test_paired_inputs_for_any_channel_counts():
+    assert paired_inputs(INPUT_CHANNELS, OUTPUT_CHANNELS) == list(range(12))
+    assert paired_inputs(['a', 'b'], ['f', 'g']) == [0, 1]
+    assert paired_inputs(['a'], ['f', 'g', 'h']) == [0, 0, 0]
+    assert paired_inputs(['a', 'b', 'c'], ['f']) is None
+    # Vehicle names pair by name whatever their order.
+    assert paired_inputs(['lf_az', 'lf_ax'], ['lf_fx', 'lf_fz']) == [1, 0]
 
 
 def test_plot_damage_ratio_including_zero(tmp_path):

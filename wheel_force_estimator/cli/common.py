@@ -1,9 +1,20 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""Helpers shared by the offline subcommands: config files, progress, recordings."""
+"""
+Helpers shared by the offline subcommands: config files, progress, recordings.
+
+Generic recordings (DAQ exports) are declared with the same three options in ``fit``,
+``evaluate`` and ``diagnose``: :func:`add_generic_arguments` registers them and
+:func:`generic_request` checks and parses them.  Misuse of the options (incomplete, bags and
+generic files mixed, a bad ``--fs``) raises :class:`UsageError`, which ``main`` turns into
+exit code 2 like an argparse error.
+"""
+import argparse
+import dataclasses
+import math
 from pathlib import Path
 import sys
-from typing import Iterable, Optional
+from typing import Iterable, Optional, Sequence, Tuple
 
 from wheel_force_estimator.core.errors import ConfigError
 import yaml
@@ -37,6 +48,28 @@ def default_config_path() -> Optional[Path]:
     return cfg if cfg.is_file() else None
 
 
+def _fit_section(path) -> dict:
+    """Return the typed values of the params file's ``wheel_force_fit`` section."""
+    values = {}
+    if path is None:
+        return values
+    try:
+        doc = yaml.safe_load(Path(path).read_text()) or {}
+    except (OSError, yaml.YAMLError) as err:
+        raise ConfigError(f'{path}: cannot read params file: {err}') from err
+    section = (doc.get(FIT_SECTION) or {}).get('ros__parameters') or {}
+    for key, value in section.items():
+        if key not in _FIT_KEYS:
+            raise ConfigError(f'{path}: unknown key {FIT_SECTION}.{key} '
+                              f'(known: {", ".join(sorted(_FIT_KEYS))})')
+        try:
+            values[key] = _FIT_KEYS[key](value)
+        except (TypeError, ValueError) as err:
+            raise ConfigError(f'{path}: {FIT_SECTION}.{key} = {value!r} is not a '
+                              f'{_FIT_KEYS[key].__name__}') from err
+    return values
+
+
 def load_fit_config(path=None, **overrides):
     """
     Return the :class:`FitConfig` from the params YAML's ``wheel_force_fit`` section.
@@ -56,21 +89,7 @@ def load_fit_config(path=None, **overrides):
     """
     from wheel_force_estimator.core.pipeline import FitConfig
     values = dict(CLI_FIT_DEFAULTS)
-    if path is not None:
-        try:
-            doc = yaml.safe_load(Path(path).read_text()) or {}
-        except (OSError, yaml.YAMLError) as err:
-            raise ConfigError(f'{path}: cannot read params file: {err}') from err
-        section = (doc.get(FIT_SECTION) or {}).get('ros__parameters') or {}
-        for key, value in section.items():
-            if key not in _FIT_KEYS:
-                raise ConfigError(f'{path}: unknown key {FIT_SECTION}.{key} '
-                                  f'(known: {", ".join(sorted(_FIT_KEYS))})')
-            try:
-                values[key] = _FIT_KEYS[key](value)
-            except (TypeError, ValueError) as err:
-                raise ConfigError(f'{path}: {FIT_SECTION}.{key} = {value!r} is not a '
-                                  f'{_FIT_KEYS[key].__name__}') from err
+    values.update(_fit_section(path))
     values.update({k: v for k, v in overrides.items() if v is not None})
     if values.get('f_max_hz') == 0.0:
         values['f_max_hz'] = None
@@ -78,6 +97,21 @@ def load_fit_config(path=None, **overrides):
         return FitConfig(**values)
     except ConfigError as err:
         raise ConfigError(f'{path or "defaults"}: {err}') from err
+
+
+def explicit_fit_keys(path=None, **overrides) -> frozenset:
+    """
+    Return the fit settings the user chose (params file or command line), not defaults.
+
+    Raises
+    ------
+    ConfigError
+        As :func:`load_fit_config`.
+
+    """
+    chosen = set(_fit_section(path))
+    chosen.update(k for k, v in overrides.items() if v is not None)
+    return frozenset(chosen)
 
 
 def progress(iterable: Iterable, desc: str, total: Optional[int] = None):
@@ -116,3 +150,177 @@ def read_recordings(paths, topics, require_wft: bool, expected_fs_hz: Optional[f
 def nominal_fs_hz(recordings) -> float:
     """Return the common sample rate of already-checked recordings [Hz]."""
     return float(recordings[0].fs_hz)
+
+
+class UsageError(Exception):
+    """Options that do not fit together; ``main`` reports it like argparse (exit code 2)."""
+
+
+# Paths that are bags for sure (the generic reader decides about everything else).
+_BAG_SUFFIXES = ('.bag', '.mcap', '.db3', '.yaml')
+
+
+def add_generic_arguments(parser: argparse.ArgumentParser) -> None:
+    """Register ``--input``, ``--output`` and ``--fs`` (generic recordings) on ``parser``."""
+    g = parser.add_argument_group(
+        'generic recordings (DAQ exports: .csv, .mat, .npz, .json; one gap-free segment per '
+        'file)')
+    g.add_argument('--input', action='append', default=[], metavar='NAME:QUANTITY:UNIT',
+                   help='input channel, e.g. disp:displacement:m, data[1]:displacement:in '
+                        '(repeatable; quantity displacement, velocity or acceleration, the '
+                        'same for all inputs)')
+    g.add_argument('--output', action='append', default=[], metavar='NAME:force:UNIT',
+                   help='force channel, e.g. force:force:N, data[2]:force:kip (repeatable)')
+    g.add_argument('--fs', type=float, metavar='HZ', help='sample rate of the generic files')
+
+
+@dataclasses.dataclass(frozen=True)
+class GenericRequest:
+    """
+    The declared channels and sample rate of one call's generic recordings.
+
+    Attributes
+    ----------
+    inputs, outputs : tuple of ChannelSpec
+        Declared motion and force channels, in model order.
+    fs_hz : float
+        Sample rate of every file [Hz].
+
+    Raises
+    ------
+    RecordingError
+        An invalid set of channels (see ``daqio.check_specs``) or sample rate.
+
+    """
+
+    inputs: Tuple
+    outputs: Tuple
+    fs_hz: float
+
+    def __post_init__(self):
+        """Validate the channel set and the rate."""
+        from wheel_force_estimator.core.errors import RecordingError
+        from wheel_force_estimator.daqio import check_specs
+        inputs, outputs = check_specs(self.inputs, self.outputs)
+        if not (math.isfinite(self.fs_hz) and self.fs_hz > 0.0):
+            raise RecordingError(f'sample rate must be a finite number > 0 Hz, '
+                                 f'got {self.fs_hz!r}')
+        object.__setattr__(self, 'inputs', inputs)
+        object.__setattr__(self, 'outputs', outputs)
+        object.__setattr__(self, 'fs_hz', float(self.fs_hz))
+
+    @property
+    def input_channels(self) -> Tuple[str, ...]:
+        """Return the input channel names (spec labels)."""
+        return tuple(s.label for s in self.inputs)
+
+    @property
+    def output_channels(self) -> Tuple[str, ...]:
+        """Return the output channel names (spec labels)."""
+        return tuple(s.label for s in self.outputs)
+
+    @property
+    def input_quantity(self) -> str:
+        """Return the quantity shared by the inputs."""
+        return self.inputs[0].quantity
+
+    def read(self, paths: Sequence) -> list:
+        """
+        Read every file (with a progress bar); return a list of ``DaqRecording``.
+
+        Raises
+        ------
+        RecordingError
+            From the reader, naming the file and channel at fault.
+
+        """
+        from wheel_force_estimator.daqio import read_daq
+        return [read_daq(path, self.inputs, self.outputs, self.fs_hz)
+                for path in progress(paths, 'reading', total=len(paths))]
+
+
+def generic_request(args: argparse.Namespace, *path_lists: Sequence) -> Optional[GenericRequest]:
+    """
+    Check the generic-recording options against the recordings of one call.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options (from a parser set up with :func:`add_generic_arguments`).
+    *path_lists : sequence of str
+        Every list of recordings of the call.
+
+    Returns
+    -------
+    GenericRequest or None
+        The declared channels when ``--input``/``--output``/``--fs`` are given, ``None`` for
+        bags.
+
+    Raises
+    ------
+    UsageError
+        Options given only in part, ``--fs`` not a finite rate > 0, a generic file without
+        the options, or a bag together with them.
+    RecordingError
+        A malformed spec or an invalid set of channels (a channel declared twice ...).
+
+    """
+    paths = [p for paths in path_lists for p in (paths or ())]
+    given = {'--input': bool(args.input), '--output': bool(args.output),
+             '--fs': args.fs is not None}
+    if not any(given.values()):
+        for path in paths:
+            if _is_generic(path):
+                raise UsageError(f'{path} is a generic recording: declare its channels with '
+                                 f'--input, --output and --fs')
+        return None
+    if not all(given.values()):
+        missing = ', '.join(k for k, v in given.items() if not v)
+        raise UsageError(f'generic recordings need --input, --output and --fs '
+                         f'(missing: {missing})')
+    if not (math.isfinite(args.fs) and args.fs > 0.0):
+        raise UsageError(f'--fs must be a finite sample rate > 0 Hz, got {args.fs:g}')
+    for path in paths:
+        if _is_bag(path):
+            raise UsageError(f'{path} is a bag: bags and generic recordings (--input, '
+                             f'--output, --fs) cannot be mixed in one call')
+    from wheel_force_estimator.daqio import parse_spec
+    return GenericRequest(tuple(parse_spec(s, 'input') for s in args.input),
+                          tuple(parse_spec(s, 'output') for s in args.output), args.fs)
+
+
+def _is_generic(path) -> bool:
+    from wheel_force_estimator.daqio import is_generic_path
+    return is_generic_path(path) and not Path(path).is_dir()
+
+
+def _is_bag(path) -> bool:
+    p = Path(path)
+    return p.is_dir() or p.suffix.lower() in _BAG_SUFFIXES
+
+
+def check_bag_model(model, model_path) -> None:
+    """
+    Refuse a model that cannot be applied to the spindle accelerations of a bag.
+
+    Raises
+    ------
+    ModelFileError
+        The model's inputs are not the twelve spindle accelerations (in m/s^2) or its
+        outputs not the twelve wheel forces, e.g. a model fitted on generic recordings.
+
+    """
+    from wheel_force_estimator import INPUT_CHANNELS
+    from wheel_force_estimator import OUTPUT_CHANNELS
+    from wheel_force_estimator.core.errors import ModelFileError
+    unit = model.units.get('input', 'm/s^2')
+    for what, got, want in (('inputs', model.input_channels, INPUT_CHANNELS),
+                            ('outputs', model.output_channels, OUTPUT_CHANNELS)):
+        if tuple(got) != tuple(want):
+            raise ModelFileError(
+                f'{model_path}: model {what} {list(got)} are not the bag channels '
+                f'{want[0]} ... {want[-1]}; a model fitted on generic recordings is applied to '
+                f'them with --input, --output and --fs')
+    if unit not in ('m/s^2', 'm/s2'):
+        raise ModelFileError(f'{model_path}: model inputs are in {unit}, bags hold spindle '
+                             f'accelerations in m/s^2')

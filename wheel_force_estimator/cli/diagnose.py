@@ -2,7 +2,9 @@
 # SPDX-License-Identifier: Apache-2.0
 """``wheel-force diagnose``: name the physics a simulation (or model) leaves out."""
 import argparse
-import sys
+
+from wheel_force_estimator.cli.common import add_generic_arguments
+from wheel_force_estimator.cli.common import UsageError
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -28,13 +30,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help='write the augmented model (reference FRF + fitted physics terms)')
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     p.add_argument('--config', metavar='YAML', help='params file (topic names, fit settings)')
-    g = p.add_argument_group('generic recordings')
-    g.add_argument('--input', action='append', default=[], metavar='NAME:QUANTITY:UNIT',
-                   help='input channel, e.g. disp:displacement:m, data[1]:displacement:in '
-                        '(repeatable; quantity displacement, velocity or acceleration)')
-    g.add_argument('--output', action='append', default=[], metavar='NAME:force:UNIT',
-                   help='force channel, e.g. force:force:N (repeatable)')
-    g.add_argument('--fs', type=float, metavar='HZ', help='sample rate of generic recordings')
+    add_generic_arguments(p)
     p.add_argument('--highpass-hz', type=float, metavar='HZ',
                    help='corner of the band-limited integration of the features (default 0.2)')
     p.add_argument('--linear', choices=('auto', 'frf', 'regression'), default='auto',
@@ -44,14 +40,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def _generic(args):
-    from wheel_force_estimator.diagnosis.generic import load_generic
-    from wheel_force_estimator.diagnosis.generic import parse_spec
-    inputs = [parse_spec(s, 'input') for s in args.input]
-    outputs = [parse_spec(s, 'output') for s in args.output]
+def _generic(request, args):
+    from wheel_force_estimator.diagnosis.generic import motion_recording
 
     def load(paths):
-        return [load_generic(path, inputs, outputs, args.fs) for path in paths]
+        return [motion_recording(rec) for rec in request.read(paths)]
     return load(args.real), (load(args.sim) if args.sim else None), load(args.holdout)
 
 
@@ -71,20 +64,15 @@ def _bags(args):
     return load(args.real), (load(args.sim) if args.sim else None), load(args.holdout)
 
 
-def _usage_error(message: str) -> int:
-    print(f'wheel-force diagnose: error: {message}', file=sys.stderr)
-    return 2
-
-
 def command(args: argparse.Namespace) -> int:
     """Run ``diagnose``; return the exit code."""
-    generic = bool(args.input or args.output)
-    if generic and (not args.input or not args.output or args.fs is None):
-        return _usage_error('generic recordings need --input, --output and --fs')
+    from wheel_force_estimator.cli.common import generic_request
+    generic = bool(args.input or args.output or args.fs is not None)
     if not generic and not (args.sim or args.model):
-        return _usage_error('bags need a reference: --sim BAG... or --model MODEL')
+        raise UsageError('bags need a reference: --sim BAG... or --model MODEL')
     if args.out_model and not (args.sim or args.model):
-        return _usage_error('--out-model needs an FRF reference (--sim or --model)')
+        raise UsageError('--out-model needs an FRF reference (--sim or --model)')
+    request = generic_request(args, args.real, args.sim, args.holdout)
 
     from wheel_force_estimator.core.model import load_model
     from wheel_force_estimator.core.model import save_model
@@ -92,11 +80,11 @@ def command(args: argparse.Namespace) -> int:
     from wheel_force_estimator.diagnosis.run import diagnose
     from wheel_force_estimator.diagnosis.run import DiagnosisConfig
 
-    real, sim, holdout = _generic(args) if generic else _bags(args)
+    real, sim, holdout = _bags(args) if request is None else _generic(request, args)
     reference = load_model(args.model) if args.model else sim
     features = FeatureConfig() if args.highpass_hz is None else FeatureConfig(args.highpass_hz)
     fit = None
-    if not generic:
+    if request is None:
         from wheel_force_estimator.cli.common import load_fit_config
         fit = load_fit_config(args.config)
     config = DiagnosisConfig(features=features, fit=fit, linear=args.linear)

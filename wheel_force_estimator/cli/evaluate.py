@@ -1,9 +1,18 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""``wheel-force evaluate MODEL BAG…``: compare the prediction with the recorded WFT."""
+"""
+``wheel-force evaluate MODEL RECORDING…``: compare the prediction with the recorded force.
+
+Recordings are bags (spindle accelerations and WFT) or generic DAQ exports with declared
+channels (``--input``/``--output``/``--fs``).  A generic file is one gap-free segment with
+sample times from 0 at ``--fs`` and no road events.  The model must have been fitted on the
+same channels (names, input quantity) at the same rate; nothing is renamed or resampled.
+"""
 import argparse
 import json
 from pathlib import Path
+
+from wheel_force_estimator.cli.common import add_generic_arguments
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -13,20 +22,24 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description='Predict the forces of each recording and judge them against the '
                     'recorded WFT: RMSE % (unfiltered and 1 Hz high-passed) per channel and '
                     "per road event with the paper's rubric, pseudo damage ratio, relative "
-                    'damage spectrum and ASD.')
+                    'damage spectrum and ASD.  Generic DAQ exports are read with '
+                    '--input/--output/--fs.')
     p.add_argument('model', metavar='MODEL', help='model file (.npz)')
-    p.add_argument('bags', nargs='+', metavar='BAG', help='validation recordings with WFT')
+    p.add_argument('recordings', nargs='+', metavar='RECORDING',
+                   help='validation recordings with measured force: bags, or '
+                        '.csv/.mat/.npz/.json files with --input/--output/--fs')
     p.add_argument('--json', metavar='FILE', help='write the figures as JSON')
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     p.add_argument('--config', metavar='YAML', help='params file (topic names, sn_slope)')
     p.add_argument('--sn-slope', type=float, default=5.0, help='Basquin exponent k')
     p.add_argument('--causal-delay-samples', type=int, metavar='N',
                    help='evaluate the live filter with this look-ahead instead of the full one')
+    add_generic_arguments(p)
     return p
 
 
 def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None):
-    """Predict and evaluate; return ``(Evaluation, segments)``."""
+    """Predict and evaluate bag recordings; return ``(Evaluation, segments)``."""
     from wheel_force_estimator.cli.predict import predict_recording
     from wheel_force_estimator.core.evaluation import EvalSegment
     from wheel_force_estimator.core.evaluation import evaluate_segments
@@ -43,19 +56,73 @@ def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None):
     return evaluation, segments
 
 
+def evaluate_generic(model, recordings, sn_slope, causal_delay_samples=None):
+    """Predict and evaluate generic recordings (``DaqRecording``); return the same pair."""
+    from wheel_force_estimator.core.evaluation import EvalSegment
+    from wheel_force_estimator.core.evaluation import evaluate_segments
+    from wheel_force_estimator.core.predict import predict_forces
+
+    segments = [EvalSegment(rec.outputs, predict_forces(model, rec.inputs, causal_delay_samples),
+                            rec.stamp_ns(), rec.path) for rec in recordings]
+    evaluation = evaluate_segments(segments, model.fs_hz, model.output_channels, sn_slope)
+    return evaluation, segments
+
+
+def check_generic_model(model, model_path, request) -> None:
+    """
+    Refuse a model whose channels, input quantity or rate differ from the declared ones.
+
+    Raises
+    ------
+    ModelFileError
+        Naming the model file and the first channel (or the rate / quantity) that differs.
+
+    """
+    from wheel_force_estimator.core.errors import ModelFileError
+    from wheel_force_estimator.daqio import quantity_of_unit
+    for option, declared, fitted in (('--input', request.input_channels, model.input_channels),
+                                     ('--output', request.output_channels,
+                                      model.output_channels)):
+        if declared == fitted:
+            continue
+        k = next((k for k, (a, b) in enumerate(zip(declared, fitted)) if a != b),
+                 min(len(declared), len(fitted)))
+        got = repr(declared[k]) if k < len(declared) else 'nothing'
+        want = repr(fitted[k]) if k < len(fitted) else 'nothing'
+        raise ModelFileError(
+            f'{model_path}: model channel {k} is {want} but {option} declares {got} '
+            f'(model: {list(fitted)}, declared: {list(declared)}); nothing is renamed')
+    if abs(model.fs_hz - request.fs_hz) > 1e-6 * model.fs_hz:
+        raise ModelFileError(f'{model_path}: model fitted at {model.fs_hz:g} Hz but --fs is '
+                             f'{request.fs_hz:g} Hz; nothing is resampled')
+    unit = model.units.get('input', 'm/s^2')
+    quantity = quantity_of_unit(unit)
+    if quantity != request.input_quantity:
+        raise ModelFileError(f'{model_path}: model inputs are {quantity or "unknown"} '
+                             f'({unit}) but --input declares {request.input_quantity}')
+
+
 def command(args: argparse.Namespace) -> int:
     """Run ``evaluate``; return the exit code."""
-    from wheel_force_estimator.bagio import load_topic_config
-    from wheel_force_estimator.cli.common import read_recordings
+    from wheel_force_estimator.cli.common import generic_request
     from wheel_force_estimator.core.model import load_model
     from wheel_force_estimator.report.builders import evaluation_text
 
+    request = generic_request(args, args.recordings)
     model = load_model(args.model)
-    topics = load_topic_config(args.config)
-    recordings = read_recordings(args.bags, topics, require_wft=True,
-                                 expected_fs_hz=model.fs_hz)
-    evaluation, segments = evaluate_recordings(model, recordings, args.sn_slope,
-                                               args.causal_delay_samples)
+    if request is None:
+        from wheel_force_estimator.bagio import load_topic_config
+        from wheel_force_estimator.cli.common import check_bag_model
+        from wheel_force_estimator.cli.common import read_recordings
+        check_bag_model(model, args.model)
+        recordings = read_recordings(args.recordings, load_topic_config(args.config),
+                                     require_wft=True, expected_fs_hz=model.fs_hz)
+        evaluation, segments = evaluate_recordings(model, recordings, args.sn_slope,
+                                                   args.causal_delay_samples)
+    else:
+        check_generic_model(model, args.model, request)
+        evaluation, segments = evaluate_generic(model, request.read(args.recordings),
+                                                args.sn_slope, args.causal_delay_samples)
     print(evaluation_text(evaluation))
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)

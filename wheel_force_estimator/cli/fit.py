@@ -1,9 +1,29 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""``wheel-force fit BAG… -o MODEL``: fit the MIMO FRF from instrumented recordings."""
-import argparse
-from pathlib import Path
+"""
+``wheel-force fit RECORDING… -o MODEL``: fit the MIMO FRF from instrumented recordings.
 
+Recordings are bags (the twelve spindle accelerations to the twelve wheel forces) or generic
+DAQ exports with declared channels (``--input``/``--output``/``--fs``; any number of inputs
+of one quantity to any number of forces).  Each gap-free bag segment and each generic file
+contributes its own Welch windows.
+
+Short generic records: the CLI's default two-resolution fit needs one record of
+``long_segment_length`` samples (8192).  Rig and DAQ exports are often shorter (a 7 s
+sine test), so when no generic record is that long and the user did not ask for the long
+resolution (``--long-segment-length`` or the params file), the fit falls back to one
+resolution and says so; nothing is padded.  When the user did ask, the fit is refused
+(exit 1) with the lengths named.  Bags keep the refusal: a proving-ground bag without one
+16 s gap-free stretch usually means a wrong or broken recording.
+"""
+import argparse
+import dataclasses
+from pathlib import Path
+from typing import List, Optional, Tuple
+
+from wheel_force_estimator.cli.common import add_generic_arguments
+from wheel_force_estimator.cli.common import explicit_fit_keys
+from wheel_force_estimator.cli.common import generic_request
 from wheel_force_estimator.cli.common import load_fit_config
 from wheel_force_estimator.cli.common import nominal_fs_hz
 from wheel_force_estimator.cli.common import read_recordings
@@ -13,11 +33,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``fit``."""
     p = subparsers.add_parser(
         'fit', help='fit the acceleration->force FRF from recordings with a WFT',
-        description='Read recordings (rosbag2 mcap/sqlite3 directories or ROS 1 .bag files) '
-                    'with the four spindle Imu and four WFT topics, fit the 12x12 MIMO FRF '
-                    '(Welch, per gap-free segment, averaged) and save a model file.')
-    p.add_argument('bags', nargs='+', metavar='BAG', help='training recordings')
-    p.add_argument('-o', '--output', required=True, metavar='MODEL', help='model file (.npz)')
+        description='Read recordings (rosbag2 mcap/sqlite3 directories or ROS 1 .bag files '
+                    'with the four spindle Imu and four WFT topics, or generic DAQ exports '
+                    'with --input/--output/--fs), fit the MIMO FRF (Welch, per gap-free '
+                    'segment, averaged) and save a model file.')
+    p.add_argument('recordings', nargs='+', metavar='RECORDING',
+                   help='training recordings: bags, or .csv/.mat/.npz/.json files with '
+                        '--input/--output/--fs')
+    p.add_argument('-o', '--out-model', dest='out_model', required=True, metavar='MODEL',
+                   help='model file (.npz)')
     p.add_argument('--config', metavar='YAML', help='params file (topics, fit settings)')
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     p.add_argument('--estimator', choices=('h1', 'h1_tikhonov', 'h1_tsvd'))
@@ -25,49 +49,148 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--regularisation', type=float, metavar='R')
     p.add_argument('--f-min-hz', type=float, metavar='HZ')
     p.add_argument('--long-segment-length', type=int, metavar='N',
-                   help='long Welch segment below the crossover (0 = single resolution)')
+                   help='long Welch segment below the crossover (0 = single resolution; '
+                        'default 8192, dropped with a note for generic records shorter '
+                        'than that)')
+    add_generic_arguments(p)
     return p
+
+
+@dataclasses.dataclass(frozen=True)
+class _TrainingData:
+    """What the fit is computed from, whichever kind of recording it came from."""
+
+    segments: list
+    skipped: List[str]
+    n_read: int
+    n_recordings: int
+    fs_hz: float
+    input_channels: Tuple[str, ...]
+    output_channels: Tuple[str, ...]
+    units: dict
+    fit_info: dict
+
+
+def _too_short(source: str, n: int, segment_length: int) -> Optional[str]:
+    if n >= segment_length:
+        return None
+    return f'{source}: {n} samples < segment length {segment_length}'
+
+
+def _bag_data(args, config) -> _TrainingData:
+    from wheel_force_estimator import INPUT_CHANNELS
+    from wheel_force_estimator import OUTPUT_CHANNELS
+    from wheel_force_estimator.bagio import load_topic_config
+    from wheel_force_estimator.core.pipeline import TrainingSegment
+
+    recordings = read_recordings(args.recordings, load_topic_config(args.config),
+                                 require_wft=True)
+    segments, skipped, n_read = [], [], 0
+    for rec in recordings:
+        for i, seg in enumerate(rec.segments):
+            n_read += seg.stamp_ns.size
+            source = f'{rec.path}#{i}'
+            reason = _too_short(source, seg.stamp_ns.size, config.segment_length)
+            if reason:
+                skipped.append(reason)
+            else:
+                segments.append(TrainingSegment(seg.accel_mps2, seg.force_n, source))
+    return _TrainingData(segments, skipped, n_read, len(recordings), nominal_fs_hz(recordings),
+                         INPUT_CHANNELS, OUTPUT_CHANNELS, {'input': 'm/s^2', 'output': 'N'},
+                         {'bags': [str(Path(b)) for b in args.recordings]})
+
+
+def _generic_data(request, paths, config) -> _TrainingData:
+    from wheel_force_estimator.core.pipeline import TrainingSegment
+    from wheel_force_estimator.daqio import SI_UNITS
+
+    recordings = request.read(paths)
+    segments, skipped = [], []
+    for rec in recordings:
+        reason = _too_short(rec.path, rec.n_samples, config.segment_length)
+        if reason:
+            skipped.append(reason)
+        else:
+            segments.append(TrainingSegment(rec.inputs, rec.outputs, rec.path))
+    info = {'recordings': [str(Path(p)) for p in paths],
+            'input_quantity': request.input_quantity,
+            'declared_inputs': [s.text for s in request.inputs],
+            'declared_outputs': [s.text for s in request.outputs]}
+    return _TrainingData(segments, skipped, sum(r.n_samples for r in recordings),
+                         len(recordings), request.fs_hz, request.input_channels,
+                         request.output_channels,
+                         {'input': SI_UNITS[request.input_quantity], 'output': 'N'}, info)
+
+
+def _check_lengths(data: _TrainingData, config) -> None:
+    """Refuse a fit where no record holds one Welch segment, naming the longest."""
+    from wheel_force_estimator.core.errors import InsufficientDataError
+    if data.segments:
+        return
+    detail = '; '.join(data.skipped[:3]) + (' ...' if len(data.skipped) > 3 else '')
+    raise InsufficientDataError(
+        f'no recording holds one Welch segment of {config.segment_length} samples '
+        f'({config.segment_length / data.fs_hz:g} s at {data.fs_hz:g} Hz): {detail}; pass '
+        f'--segment-length N (N <= the record length) for a coarser frequency grid')
+
+
+def _short_record_fallback(config, data: _TrainingData, explicit) -> Tuple[object, str]:
+    """Return the config to fit with and a note (empty when nothing was changed)."""
+    if not config.long_segment_length or 'long_segment_length' in explicit:
+        return config, ''
+    longest = max(s.accel_mps2.shape[1] for s in data.segments)
+    if longest >= config.long_segment_length:
+        return config, ''
+    note = (f'note: no record holds the {config.long_segment_length}-sample long segment of '
+            f'the default two-resolution fit ({config.long_segment_length / data.fs_hz:g} s '
+            f'at {data.fs_hz:g} Hz; longest: {longest} samples); fitted with one resolution '
+            f'(segment {config.segment_length}). --long-segment-length 0 silences this note.')
+    return dataclasses.replace(config, long_segment_length=0), note
 
 
 def command(args: argparse.Namespace) -> int:
     """Run ``fit``; return the exit code."""
-    from wheel_force_estimator import INPUT_CHANNELS
-    from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator.bagio import load_topic_config
     from wheel_force_estimator.core.model import save_model
     from wheel_force_estimator.core.pipeline import coherence_summary
     from wheel_force_estimator.core.pipeline import fit_model
-    from wheel_force_estimator.core.pipeline import TrainingSegment
 
-    config = load_fit_config(args.config, estimator=args.estimator,
-                             segment_length=args.segment_length,
-                             regularisation=args.regularisation, f_min_hz=args.f_min_hz,
-                             long_segment_length=args.long_segment_length)
-    topics = load_topic_config(args.config)
-    recordings = read_recordings(args.bags, topics, require_wft=True)
-    fs_hz = nominal_fs_hz(recordings)
-    segments, skipped = [], []
-    n_read = 0
-    for rec in recordings:
-        for i, seg in enumerate(rec.segments):
-            n = seg.stamp_ns.size
-            n_read += n
-            source = f'{rec.path}#{i}'
-            if n < config.segment_length:
-                skipped.append(f'{source}: {n} samples < segment length '
-                               f'{config.segment_length}')
-                continue
-            segments.append(TrainingSegment(seg.accel_mps2, seg.force_n, source))
-    model = fit_model(segments, fs_hz, config, INPUT_CHANNELS, OUTPUT_CHANNELS,
-                      fit_info={'bags': [str(Path(b)) for b in args.bags]})
-    path = save_model(model, args.output)
+    request = generic_request(args, args.recordings)
+    settings = {'estimator': args.estimator, 'segment_length': args.segment_length,
+                'regularisation': args.regularisation, 'f_min_hz': args.f_min_hz,
+                'long_segment_length': args.long_segment_length}
+    config = load_fit_config(args.config, **settings)
+    note = ''
+    if request is None:
+        data = _bag_data(args, config)
+        _check_lengths(data, config)
+    else:
+        data = _generic_data(request, args.recordings, config)
+        _check_lengths(data, config)
+        config, note = _short_record_fallback(config, data,
+                                              explicit_fit_keys(args.config, **settings))
+    model = fit_model(data.segments, data.fs_hz, config, data.input_channels,
+                      data.output_channels, fit_info=data.fit_info)
+    model = dataclasses.replace(model, units=data.units)
+    path = save_model(model, args.out_model)
     summary = coherence_summary(model)
-    used = sum(s.accel_mps2.shape[1] for s in segments)
-    print(f'recordings: {len(recordings)}   segments used: {len(segments)}   '
-          f'samples used: {used} of {n_read} ({used / fs_hz:.1f} s)   '
-          f'sample rate: {fs_hz:g} Hz')
-    for line in skipped:
+    _print_summary(model, summary, config, data, note)
+    if args.report:
+        from wheel_force_estimator.report.builders import write_fit_report
+        report = write_fit_report(args.report, model, summary)
+        print(f'report: {report}')
+    print(f'model: {path}')
+    return 0
+
+
+def _print_summary(model, summary, config, data: _TrainingData, note: str) -> None:
+    used = sum(s.accel_mps2.shape[1] for s in data.segments)
+    print(f'recordings: {data.n_recordings}   segments used: {len(data.segments)}   '
+          f'samples used: {used} of {data.n_read} ({used / data.fs_hz:.1f} s)   '
+          f'sample rate: {data.fs_hz:g} Hz')
+    for line in data.skipped:
         print(f'  not used (too short for one Welch segment): {line}')
+    if note:
+        print(note)
     print(f'estimator: {model.estimator}   segment: {config.segment_length}   '
           f'windows averaged: {model.fit["n_windows"]}')
     if config.long_segment_length:
@@ -81,9 +204,3 @@ def command(args: argparse.Namespace) -> int:
         print(f'  {name:6s} {summary["mean_coherence"][name]:.3f}   low: {text}{more}')
     worst = ', '.join(f'{c:.3g} @ {f:.2f} Hz' for f, c in summary['worst_cond'][:3])
     print(f'worst condition numbers of Sxx: {worst}')
-    if args.report:
-        from wheel_force_estimator.report.builders import write_fit_report
-        report = write_fit_report(args.report, model, summary)
-        print(f'report: {report}')
-    print(f'model: {path}')
-    return 0

@@ -7,6 +7,7 @@ import sys
 from typing import List, Optional
 
 from wheel_force_estimator import __version__
+from wheel_force_estimator.cli.common import UsageError
 from wheel_force_estimator.core.errors import WheelForceError
 
 SUBCOMMANDS = ('simulate', 'fit', 'predict', 'evaluate', 'diagnose', 'node', 'replay')
@@ -39,6 +40,9 @@ def main(argv: Optional[List[str]] = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args._command(args))
+    except UsageError as err:
+        print(f'wheel-force {args.subcommand}: error: {err}', file=sys.stderr)
+        return 2
     except WheelForceError as err:
         print(f'wheel-force {args.subcommand}: error: {err}', file=sys.stderr)
         return 1

@@ -88,10 +88,12 @@ def command(args: argparse.Namespace) -> int:
     """Run ``predict``; return the exit code."""
     from wheel_force_estimator.bagio import load_topic_config
     from wheel_force_estimator.bagio import write_recording
+    from wheel_force_estimator.cli.common import check_bag_model
     from wheel_force_estimator.cli.common import read_recordings
     from wheel_force_estimator.core.model import load_model
 
     model = load_model(args.model)
+    check_bag_model(model, args.model)
     topics = load_topic_config(args.config)
     (recording,) = read_recordings([args.bag], topics, require_wft=False,
                                    expected_fs_hz=model.fs_hz)

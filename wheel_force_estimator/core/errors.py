@@ -44,3 +44,7 @@ class SimulationError(WheelForceError):
 
 class DiagnosisError(WheelForceError):
     """The sim-vs-real diagnosis cannot be run on the given data."""
+
+
+class RecordingError(WheelForceError, ValueError):
+    """A generic recording (DAQ export) cannot be read or does not match its declared channels."""

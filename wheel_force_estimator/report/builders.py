@@ -1,7 +1,16 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""Compose the ``fit`` and ``evaluate`` reports from the plot and table functions."""
+"""
+Compose the ``fit`` and ``evaluate`` reports from the plot and table functions.
+
+Any channel count works.  Each output is paired with one input for the "same-axis" curves
+(ordinary coherence, FRF magnitude under the ASD): by vehicle names (``lf_fx`` <-
+``lf_ax``), else input ``k`` for output ``k`` when the counts agree, else the single input;
+without such a pairing those curves are left out.  Vehicle models get the per-axis FRF
+diagonal plot, other models the FRF of every input-output pair.  Units come from the model.
+"""
 from pathlib import Path
+from typing import List, Optional
 
 import numpy as np
 
@@ -10,11 +19,15 @@ from wheel_force_estimator.report.evaluation_plots import plot_damage_ratio
 from wheel_force_estimator.report.evaluation_plots import plot_relative_damage_spectrum
 from wheel_force_estimator.report.evaluation_plots import plot_rmse_colormap
 from wheel_force_estimator.report.evaluation_plots import plot_time_overlay
+from wheel_force_estimator.report.figures import _unit
+from wheel_force_estimator.report.figures import ratio_unit
 from wheel_force_estimator.report.markdown import ReportWriter
+from wheel_force_estimator.report.spectral_plots import _same_axis_pairs
 from wheel_force_estimator.report.spectral_plots import plot_asd
 from wheel_force_estimator.report.spectral_plots import plot_coherence
 from wheel_force_estimator.report.spectral_plots import plot_condition_number
 from wheel_force_estimator.report.spectral_plots import plot_frf_diagonal
+from wheel_force_estimator.report.spectral_plots import plot_frf_matrix
 
 
 def evaluation_text(evaluation) -> str:
@@ -37,33 +50,62 @@ def evaluation_text(evaluation) -> str:
     return '\n'.join(lines)
 
 
+def paired_inputs(input_channels, output_channels) -> Optional[List[int]]:
+    """Return the input index paired with each output (see the module notes), or None."""
+    n_in, n_out = len(input_channels), len(output_channels)
+    pairs = _same_axis_pairs(tuple(input_channels), tuple(output_channels))
+    if len(pairs) == n_out:
+        return [i for _, i in pairs]
+    if n_in == n_out:
+        return list(range(n_out))
+    if n_in == 1:
+        return [0] * n_out
+    return None
+
+
+def output_units(model) -> List[str]:
+    """Return the unit of each output: from vehicle names (N, N·m), else the model's."""
+    fallback = str(model.units.get('output', 'N'))
+    return [_unit(c) if _unit(c) != '-' else fallback for c in model.output_channels]
+
+
 def write_fit_report(directory, model, summary) -> Path:
-    """Write the fit report (coherence, FRF diagonal, condition number); return report.md."""
+    """Write the fit report (coherence, FRF, condition number); return report.md."""
     out = ReportWriter(directory)
     d = Path(directory)
-    diag = np.stack([model.coherence_ordinary[:, o, o]
-                     for o in range(min(len(model.output_channels),
-                                        len(model.input_channels)))], axis=1)
+    paired = paired_inputs(model.input_channels, model.output_channels)
+    diag = None if paired is None else np.stack(
+        [model.coherence_ordinary[:, o, i] for o, i in enumerate(paired)], axis=1)
     out.heading('FRF fit', 1)
     out.paragraph(
         f'{len(model.fit.get("segments", []))} segment(s), '
-        f'{model.fit.get("total_duration_s", 0):.1f} s at {model.fs_hz:g} Hz; estimator '
-        f'`{model.estimator}`, segment length {model.fit.get("segment_length")}, '
+        f'{model.fit.get("total_duration_s", 0):.1f} s at {model.fs_hz:g} Hz; '
+        f'{len(model.input_channels)} input(s) [{model.units.get("input", "m/s^2")}] -> '
+        f'{len(model.output_channels)} output(s) [{model.units.get("output", "N")}]; '
+        f'estimator `{model.estimator}`, segment length {model.fit.get("segment_length")}, '
         f'{model.fit.get("n_windows")} windows averaged.')
     out.heading('Coherence', 2)
     out.image(plot_coherence(d / 'coherence.png', model.f_hz, model.coherence_multiple,
                              diag, model.output_channels),
-              'Multiple coherence per output and ordinary coherence of the same-axis pair')
+              'Multiple coherence per output and ordinary coherence of the paired input')
     rows = '\n'.join(f'| {n} | {summary["mean_coherence"][n]:.3f} | '
                      + (', '.join(f'{a:.1f}-{b:.1f}' for a, b in summary['low_bands_hz'][n])
                         or '-') + ' |'
                      for n in model.output_channels)
     out.table('| output | mean multiple coherence 0.5-50 Hz | bands < 0.5 [Hz] |\n'
               '|---|---|---|\n' + rows)
-    out.heading('FRF diagonal', 2)
-    out.image(plot_frf_diagonal(d / 'frf_diagonal.png', model.f_hz, model.h,
-                                model.input_channels, model.output_channels),
-              'Same-axis FRF per corner: magnitude and phase')
+    if _same_axis_pairs(model.input_channels, model.output_channels):
+        out.heading('FRF diagonal', 2)
+        out.image(plot_frf_diagonal(d / 'frf_diagonal.png', model.f_hz, model.h,
+                                    model.input_channels, model.output_channels),
+                  'Same-axis FRF per corner: magnitude and phase')
+    else:
+        out.heading('FRF', 2)
+        out.image(plot_frf_matrix(d / 'frf.png', model.f_hz, model.h, model.input_channels,
+                                  model.output_channels,
+                                  input_unit=model.units.get('input', 'm/s^2'),
+                                  output_unit=model.units.get('output', 'N')),
+                  'FRF of every input-output pair: magnitude and phase')
     out.heading('Conditioning', 2)
     out.image(plot_condition_number(d / 'condition_number.png', model.f_hz,
                                     model.cond_sxx),
@@ -105,12 +147,19 @@ def write_evaluation_report(directory, model, evaluation, segments) -> Path:
         d / 'relative_damage_spectrum.png', ch, evaluation.bands_hz, evaluation.rds_target,
         evaluation.rds_prediction), 'Relative damage spectrum (paper Figure 13)')
     out.heading('Spectra', 2)
-    diag = np.stack([np.abs(model.h[:, o, o]) for o in range(len(ch))])
-    mag = np.stack([np.interp(evaluation.f_hz, model.f_hz, row) for row in diag])
+    units = output_units(model)
+    paired = paired_inputs(model.input_channels, ch)
+    mag = None if paired is None else np.stack(
+        [np.interp(evaluation.f_hz, model.f_hz, np.abs(model.h[:, o, i]))
+         for o, i in enumerate(paired)])
+    vehicle = all(_unit(c) != '-' for c in ch)  # units per channel from the names
+    gain = None if vehicle else ratio_unit(model.units.get('output', 'N'),
+                                           model.units.get('input', 'm/s^2'))
     out.image(plot_asd(d / 'asd.png', evaluation.f_hz, evaluation.asd_target,
                        evaluation.asd_prediction, evaluation.asd_error, ch,
-                       frf_mag=mag),
-              'ASD of target, prediction and error with the same-axis FRF (Figures 10-12)')
+                       frf_mag=mag, units=units, frf_unit=gain),
+              'ASD of target, prediction and error with the paired FRF (Figures 10-12)'
+              if mag is not None else 'ASD of target, prediction and error (Figures 10-12)')
     out.image(plot_coherence(d / 'coherence.png', model.f_hz, model.coherence_multiple,
                              None, model.output_channels),
               'Model multiple coherence (Figure 6)')
@@ -118,11 +167,12 @@ def write_evaluation_report(directory, model, evaluation, segments) -> Path:
     longest = max(segments, key=lambda s: s.target_n.shape[1])
     t_s = (longest.stamp_ns - longest.stamp_ns[0]) * 1e-9
     out.image(plot_time_overlay(d / 'time_history.png', t_s, longest.target_n,
-                                longest.prediction_n, ch, title=longest.source),
+                                longest.prediction_n, ch, title=longest.source, units=units),
               f'Target vs prediction, {longest.source}')
     mid = t_s[-1] / 2
-    out.image(plot_time_overlay(d / 'time_history_zoom.png', t_s, longest.target_n,
-                                longest.prediction_n, ch, window_s=(mid, mid + 5.0),
-                                title=f'{longest.source} (5 s zoom)'),
-              'Zoom on 5 s')
+    if mid > 5.0:  # a shorter record is readable whole
+        out.image(plot_time_overlay(d / 'time_history_zoom.png', t_s, longest.target_n,
+                                    longest.prediction_n, ch, window_s=(mid, mid + 5.0),
+                                    title=f'{longest.source} (5 s zoom)', units=units),
+                  'Zoom on 5 s')
     return out.write()

@@ -24,7 +24,7 @@ from wheel_force_estimator.report.figures import _non_negative
 from wheel_force_estimator.report.figures import _png_path
 from wheel_force_estimator.report.figures import _RUBRIC_TEXT
 from wheel_force_estimator.report.figures import _save
-from wheel_force_estimator.report.figures import _unit
+from wheel_force_estimator.report.figures import channel_units
 from wheel_force_estimator.report.figures import COLOR_ERROR
 from wheel_force_estimator.report.figures import COLOR_PREDICTION
 from wheel_force_estimator.report.figures import COLOR_TARGET
@@ -52,7 +52,8 @@ def _envelope(t: np.ndarray, y: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
 
 
 def plot_time_overlay(path, t_s, target, prediction, channels: Sequence[str],
-                      window_s: Optional[Tuple[float, float]] = None, title: str = '') -> Path:
+                      window_s: Optional[Tuple[float, float]] = None, title: str = '',
+                      units: Optional[Sequence[str]] = None) -> Path:
     """
     Target, prediction and error time histories, one stacked axes per channel (Figure 8).
 
@@ -63,13 +64,15 @@ def plot_time_overlay(path, t_s, target, prediction, channels: Sequence[str],
     t_s : array_like, shape (n,)
         Time [s], strictly increasing.
     target, prediction : array_like, shape (n_ch, n)
-        Measured and predicted signals (units from the channel names: N, N·m, m/s²).
+        Measured and predicted signals (units from ``units`` or the channel names).
     channels : sequence of str
         Channel names.
     window_s : (float, float), optional
         Zoom window ``(start, end)`` [s]; only samples inside it are drawn.
     title : str
         Figure title (e.g. the recording or event name).
+    units : sequence of str, optional
+        Unit of each channel (e.g. ``N``); default from vehicle channel names.
 
     Returns
     -------
@@ -90,6 +93,7 @@ def plot_time_overlay(path, t_s, target, prediction, channels: Sequence[str],
     t = _axis(t_s, 't_s')
     y_true = check_values(target, 'target', (len(names), t.size))
     y_pred = check_values(prediction, 'prediction', (len(names), t.size))
+    unit_of = channel_units(names, units)
     if window_s is not None:
         start, end = (float(v) for v in window_s)
         keep = (t >= start) & (t <= end)
@@ -107,7 +111,7 @@ def plot_time_overlay(path, t_s, target, prediction, channels: Sequence[str],
     for k, ax in enumerate(axes):
         for values, colour, lw, alpha, label in series:
             ax.plot(*_envelope(t, values[k]), color=colour, lw=lw, alpha=alpha, label=label)
-        ax.set_ylabel(f'{_label(names[k])}\n[{_unit(names[k])}]', fontsize=9)
+        ax.set_ylabel(f'{_label(names[k])}\n[{unit_of[k]}]', fontsize=9)
         ax.tick_params(labelsize=8)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel('time [s]')

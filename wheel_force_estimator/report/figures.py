@@ -17,11 +17,12 @@ The plots are in :mod:`wheel_force_estimator.report.spectral_plots` (against fre
 and :mod:`wheel_force_estimator.report.evaluation_plots` (time histories, damage, RMSE).
 """
 from pathlib import Path
-from typing import Sequence
+from typing import Optional, Sequence
 
 from matplotlib.figure import Figure
 import numpy as np
 
+from wheel_force_estimator import CORNERS
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.report.tables import check_values
@@ -70,14 +71,47 @@ def _non_negative(arr: np.ndarray, name: str, channels: Sequence[str]) -> None:
 
 
 def _label(channel: str) -> str:
-    """Return 'lf_fx' as 'LF Fx', the paper's spelling."""
+    """Return 'lf_fx' as 'LF Fx', the paper's spelling; other names unchanged."""
     corner, sep, rest = channel.partition('_')
-    return f'{corner.upper()} {rest.capitalize()}' if sep else channel
+    return f'{corner.upper()} {rest.capitalize()}' if sep and corner in CORNERS else channel
 
 
 def _unit(channel: str) -> str:
-    quantity = channel.partition('_')[2][:1]
-    return {'f': 'N', 'm': 'N·m', 'a': 'm/s²'}.get(quantity, '-')
+    """Return the unit of a vehicle channel from its name ('lf_fx' -> N), '-' if unknown."""
+    corner, _, quantity = channel.partition('_')
+    if corner not in CORNERS:
+        return '-'
+    return {'f': 'N', 'm': 'N·m', 'a': 'm/s²'}.get(quantity[:1], '-')
+
+
+def pretty_unit(unit: str) -> str:
+    """Return a model-file unit for a plot label ('m/s^2' -> 'm/s²')."""
+    return unit.replace('^2', '²').replace('^3', '³')
+
+
+def ratio_unit(numerator: str, denominator: str) -> str:
+    """Return the unit of a gain, e.g. ``N/m`` or ``N/(m/s²)``."""
+    den = pretty_unit(denominator)
+    return f'{pretty_unit(numerator)}/({den})' if '/' in den else f'{pretty_unit(numerator)}/{den}'
+
+
+def channel_units(channels: Sequence[str], units: Optional[Sequence[str]]) -> list:
+    """
+    Return one unit label per channel: ``units`` when given, else from the channel names.
+
+    Raises
+    ------
+    ShapeError
+        ``units`` does not have one entry per channel.
+
+    """
+    if units is None:
+        return [_unit(c) for c in channels]
+    units = [pretty_unit(str(u)) for u in units]
+    if len(units) != len(channels):
+        raise ShapeError(f'units: expected {len(channels)} entries (one per channel), '
+                         f'got {len(units)}')
+    return units
 
 
 def _save(fig: Figure, path: Path) -> Path:

@@ -8,7 +8,9 @@ functions, no ``pyplot``, inputs validated before drawing) are stated in
 :mod:`wheel_force_estimator.report.figures`.
 
 Layout convention: channels named ``{corner}_{quantity}`` (``lf_fx`` ...) are drawn on a grid
-with one row per corner and one column per quantity (4 x 3 for the 12 forces).
+with one row per corner and one column per quantity (4 x 3 for the 12 forces); any other
+names (generic recordings) fill rows of three.  Units come from vehicle channel names or are
+passed in (``units``, ``input_unit``), so any channel count and naming works.
 """
 from pathlib import Path
 from typing import Optional, Sequence, Tuple
@@ -23,12 +25,14 @@ from wheel_force_estimator.report.figures import _non_negative
 from wheel_force_estimator.report.figures import _png_path
 from wheel_force_estimator.report.figures import _save
 from wheel_force_estimator.report.figures import _unit
+from wheel_force_estimator.report.figures import channel_units
 from wheel_force_estimator.report.figures import COLOR_ERROR
 from wheel_force_estimator.report.figures import COLOR_FRF
 from wheel_force_estimator.report.figures import COLOR_ORDINARY
 from wheel_force_estimator.report.figures import COLOR_PREDICTION
 from wheel_force_estimator.report.figures import COLOR_TARGET
 from wheel_force_estimator.report.figures import DPI
+from wheel_force_estimator.report.figures import ratio_unit
 from wheel_force_estimator.report.tables import check_names
 from wheel_force_estimator.report.tables import check_values
 
@@ -131,8 +135,8 @@ def plot_coherence(path, f_hz, coherence_multiple, coherence_ordinary_diag,
     ordinary = None if coherence_ordinary_diag is None else check_values(
         coherence_ordinary_diag, 'coherence_ordinary_diag', (f.size, len(names)))
     f_end = _f_max(f, f_max_hz)
-    fig, axes, cells, n_rows = _grid_figure(names, 4.2, 2.3, 'Coherence: accelerations -> '
-                                            'wheel forces (values below 0.5: FRF not trusted)')
+    fig, axes, cells, n_rows = _grid_figure(names, 4.2, 2.3, 'Coherence: inputs -> outputs '
+                                            '(values below 0.5: FRF not trusted)')
     for i, (ax, (row, col)) in enumerate(zip(axes, cells)):
         ax.plot(f, multiple[:, i], color=COLOR_PREDICTION, lw=1.0, label='multiple (all inputs)')
         if ordinary is not None:
@@ -245,6 +249,87 @@ def plot_frf_diagonal(path, f_hz, h, input_channels: Sequence[str],
     return _save(fig, out)
 
 
+def plot_frf_matrix(path, f_hz, h, input_channels: Sequence[str],
+                    output_channels: Sequence[str], input_unit: str = 'm/s^2',
+                    output_unit: str = 'N', f_max_hz: Optional[float] = None,
+                    max_inputs: int = 6) -> Path:
+    """
+    Magnitude and phase of the FRF from every input to every output, any channel names.
+
+    For models whose channels do not follow the vehicle naming (generic recordings): one
+    column per output (rows of three), the inputs overlaid.  With more than ``max_inputs``
+    inputs only the ``max_inputs`` with the largest RMS gain to that output are drawn (all
+    inputs share one quantity, so their gains compare).
+
+    Parameters
+    ----------
+    path : str or Path
+        PNG file to write.
+    f_hz : array_like, shape (nf,)
+        Frequency vector [Hz].
+    h : array_like, complex, shape (nf, n_out, n_in)
+        FRF matrix [output_unit / input_unit].
+    input_channels, output_channels : sequence of str
+        Channel names.
+    input_unit, output_unit : str
+        Units of the inputs (e.g. ``m``) and outputs (``N``), for the axis label.
+    f_max_hz : float, optional
+        Upper frequency limit of the plot [Hz].
+    max_inputs : int
+        Most inputs drawn per output (>= 1).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ShapeError, NonFiniteError, ConfigError
+
+    """
+    out = _png_path(path)
+    inputs = check_names(input_channels, 'input_channels')
+    outputs = check_names(output_channels, 'output_channels')
+    f = _axis(f_hz, 'f_hz')
+    frf = check_values(h, 'h', (f.size, len(outputs), len(inputs)), dtype=np.complex128)
+    f_end = _f_max(f, f_max_hz)
+    if max_inputs < 1:
+        raise ConfigError(f'max_inputs must be >= 1, got {max_inputs!r}')
+    n_cols = min(3, len(outputs))
+    n_blocks = -(-len(outputs) // n_cols)
+    fig = Figure(figsize=(4.6 * n_cols + 0.6, 4.4 * n_blocks + 0.8), dpi=DPI,
+                 layout='constrained')
+    gs = fig.add_gridspec(2 * n_blocks, n_cols, height_ratios=(2.0, 1.0) * n_blocks)
+    fig.suptitle('FRF: inputs -> outputs, magnitude and phase', fontsize=13)
+    unit = ratio_unit(output_unit, input_unit)
+    for o, name in enumerate(outputs):
+        block, col = divmod(o, n_cols)
+        ax_mag = fig.add_subplot(gs[2 * block, col])
+        ax_ph = fig.add_subplot(gs[2 * block + 1, col], sharex=ax_mag)
+        rms = np.sqrt(np.mean(np.abs(frf[:, o, :]) ** 2, axis=0))
+        for i in sorted(np.argsort(rms)[::-1][:max_inputs]):
+            colour = f'C{i % 10}'
+            ax_mag.plot(f, np.abs(frf[:, o, i]), color=colour, lw=1.0, label=inputs[i])
+            phase = np.angle(frf[:, o, i], deg=True)
+            wraps = np.nonzero(np.abs(np.diff(phase)) > 180.0)[0] + 1
+            ax_ph.plot(np.insert(f, wraps, np.nan), np.insert(phase, wraps, np.nan),
+                       color=colour, lw=0.8)
+        if np.any(rms > 0):
+            ax_mag.set_yscale('log')
+        ax_mag.set_title(name, fontsize=11)
+        ax_mag.set_ylabel(f'|H| [{unit}]')
+        ax_mag.grid(alpha=0.3, which='both')
+        ax_mag.legend(fontsize=8, loc='best')
+        ax_mag.tick_params(labelbottom=False)
+        ax_ph.set_ylim(-190.0, 190.0)
+        ax_ph.set_yticks([-180, -90, 0, 90, 180])
+        ax_ph.set_ylabel('phase [deg]')
+        ax_ph.set_xlabel('frequency [Hz]')
+        ax_ph.set_xlim(f[0], f_end)
+        ax_ph.grid(alpha=0.3)
+    return _save(fig, out)
+
+
 def plot_condition_number(path, f_hz, cond) -> Path:
     """
     Condition number of the input cross-spectral matrix Sxx versus frequency (log scale).
@@ -287,7 +372,8 @@ def plot_condition_number(path, f_hz, cond) -> Path:
 
 # ---------------------------------------------------------------- evaluation plots
 def plot_asd(path, f_hz, asd_target, asd_prediction, asd_error, channels: Sequence[str],
-             frf_mag=None) -> Path:
+             frf_mag=None, units: Optional[Sequence[str]] = None,
+             frf_unit: Optional[str] = None) -> Path:
     """
     Auto spectral density of target, prediction and error per channel (Figures 10-12).
 
@@ -304,6 +390,10 @@ def plot_asd(path, f_hz, asd_target, asd_prediction, asd_error, channels: Sequen
     frf_mag : array_like, shape (n_ch, nf), optional
         Magnitude of each channel's same-axis FRF, drawn on a twin log axis, so error bands can
         be matched with resonances and anti-resonances.
+    units : sequence of str, optional
+        Unit of each channel (e.g. ``N``); default from vehicle channel names.
+    frf_unit : str, optional
+        Unit of ``frf_mag`` (e.g. ``N/m``); default ``{unit}/(m/s²)``.
 
     Returns
     -------
@@ -322,6 +412,7 @@ def plot_asd(path, f_hz, asd_target, asd_prediction, asd_error, channels: Sequen
                check_values(asd_prediction, 'asd_prediction', shape),
                check_values(asd_error, 'asd_error', shape)]
     frf = None if frf_mag is None else check_values(frf_mag, 'frf_mag', shape)
+    unit_of = channel_units(names, units)
     for arr, n in zip(spectra + ([] if frf is None else [frf]),
                       ('asd_target', 'asd_prediction', 'asd_error', 'frf_mag')):
         _non_negative(arr, n, names)
@@ -342,7 +433,7 @@ def plot_asd(path, f_hz, asd_target, asd_prediction, asd_error, channels: Sequen
         if row == n_rows - 1:
             ax.set_xlabel('frequency [Hz]')
         if col == 0:
-            ax.set_ylabel(f'ASD [{_squared(_unit(names[k]))}/Hz]')
+            ax.set_ylabel(f'ASD [{_squared(unit_of[k])}/Hz]')
         if frf is not None:
             twin = ax.twinx()
             twin_handles = twin.plot(f, frf[k], color=COLOR_FRF, lw=0.8, ls='--',
@@ -350,7 +441,8 @@ def plot_asd(path, f_hz, asd_target, asd_prediction, asd_error, channels: Sequen
             twin.set_yscale('log')
             twin.tick_params(axis='y', colors=COLOR_FRF, labelsize=7)
             if col == n_cols - 1:
-                twin.set_ylabel(f'|H| [{_unit(names[k])}/(m/s²)]', color=COLOR_FRF)
+                gain = frf_unit or ratio_unit(unit_of[k], 'm/s^2')
+                twin.set_ylabel(f'|H| [{gain}]', color=COLOR_FRF)
     handles, labels = axes[0].get_legend_handles_labels()
     handles += twin_handles
     labels += [h.get_label() for h in twin_handles]

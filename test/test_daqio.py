@@ -1,0 +1,122 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""The neutral generic-recording reader (``daqio``) and the diagnosis façade over it."""
+from pathlib import Path
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from wheel_force_estimator.core.errors import DiagnosisError
+from wheel_force_estimator.core.errors import RecordingError
+from wheel_force_estimator.core.errors import WheelForceError
+from wheel_force_estimator.daqio import check_specs
+from wheel_force_estimator.daqio import DaqRecording
+from wheel_force_estimator.daqio import parse_spec
+from wheel_force_estimator.daqio import quantity_of_unit
+from wheel_force_estimator.daqio import read_daq
+from wheel_force_estimator.diagnosis import MotionRecording
+from wheel_force_estimator.diagnosis.generic import load_generic
+from wheel_force_estimator.diagnosis.generic import parse_spec as diagnosis_parse_spec
+
+ROOT = Path(__file__).resolve().parents[1]
+IN = [parse_spec('x:acceleration:g', 'input')]
+OUT = [parse_spec('f:force:lbf', 'output')]
+
+
+def test_recording_error_is_neutral():
+    assert issubclass(RecordingError, WheelForceError)
+    assert issubclass(RecordingError, ValueError)
+    assert not issubclass(RecordingError, DiagnosisError)
+
+
+def test_spec_errors_are_recording_errors_and_diagnosis_errors_in_the_facade():
+    with pytest.raises(RecordingError, match='unknown velocity unit') as neutral:
+        parse_spec('v:velocity:knots', 'input')
+    with pytest.raises(DiagnosisError) as facade:
+        diagnosis_parse_spec('v:velocity:knots', 'input')
+    assert str(facade.value) == str(neutral.value)
+    with pytest.raises(RecordingError, match='role must be one of'):
+        parse_spec('v:velocity:m/s', 'motion')
+
+
+def test_spec_text_and_si_quantities():
+    spec = parse_spec('data[3]:velocity:mm/s', 'input')
+    assert spec.text == 'data[3]:velocity:mm/s'
+    assert spec.scale == pytest.approx(1e-3)
+    assert quantity_of_unit('m') == 'displacement'
+    assert quantity_of_unit('m/s') == 'velocity'
+    assert quantity_of_unit('m/s^2') == 'acceleration'
+    assert quantity_of_unit('m/s2') == 'acceleration'
+    assert quantity_of_unit('N') == 'force'
+    assert quantity_of_unit('mm') is None
+
+
+def test_check_specs():
+    x = parse_spec('x:displacement:m', 'input')
+    f = parse_spec('f:force:N', 'output')
+    assert check_specs([x], [f]) == ((x,), (f,))
+    with pytest.raises(RecordingError, match='at least one --input and one --output'):
+        check_specs([x], [])
+    with pytest.raises(RecordingError, match="output channel 'f' is declared twice"):
+        check_specs([x], [f, f])
+    with pytest.raises(RecordingError, match='share one quantity'):
+        check_specs([x, parse_spec('y:velocity:m/s', 'input')], [f])
+    with pytest.raises(RecordingError, match='motion and outputs force'):
+        check_specs([f], [f])
+
+
+def test_read_converts_units_and_gives_stamps(tmp_path):
+    (tmp_path / 'a.csv').write_text('x,f\n1.0,2.0\n0.5,-1.0\n0.0,0.0\n')
+    rec = read_daq(tmp_path / 'a.csv', IN, OUT, 1024.0)
+    np.testing.assert_allclose(rec.inputs, [[9.80665, 4.903325, 0.0]], rtol=1e-15)
+    np.testing.assert_allclose(rec.outputs, [[2 * 4.4482216152605, -4.4482216152605, 0.0]],
+                               rtol=1e-15)
+    assert rec.input_quantity == 'acceleration' and rec.input_unit == 'm/s^2'
+    assert rec.input_channels == ('x',) and rec.output_channels == ('f',)
+    # 1 / 1024 s = 976562.5 ns: rounded, never truncated to a drifting grid.
+    np.testing.assert_array_equal(rec.stamp_ns(), [0, 976562, 1953125])
+    assert rec.duration_s == pytest.approx(3 / 1024)
+    assert not rec.inputs.flags.writeable
+    motion = load_generic(tmp_path / 'a.csv', IN, OUT, 1024.0)
+    assert isinstance(motion, MotionRecording)
+    np.testing.assert_array_equal(motion.inputs, rec.inputs)
+
+
+def test_reader_refuses_instead_of_repairing(tmp_path):
+    (tmp_path / 'empty.csv').write_text('x,f\n')
+    with pytest.raises(RecordingError, match='empty.csv: no samples'):
+        read_daq(tmp_path / 'empty.csv', IN, OUT, 100.0)
+    (tmp_path / 'a.csv').write_text('x,f\n1,2\n')
+    for fs in (0.0, -1.0, float('nan')):
+        with pytest.raises(RecordingError, match='a.csv: sample rate'):
+            read_daq(tmp_path / 'a.csv', IN, OUT, fs)
+    np.savez(tmp_path / 'o.npz', x=np.array(['a', 'b']), f=np.ones(2))
+    with pytest.raises(RecordingError, match="channel 'x' is not numeric"):
+        read_daq(tmp_path / 'o.npz', IN, OUT, 100.0)
+    (tmp_path / 'b.mat').write_bytes(b'not a mat file at all')
+    with pytest.raises(RecordingError, match='b.mat: cannot read MAT file'):
+        read_daq(tmp_path / 'b.mat', IN, OUT, 100.0)
+    with pytest.raises(RecordingError, match='unequal|input samples but'):
+        DaqRecording('r', 10.0, np.zeros((1, 3)), np.zeros((1, 2)), ('x',), ('f',),
+                     'displacement')
+    with pytest.raises(RecordingError, match="input quantity 'force'"):
+        DaqRecording('r', 10.0, np.zeros((1, 3)), np.zeros((1, 3)), ('x',), ('f',), 'force')
+
+
+def test_daqio_imports_without_ros_or_matplotlib():
+    script = (
+        'import sys\n'
+        'class Block:\n'
+        "    BLOCKED = ('rclpy', 'matplotlib', 'rosbags', 'yaml')\n"
+        '    def find_spec(self, name, path=None, target=None):\n'
+        "        if name.split('.')[0] in self.BLOCKED:\n"
+        "            raise ImportError(f'blocked: {name}')\n"
+        'sys.meta_path.insert(0, Block())\n'
+        'import wheel_force_estimator.daqio.reader\n'
+        "leaked = [m for m in sys.modules if m.split('.')[0] in Block.BLOCKED]\n"
+        'assert not leaked, leaked\n')
+    proc = subprocess.run([sys.executable, '-c', script], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
