@@ -4,13 +4,23 @@
 Blind diagnosis on simulator pairs: the diagonal of the confusion matrix on a fixed seed.
 
 Each case: the nominal car (sim) and a car with one effect (real), same roads and noise, a
-holdout on other roads; the diagnosis is not told the effect.  Short courses keep the file
-at ~2-3 minutes: duration scale 0.1 (1-minute records) where that names the effect reliably,
-0.2 (2 minutes) for the effects that need it (a stop engaging rarely, and telling a linear
-spring-rate error from a hardening spring).  ``tire_lift_off`` is left out: the spindle WFT
-reads the suspension force, which does not depend on the tyre contact, so lifting off
-changes the recorded motion but not the acceleration-to-force behaviour (nothing to find).
-``bench/diagnose_blind.py`` covers more seeds and parameter draws.
+holdout on other roads; the diagnosis is not told the effect.  Every effect has its concealed
+size (:mod:`sim.concealment`), and each test first checks that the pair really conceals it:
+it acts on under 5 % of the samples, or adds less error than the simulation's FRF already
+makes on the simulation itself, on every channel.  2-minute records (duration scale 0.2) keep
+the file at ~4 minutes; ``bench/diagnose_blind.py`` covers more seeds and strength draws.
+Two simulated effects are concealed but not nameable here, and the test asserts that nothing
+else is named for them instead:
+
+- ``tire_lift_off``: the WFT at the hub reads the suspension force plus inboard inertia, which
+  do not depend on the tyre contact, so lifting off changes the recorded motion but hardly the
+  acceleration-to-force behaviour (it adds 0.2 x the noise floor on the worst channel, on
+  0.3 % of the samples).
+- ``bump_stop`` at its concealed size (engaged on 3 % of the samples): the true stop force
+  explains 18 % of the Fz residual (coefficient 1.0), but no feature the recordings give
+  tracks suspension compression closely enough to show when the stop engages (body motion is
+  not measured); a stop fitted on a few engagements of a 2-minute record does not carry over
+  to other roads, and the holdout gate drops it.
 """
 import functools
 
@@ -23,47 +33,67 @@ from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import MotionRecording
 
 SEED = 4
+SCALE = 0.2
+#: Holdout length (duration scale 0.5 = 5 minutes): before/after are reported on half of it
+#: (alternate blocks the gate never saw), and a stop engaging on 3 % of the samples needs
+#: minutes of unseen road to show whether its model generalises.
+HOLDOUT_SCALE = 0.5
 SMALL_DRIFT = {'mass_error': {'fraction': 0.01}, 'stiffness_error': {'fraction': 0.02},
                'damping_error': {'fraction': -0.03}}
 FZ = tuple(c for c in OUTPUT_CHANNELS if c.endswith('fz'))
-#: Effect -> (duration scale, channels the first finding must lie in).
+#: Effect -> channels the first finding must lie in.
 EFFECTS = {
-    'rebound_stop': (0.1, FZ),
-    'bump_stop': (0.2, FZ),
-    'cubic_stiffness': (0.2, FZ),
-    'damper_asymmetry': (0.1, FZ),
-    'coulomb_friction': (0.1, FZ),
-    'backlash': (0.1, tuple(c for c in OUTPUT_CHANNELS if c.endswith('fx'))),
-    'anti_roll_bar': (0.1, FZ),
-    'time_delay': (0.1, OUTPUT_CHANNELS),
-    'sensor_saturation': (0.1, OUTPUT_CHANNELS),
-    'mass_error': (0.1, OUTPUT_CHANNELS),
-    'stiffness_error': (0.2, FZ),
-    'damping_error': (0.1, FZ),
+    'rebound_stop': FZ,
+    'cubic_stiffness': FZ,
+    'damper_asymmetry': FZ,
+    'coulomb_friction': FZ,
+    'backlash': tuple(c for c in OUTPUT_CHANNELS if c.endswith('fx')),
+    'anti_roll_bar': FZ,
+    'time_delay': OUTPUT_CHANNELS,
+    'sensor_saturation': OUTPUT_CHANNELS,
+    'mass_error': OUTPUT_CHANNELS,
+    'stiffness_error': FZ,
+    'damping_error': FZ,
 }
-NONLINEAR = ('rebound_stop', 'bump_stop', 'cubic_stiffness', 'damper_asymmetry',
-             'coulomb_friction', 'backlash', 'sensor_saturation')
+NONLINEAR = ('rebound_stop', 'cubic_stiffness', 'damper_asymmetry', 'coulomb_friction',
+             'backlash', 'sensor_saturation')
+#: Concealed but not nameable from these recordings (see the module docstring).
+NOT_NAMEABLE = ('tire_lift_off', 'bump_stop')
 
 
 @functools.lru_cache(maxsize=None)
-def _recording(physics, seed, scale, name, drift=False):
+def _simulated(effect, seed, scale=SCALE):
     from wheel_force_estimator.sim.api import simulate
-    result = simulate('proving_ground', physics, seed, scale,
-                      effect_params=SMALL_DRIFT if drift else None)
+    from wheel_force_estimator.sim.concealment import concealed_params
+    if effect == 'small_drift':
+        return simulate('proving_ground', tuple(SMALL_DRIFT), seed, scale,
+                        effect_params=SMALL_DRIFT)
+    if effect.startswith('none'):
+        return simulate('proving_ground', (), seed, scale)
+    return simulate('proving_ground', (effect,), seed, scale,
+                    effect_params=concealed_params(effect))
+
+
+def _recording(effect, seed, name, scale=SCALE):
+    result = _simulated(effect, seed, scale)
     return MotionRecording(name, result.fs_hz, result.accel_mps2, result.force_n,
                            INPUT_CHANNELS, OUTPUT_CHANNELS)
 
 
 @functools.lru_cache(maxsize=None)
 def _diagnosis(effect):
-    scale = EFFECTS.get(effect, (0.1,))[0]
-    drift = effect == 'small_drift'
-    physics = tuple(SMALL_DRIFT) if drift else (() if effect.startswith('none') else (effect,))
     real_seed = SEED + 50 if effect == 'none_reseeded' else SEED
-    sim = [_recording((), SEED, scale, 'sim')]
-    real = [_recording(physics, real_seed, scale, 'real', drift)]
-    holdout = [_recording(physics, SEED + 100, scale, 'holdout', drift)]
+    sim = [_recording('none', SEED, 'sim')]
+    real = [_recording(effect, real_seed, 'real')]
+    holdout = [_recording(effect, SEED + 100, 'holdout', HOLDOUT_SCALE)]
     return diagnose(real, sim, holdout)
+
+
+def _concealment(effect):
+    from wheel_force_estimator.sim.concealment import measure_concealment
+    model = _diagnosis('none').baseline.model
+    return measure_concealment(effect, _simulated('none', SEED), _simulated(effect, SEED),
+                               model)
 
 
 def _mean(values, channels):
@@ -83,11 +113,13 @@ def test_null_pairs_give_no_findings(effect):
 @pytest.mark.slow
 @pytest.mark.parametrize('effect', list(EFFECTS))
 def test_concealed_effect_is_named_first(effect):
+    hidden = _concealment(effect)
+    assert hidden.concealed, hidden.describe()
     result = _diagnosis(effect)
     assert result.findings, result.summary
     first = result.findings[0]
     assert first.physics == effect, [(f.physics, f.channels) for f in result.findings]
-    assert set(first.channels) <= set(EFFECTS[effect][1]), first.channels
+    assert set(first.channels) <= set(EFFECTS[effect]), first.channels
     if effect == 'anti_roll_bar':
         # Reported without a model term (a per-corner stage cannot couple two corners).
         assert first.terms == ()
@@ -105,6 +137,15 @@ def test_named_nonlinear_physics_beat_best_linear_fit_on_real_data(effect):
     fit = result.fit
     channels = result.findings[0].channels
     # The best linear FRF fitted on the real recordings absorbs the linearised part of a
-    # nonlinear effect; the named physics refitted on top of it must still predict the
-    # holdout better: the effect is not something any linear model could have fitted.
+    # nonlinear effect; that FRF and the named physics fitted jointly (backfitting) must still
+    # predict the holdout better: the effect is not something any linear model could fit.
     assert _mean(fit.augmented_real, channels) < _mean(fit.linear_real, channels)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('effect', NOT_NAMEABLE)
+def test_concealed_effects_not_nameable_are_not_misnamed(effect):
+    hidden = _concealment(effect)
+    assert hidden.concealed, hidden.describe()
+    result = _diagnosis(effect)
+    assert all(f.physics == effect for f in result.findings), result.summary

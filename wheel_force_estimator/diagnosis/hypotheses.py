@@ -312,6 +312,9 @@ LOAD_LINEAR = Hypothesis(
     lambda c, s: ph.load_linear_force(load_state(c, s['state_lowpass_hz']), s['center_n'], 1.0),
     lambda s, k: {'center_n': s['center_n'], 'gain': k}, state='load')
 
+#: Linear parameter errors: refitted with every nonlinear term when the reference is a linear
+#: law fitted on the real data itself (they stand for what that fit got wrong).
+LINEAR_COMPANIONS = ('stiffness_error', 'damping_error', 'mass_error')
 BY_NAME = {h.physics: h for h in HYPOTHESES if h.state == 'motion'}
 BY_KEY = {h.key: h for h in HYPOTHESES + (LOAD_LINEAR,)}
 

@@ -99,8 +99,10 @@ class FitComparison:
 
     ``highpass_hz`` > 0: both signals high-passed first (``rmse_hp`` of the paper).
     ``linear_real``: the best linear model fitted on the real recordings themselves;
-    ``augmented_real``: that model plus the named physics terms, their strengths refitted on
-    its residual (shapes kept) - what the named physics add to the best linear fit.
+    ``augmented_real``: that model and the named physics terms fitted jointly (backfitting:
+    strengths refitted, shapes kept) - what the named physics add to the best linear fit.
+    With ``data == 'holdout'`` every figure is measured on the half of the holdout blocks the
+    holdout gate never saw (:func:`diagnosis.holdout.alternate_blocks`).
     """
 
     before: Mapping[str, float]

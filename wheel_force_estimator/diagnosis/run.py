@@ -16,7 +16,7 @@ Sim-vs-real diagnosis: locate the mismatch, name the physics left out, prove the
 from dataclasses import dataclass
 from dataclasses import field
 from dataclasses import replace
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
@@ -26,22 +26,29 @@ from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis import text
 from wheel_force_estimator.diagnosis.coupling import left_right_coupling
-from wheel_force_estimator.diagnosis.features import channel_contexts
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.features import motion_features
 from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.features import settle_samples
+from wheel_force_estimator.diagnosis.hardening import add_omissions
+from wheel_force_estimator.diagnosis.hardening import hardening_winner
+from wheel_force_estimator.diagnosis.hardening import pooled_gain
+from wheel_force_estimator.diagnosis.hardening import settle_hardening
+from wheel_force_estimator.diagnosis.holdout import alternate_blocks
 from wheel_force_estimator.diagnosis.holdout import augmented
+from wheel_force_estimator.diagnosis.holdout import backfitted
 from wheel_force_estimator.diagnosis.holdout import holdout_gate
-from wheel_force_estimator.diagnosis.holdout import refitted
 from wheel_force_estimator.diagnosis.holdout import rmse_by_channel
 from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
 from wheel_force_estimator.diagnosis.hypotheses import BY_NAME
 from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
+from wheel_force_estimator.diagnosis.hypotheses import LINEAR_COMPANIONS
 from wheel_force_estimator.diagnosis.hypotheses import term_parameters
 from wheel_force_estimator.diagnosis.locate import locate_channel
 from wheel_force_estimator.diagnosis.locate import regime_ratios
-from wheel_force_estimator.diagnosis.omissions import linear_omissions
+from wheel_force_estimator.diagnosis.prepared import axis
+from wheel_force_estimator.diagnosis.prepared import pieces
+from wheel_force_estimator.diagnosis.prepared import prepare
 from wheel_force_estimator.diagnosis.recording import check_compatible
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 from wheel_force_estimator.diagnosis.reference import FrfReference
@@ -49,16 +56,8 @@ from wheel_force_estimator.diagnosis.reference import RegressionReference
 from wheel_force_estimator.diagnosis.result import DiagnosisResult
 from wheel_force_estimator.diagnosis.result import Finding
 from wheel_force_estimator.diagnosis.result import FitComparison
-from wheel_force_estimator.diagnosis.selection import Piece
 from wheel_force_estimator.diagnosis.selection import SelectionConfig
 from wheel_force_estimator.diagnosis.selection import Selector
-
-LINEAR_COMPANIONS = ('stiffness_error', 'damping_error', 'mass_error')
-#: Hardening candidates a wrong spring rate can pass for (compared on pooled Fz channels).
-STIFFENING = ('cubic_stiffness:load', 'bump_stop:load', 'rebound_stop:load', 'cubic_stiffness',
-              'bump_stop', 'rebound_stop')
-#: A linear spring-rate error must explain this many times what the best hardening explains.
-LINEAR_OVER_HARDENING = 1.3
 
 
 @dataclass(frozen=True)
@@ -103,18 +102,6 @@ class DiagnosisConfig:
             raise ConfigError(f'linear must be auto, frf or regression, got {self.linear!r}')
         if not 0.0 < self.merge_ratio <= 1.0 or not self.range_ratio > 1.0:
             raise ConfigError('merge_ratio must be in (0, 1] and range_ratio > 1')
-
-
-@dataclass
-class _Prepared:
-    """Reference prediction and features of the real recordings, settling time removed."""
-
-    recordings: Tuple[MotionRecording, ...]
-    targets: List[np.ndarray]
-    predictions: List[np.ndarray]
-    contexts: list
-    starts_s: List[float]
-    full_predictions: List[np.ndarray]
 
 
 def _fit_linear(recordings, config, name, rec0):
@@ -166,43 +153,8 @@ def _check_overlap(real, sim, config):
                 f'the real system')
 
 
-def _prepare(recordings, reference, sources, partners, config) -> _Prepared:
-    rec0 = recordings[0]
-    skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
-    prep = _Prepared(tuple(recordings), [], [], [], [], [])
-    for rec in recordings:
-        if rec.n_samples <= skip + config.selection.min_block_samples:
-            raise DiagnosisError(
-                f'{rec.name}: {rec.n_samples} samples ({rec.duration_s:.2f} s); the feature '
-                f'filters need {skip / rec.fs_hz:.2f} s to settle, too little data remains')
-        pred = reference.predict(rec)
-        ctxs = channel_contexts(rec.inputs, rec.input_channels, rec.fs_hz, rec.input_quantity,
-                                pred, sources, partners, config.features)
-        prep.targets.append(np.asarray(rec.outputs)[:, skip:])
-        prep.predictions.append(pred[:, skip:])
-        prep.contexts.append([_trim(c, skip) for c in ctxs])
-        prep.starts_s.append(rec.start_s + skip / rec.fs_hz)
-        prep.full_predictions.append(pred)
-    return prep
-
-
-def _trim(ctx, skip):
-    return replace(ctx, **{k: (None if getattr(ctx, k) is None else getattr(ctx, k)[skip:])
-                           for k in ('disp', 'vel', 'acc', 'level', 'load', 'partner_disp')})
-
-
-def _pieces(prep: _Prepared, o: int, channel: str) -> List[Piece]:
-    return [Piece(prep.contexts[i][o], prep.targets[i][o] - prep.predictions[i][o],
-                  prep.targets[i][o], i, channel) for i in range(len(prep.recordings))]
-
-
 def _contribution(hyp, shape, coef, ctx):
     return coef * hyp.basis(ctx, shape)
-
-
-def _axis(channel: str) -> str:
-    corner, sep, axis = channel.rpartition('_f')
-    return axis if sep else channel
 
 
 def _groups(channels: Sequence[str]) -> List[List[List[str]]]:
@@ -234,24 +186,24 @@ class _Builder:
         """Pieces of ``channel`` with its other accepted terms and companions removed."""
         o = self.channels.index(channel)
         outcome = self.outcomes[channel]
-        pieces = _pieces(self.prep, o, channel)
-        for p in pieces:
+        cleaned = pieces(self.prep, o, channel)
+        for p in cleaned:
             for a in outcome.accepted:
                 if a.hypothesis.key != key:
                     p.residual = p.residual - _contribution(a.hypothesis, a.shape,
                                                             a.coefficient, p.ctx)
             for name, coef in outcome.companions.items():
                 p.residual = p.residual - _contribution(BY_NAME[name], {}, coef, p.ctx)
-        return pieces
+        return cleaned
 
     def _shared(self, key, group):
         """Pooled fit over ``group``: (shape, gain, coefficient, sse drop)."""
-        pieces = [p for c in group for p in self._cleaned_pieces(c, key)]
+        real = [p for c in group for p in self._cleaned_pieces(c, key)]
         sim_pieces = None
         if self.sim_prep is not None:
             sim_pieces = [p for c in group
-                          for p in _pieces(self.sim_prep, self.channels.index(c), c)]
-        sel = Selector(pieces, self.config.selection, (), sim_pieces)
+                          for p in pieces(self.sim_prep, self.channels.index(c), c)]
+        sel = Selector(real, self.config.selection, (), sim_pieces)
         shape, gain, coef, base = sel.fit_single(BY_KEY[key])
         return shape, gain, coef, gain * base
 
@@ -264,7 +216,7 @@ class _Builder:
         for key, chans in by_key.items():
             axes: Dict[str, List[str]] = {}
             for c in chans:
-                axes.setdefault(_axis(c), []).append(c)
+                axes.setdefault(axis(c), []).append(c)
             for group in axes.values():
                 found.extend(self._group_findings(key, group))
         found.sort(key=lambda f: (not BY_NAME[f.physics].priority, -f.explained_fraction))
@@ -289,6 +241,10 @@ class _Builder:
                         for g, (shape, gain, coef, _) in zip(option, shared)]
         return []
 
+    def pooled_finding(self, key, group, shape, coef, gain, null) -> Finding:
+        """Return a finding of ``key`` fitted with shared parameters on ``group``."""
+        return self._finding(key, list(group), shape, coef, gain, null)
+
     def _finding(self, key, group, shape, coef, gain, null) -> Finding:
         hyp = BY_KEY[key]
         physics = hyp.physics
@@ -307,7 +263,7 @@ class _Builder:
         ratios = {}
         for c in group:
             o = self.channels.index(c)
-            residuals = [p.residual for p in _pieces(self.prep, o, c)]
+            residuals = [p.residual for p in pieces(self.prep, o, c)]
             ratios[c] = dict(regime_ratios(residuals, [ctx[o] for ctx in self.prep.contexts]))
         evidence = text.evidence(hyp, group, params, gain, null, ratios, causal)
         return Finding(physics, tuple(group), params, gain, evidence, terms, null)
@@ -334,75 +290,6 @@ class _Builder:
         return out
 
 
-def _pooled_gain(prep, sim_prep, channels, group, key, config) -> float:
-    """Held-out gain of one candidate fitted with shared parameters over ``group``."""
-    pieces = [p for c in group for p in _pieces(prep, channels.index(c), c)]
-    sim_pieces = None
-    if sim_prep is not None:
-        sim_pieces = [p for c in group for p in _pieces(sim_prep, channels.index(c), c)]
-    return Selector(pieces, config.selection, (), sim_pieces).fit_single(BY_KEY[key])[1]
-
-
-def _hardening_winner(findings, pooled) -> Optional[str]:
-    """
-    Return the hardening that best explains all vertical channels where any was found.
-
-    Per-corner selections may call the same stiffening a cubic spring on three corners and a
-    rebound stop on the fourth; one car has one kind of spring, so the candidates compete on
-    the pooled channels (``pooled(group, key)`` = held-out gain with shared parameters).
-    """
-    names = ('cubic_stiffness', 'bump_stop', 'rebound_stop')
-    hard = [f for f in findings if f.physics in names and f.terms]
-    if len({f.physics for f in hard}) < 2:
-        return None
-    group = sorted({c for f in hard for c in f.channels})
-    scores = {n: max(pooled(group, k) for k in (n, f'{n}:load'))
-              for n in {f.physics for f in hard}}
-    return max(scores, key=scores.get)
-
-
-def _add_omissions(findings, real, sim, reference, prep, sim_prep, channels, sources, config):
-    """
-    Return ``(findings, omissions)``: a wrong sprung mass / spring rate found by :mod:`omissions`.
-
-    A spring-rate error and a hardening both make the real FRF look stiffer; the linear one is
-    named only when a load-proportional term explains clearly more of the pooled vertical
-    residual than the best hardening candidate (or physics found on those channels), and then
-    replaces the hardening findings of those channels (they were its linearisation).
-    """
-    rec0 = real[0]
-    skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
-    filters = config.features.resolved(rec0.fs_hz, rec0.input_quantity)
-    hp = config.selection.highpass_hz
-    extra = linear_omissions(real, sim, reference, channels, skip, hp, sources,
-                             rec0.input_quantity, filters)
-    kept = []
-    for f in extra:
-        if f.physics == 'stiffness_error':
-            group = list(f.channels)
-            linear = _pooled_gain(prep, sim_prep, channels, group, 'stiffness_error:load',
-                                  config)
-            # Any per-channel physics found on these channels competes too (a friction
-            # also adds body-band force in phase with the load).
-            rivals = set(STIFFENING) | {
-                t.physics if t.state == 'motion' else f'{t.physics}:{t.state}'
-                for g in findings for t in g.terms
-                if t.physics not in LINEAR_COMPANIONS and set(t.channels) & set(group)}
-            hardening = max(_pooled_gain(prep, sim_prep, channels, group, k, config)
-                            for k in sorted(rivals & set(BY_KEY)))
-            if linear < LINEAR_OVER_HARDENING * max(hardening, 0.0):
-                continue
-            f = replace(f, evidence=f.evidence + (
-                f'; pooled over these channels it explains {linear:.1%} of the held-out '
-                f'residual, the best hardening candidate {hardening:.1%}'),
-                explained_fraction=linear, null_fraction=max(hardening, 0.0))
-            findings = [g for g in findings if not (
-                g.physics in ('cubic_stiffness', 'bump_stop', 'rebound_stop')
-                and set(g.channels) <= set(group))]
-        kept.append(f)
-    return findings, kept
-
-
 def _ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
     """
     Order findings: effects seen in the raw inputs first, then by the residual they explain.
@@ -415,7 +302,7 @@ def _ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
     A physics' weight is the sum over its findings of the explained fraction times the
     squared relative residual of the channels (the drop of RMSE squared), so an effect found
     on four corners outranks one found on a single corner; competing hardenings are settled
-    by :func:`_hardening_winner`.
+    by :func:`hardening.hardening_winner`.
     """
     rel = {}
     for o, c in enumerate(channels):
@@ -432,7 +319,7 @@ def _ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
     total: Dict[str, float] = {}
     for f in findings:
         total[f.physics] = total.get(f.physics, 0.0) + weight(f)
-    winner = _hardening_winner(findings, pooled) if pooled is not None else None
+    winner = hardening_winner(findings, pooled) if pooled is not None else None
     if winner is not None:
         total[winner] = max(v for k, v in total.items() if k in (
             'cubic_stiffness', 'bump_stop', 'rebound_stop')) * (1.0 + 1e-9) + 1e-300
@@ -487,8 +374,8 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     config = replace(config, selection=replace(config.selection, highpass_hz=hp))
     channels = rec0.output_channels
     sources, partners = pairing(channels, rec0.input_channels)
-    prep = _prepare(real, reference, sources, partners, config)
-    sim_prep = _prepare(sim, reference, sources, partners, config) if sim else None
+    prep = prepare(real, reference, sources, partners, config)
+    sim_prep = prepare(sim, reference, sources, partners, config) if sim else None
     mismatch = sorted((locate_channel(ch, [t[o] for t in prep.targets],
                                       [p[o] for p in prep.predictions],
                                       [c[o] for c in prep.contexts], prep.starts_s,
@@ -498,8 +385,8 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     candidates = [h for h in HYPOTHESES if h.physics not in skip_names]
     outcomes = {}
     for o, ch in enumerate(channels):
-        sim_pieces = _pieces(sim_prep, o, ch) if sim_prep else None
-        outcomes[ch] = Selector(_pieces(prep, o, ch), config.selection, companions,
+        sim_pieces = pieces(sim_prep, o, ch) if sim_prep else None
+        outcomes[ch] = Selector(pieces(prep, o, ch), config.selection, companions,
                                 sim_pieces).run(candidates)
     builder = _Builder(prep, outcomes, channels, sources, partners, config, companions,
                        sim_prep)
@@ -517,32 +404,39 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
                 real, reference, real_linear, channels,
                 settle_samples(fs_hz, rec0.input_quantity, config.features), hp)
         added = [coupling] if coupling is not None else []
-        findings, omitted = _add_omissions(findings, real, sim, reference, prep, sim_prep,
-                                           channels, sources, config)
+        findings, omitted = add_omissions(findings, real, sim, reference, prep, sim_prep,
+                                          channels, sources, config)
         added += omitted
         findings = findings + added
         structural = [id(f) for f in added]
+    if mode == 'sim':
+        findings = settle_hardening(findings, builder, prep, sim_prep, channels, config)
     findings = _ranked(findings, prep, channels, hp, fs_hz, structural,
-                       lambda g, k: _pooled_gain(prep, sim_prep, channels, g, k, config))
+                       lambda g, k: pooled_gain(prep, sim_prep, channels, g, k, config))
     terms = [t for f in findings for t in f.terms]
     gated = []
     if holdout:
-        hold = _prepare(holdout, reference, sources, partners, config)
-        before = rmse_by_channel(hold.targets, hold.predictions, channels, hp, fs_hz)
-        findings, gated = holdout_gate(findings, hold, before, channels, hp, fs_hz)
+        hold = prepare(holdout, reference, sources, partners, config)
+        gate, report = alternate_blocks(hold, fs_hz)
+        findings, gated = holdout_gate(findings, hold, channels, hp, fs_hz, gate)
         terms = [t for f in findings for t in f.terms]
-        after = rmse_by_channel(hold.targets, augmented(hold, terms), channels, hp, fs_hz)
+        before = rmse_by_channel(hold.targets, hold.predictions, channels, hp, fs_hz, report)
+        after = rmse_by_channel(hold.targets, augmented(hold, terms), channels, hp, fs_hz,
+                                report)
+        findings = [replace(f, rmse_after_pct={c: after[c] for c in f.channels})
+                    for f in findings]
         if mode == 'linear':
             linear_real, augmented_real = before, after
         else:
             lin = real_linear or _fit_linear(real, config, 'real', rec0)
-            real_lin = _prepare(real, lin, sources, partners, config)
-            hold_lin = _prepare(holdout, lin, sources, partners, config)
+            hold_lin = prepare(holdout, lin, sources, partners, config)
             linear_real = rmse_by_channel(hold_lin.targets, hold_lin.predictions, channels,
-                                          hp, fs_hz)
-            augmented_real = rmse_by_channel(
-                hold_lin.targets, refitted(findings, real_lin, hold_lin, hp), channels, hp,
-                fs_hz)
+                                          hp, fs_hz, report)
+            targets, predictions = backfitted(
+                findings, real, holdout, lin,
+                lambda recs: _fit_linear(recs, config, 'real', rec0),
+                lambda recs, ref: prepare(recs, ref, sources, partners, config), hp)
+            augmented_real = rmse_by_channel(targets, predictions, channels, hp, fs_hz, report)
         fit = FitComparison(before, after, 'holdout', linear_real, hp, augmented_real)
     else:
         fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},

@@ -378,9 +378,7 @@ class Selector:
             first = [e for e in evaluated if e.hypothesis.priority and e.gain > 0.0]
             choice = first[0] if first else self._parsimonious(evaluated)
             hyp = choice.hypothesis
-            fractions = 0.25 + 0.5 * np.arange(cfg.n_null) / max(cfg.n_null - 1, 1)
-            nulls = tuple(float(self.best_shape(hyp, grids[hyp.key], base_sse, f)[1])
-                          for f in fractions)
+            nulls = self.null_gains(hyp, grids[hyp.key], base_sse)
             after_sse = base_sse * (1.0 - choice.gain)
             drop = self._pct(base_sse) - self._pct(after_sse)
             reason = None
@@ -432,6 +430,23 @@ class Selector:
         cols = [b + [c] for b, c in zip(self._base_cols, self._columns(hyp, shape))]
         coef = full_fit(block_stats(self.data, cols, self._offset))[-1]
         return dict(shape), float(gain), float(coef), base_sse
+
+    def null_gains(self, hyp: Hypothesis, grid=None, base_sse=None) -> Tuple[float, ...]:
+        """
+        Best gains of ``hyp`` on features circularly shifted against the force (the null).
+
+        ``n_null`` shifts spread over the middle half of the record; ``grid`` and
+        ``base_sse`` default to the hypothesis' grid and the current residual.
+        """
+        if grid is None:
+            grid = hyp.grid([p.ctx for p in self.data.pieces])
+        if base_sse is None:
+            base_sse = self._sse()
+        if not grid or base_sse <= 0.0:
+            return (0.0,)
+        n = self.config.n_null
+        fractions = 0.25 + 0.5 * np.arange(n) / max(n - 1, 1)
+        return tuple(float(self.best_shape(hyp, grid, base_sse, f)[1]) for f in fractions)
 
     def _parsimonious(self, evaluated: Sequence[Evaluated]) -> Evaluated:
         best = evaluated[0]

@@ -65,6 +65,6 @@ def summary(findings, fit, rejected: Sequence[str]) -> List[str]:
         beaten = [c for c in affected if fit.augmented_real[c] < fit.linear_real[c]]
         if affected:
             lines.append(f'Best linear FRF fitted on the real data plus the named physics '
-                         f'(strengths refitted on it) vs that FRF alone: better on '
+                         f'(fitted jointly) vs that FRF alone: better on '
                          f'{len(beaten)} of {len(affected)} modelled channels {where}.')
     return lines

@@ -1,0 +1,149 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Which stiffening explains the vertical residual: a kind of hardening, or a linear rate error.
+
+Per-channel selection sees one corner at a time.  A symmetric hardening spring that shows on
+one corner more than on the others can win there as a rebound or bump stop, and a wrong spring
+rate looks like a hardening whose load is always large.  One car has one spring law on all
+corners, so the kinds compete on the pooled channels of an axis with shared parameters
+(:func:`pooled_gain`: held-out gain of one candidate fitted on several channels at once).
+"""
+from dataclasses import replace
+from typing import Callable, List, Optional, Sequence, Tuple
+
+from wheel_force_estimator.diagnosis import text
+from wheel_force_estimator.diagnosis.features import settle_samples
+from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
+from wheel_force_estimator.diagnosis.hypotheses import LINEAR_COMPANIONS
+from wheel_force_estimator.diagnosis.omissions import linear_omissions
+from wheel_force_estimator.diagnosis.prepared import axis
+from wheel_force_estimator.diagnosis.prepared import pieces
+from wheel_force_estimator.diagnosis.selection import Selector
+
+#: The kinds of hardening of the vocabulary.
+HARDENINGS = ('cubic_stiffness', 'bump_stop', 'rebound_stop')
+#: Hardening candidates a wrong spring rate can pass for (compared on pooled Fz channels).
+STIFFENING = ('cubic_stiffness:load', 'bump_stop:load', 'rebound_stop:load', 'cubic_stiffness',
+              'bump_stop', 'rebound_stop')
+#: A linear spring-rate error must explain this many times what the best hardening explains.
+LINEAR_OVER_HARDENING = 1.3
+#: A hardening no channel selected replaces the ones selected when, pooled over their axis,
+#: it explains this many times more than the best of them.
+HARDENING_SWITCH = 1.3
+
+Pooled = Callable[[Sequence[str], str], float]
+
+
+def pooled_selector(prep, sim_prep, channels, group, config) -> Selector:
+    """Return a :class:`Selector` over the pieces of every channel in ``group``."""
+    real = [p for c in group for p in pieces(prep, channels.index(c), c)]
+    sim = None
+    if sim_prep is not None:
+        sim = [p for c in group for p in pieces(sim_prep, channels.index(c), c)]
+    return Selector(real, config.selection, (), sim)
+
+
+def pooled_gain(prep, sim_prep, channels, group, key, config) -> float:
+    """Held-out gain of one candidate fitted with shared parameters over ``group``."""
+    return pooled_selector(prep, sim_prep, channels, group, config).fit_single(BY_KEY[key])[1]
+
+
+def _scores(pooled: Pooled, group, names) -> dict:
+    """Per kind: (best pooled gain over its motion and load forms, that key)."""
+    return {n: max((pooled(group, k), k) for k in (n, f'{n}:load')) for n in names}
+
+
+def hardening_winner(findings, pooled: Pooled) -> Optional[str]:
+    """
+    Return the hardening that best explains all channels where any was found.
+
+    Only when two or more kinds were found: per-corner selections may call the same
+    stiffening a cubic spring on three corners and a rebound stop on the fourth.
+    """
+    hard = [f for f in findings if f.physics in HARDENINGS and f.terms]
+    if len({f.physics for f in hard}) < 2:
+        return None
+    group = sorted({c for f in hard for c in f.channels})
+    scores = _scores(pooled, group, {f.physics for f in hard})
+    return max(scores, key=lambda n: scores[n][0])
+
+
+def settle_hardening(findings, builder, prep, sim_prep, channels, config) -> List:
+    """
+    Replace per-channel hardenings by a kind no channel selected when it clearly fits better.
+
+    All kinds are fitted with shared parameters on every channel of the axes where a
+    hardening was found.  When the best of them was not selected anywhere, explains
+    :data:`HARDENING_SWITCH` times what the best selected kind explains and beats its own
+    time-shifted null by the selection's ``null_factor``, it becomes one finding on those
+    channels and the selected hardenings (its stand-ins on single corners) are dropped.
+    """
+    hard = [f for f in findings if f.physics in HARDENINGS and f.terms]
+    if not hard:
+        return findings
+    axes = {axis(c) for f in hard for c in f.channels}
+    group = [c for c in channels if axis(c) in axes]
+
+    def pooled(g, key):
+        return pooled_gain(prep, sim_prep, channels, g, key, config)
+    scores = _scores(pooled, group, HARDENINGS)
+    found = {f.physics for f in hard}
+    best_found = max(found, key=lambda n: scores[n][0])
+    winner = max(HARDENINGS, key=lambda n: scores[n][0])
+    gain, key = scores[winner]
+    if winner in found or gain < HARDENING_SWITCH * max(scores[best_found][0], 0.0):
+        return findings
+    selector = pooled_selector(prep, sim_prep, channels, group, config)
+    null = max(selector.null_gains(BY_KEY[key]))
+    if gain <= config.selection.null_factor * max(null, 0.0):
+        return findings
+    shape, gain, coef, _ = selector.fit_single(BY_KEY[key])
+    finding = builder.pooled_finding(key, group, shape, coef, gain, null)
+    finding = replace(finding, evidence=finding.evidence + (
+        f'; fitted with shared parameters on {text.channel_list(group)} it explains '
+        f'{gain:.1%} of the held-out residual, {best_found.replace("_", " ")} (selected per '
+        f'channel) {scores[best_found][0]:.1%}'))
+    return [f for f in findings if f not in hard] + [finding]
+
+
+def add_omissions(findings, real, sim, reference, prep, sim_prep, channels, sources,
+                  config) -> Tuple[List, List]:
+    """
+    Return ``(findings, omissions)``: a wrong sprung mass / spring rate found by :mod:`omissions`.
+
+    A spring-rate error and a hardening both make the real FRF look stiffer; the linear one is
+    named only when a load-proportional term explains clearly more of the pooled vertical
+    residual than the best hardening candidate (or physics found on those channels), and then
+    replaces the hardening findings of those channels (they were its linearisation).
+    """
+    rec0 = real[0]
+    skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
+    filters = config.features.resolved(rec0.fs_hz, rec0.input_quantity)
+    hp = config.selection.highpass_hz
+    extra = linear_omissions(real, sim, reference, channels, skip, hp, sources,
+                             rec0.input_quantity, filters)
+    kept = []
+    for f in extra:
+        if f.physics == 'stiffness_error':
+            group = list(f.channels)
+            linear = pooled_gain(prep, sim_prep, channels, group, 'stiffness_error:load',
+                                 config)
+            # Any per-channel physics found on these channels competes too (a friction
+            # also adds body-band force in phase with the load).
+            rivals = set(STIFFENING) | {
+                t.physics if t.state == 'motion' else f'{t.physics}:{t.state}'
+                for g in findings for t in g.terms
+                if t.physics not in LINEAR_COMPANIONS and set(t.channels) & set(group)}
+            hardening = max(pooled_gain(prep, sim_prep, channels, group, k, config)
+                            for k in sorted(rivals & set(BY_KEY)))
+            if linear < LINEAR_OVER_HARDENING * max(hardening, 0.0):
+                continue
+            f = replace(f, evidence=f.evidence + (
+                f'; pooled over these channels it explains {linear:.1%} of the held-out '
+                f'residual, the best hardening candidate {hardening:.1%}'),
+                explained_fraction=linear, null_fraction=max(hardening, 0.0))
+            findings = [g for g in findings if not (
+                g.physics in HARDENINGS and set(g.channels) <= set(group))]
+        kept.append(f)
+    return findings, kept

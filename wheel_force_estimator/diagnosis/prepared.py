@@ -1,0 +1,78 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The records a diagnosis works on: reference prediction, targets and features, settling removed.
+
+:func:`prepare` runs the reference over every recording once; :func:`pieces` cuts one output
+channel out of it for the selection (:class:`diagnosis.selection.Piece`).
+"""
+from dataclasses import dataclass
+from dataclasses import replace
+from typing import List, Tuple
+
+import numpy as np
+
+from wheel_force_estimator.core.errors import DiagnosisError
+from wheel_force_estimator.diagnosis.features import channel_contexts
+from wheel_force_estimator.diagnosis.features import settle_samples
+from wheel_force_estimator.diagnosis.recording import MotionRecording
+from wheel_force_estimator.diagnosis.selection import Piece
+
+
+@dataclass
+class Prepared:
+    """Reference prediction and features of the real recordings, settling time removed."""
+
+    recordings: Tuple[MotionRecording, ...]
+    targets: List[np.ndarray]
+    predictions: List[np.ndarray]
+    contexts: list
+    starts_s: List[float]
+    full_predictions: List[np.ndarray]
+
+
+def prepare(recordings, reference, sources, partners, config) -> Prepared:
+    """
+    Predict every recording with ``reference`` and build its channel features.
+
+    Raises
+    ------
+    DiagnosisError
+        A recording too short for the feature filters to settle (name and duration given).
+
+    """
+    rec0 = recordings[0]
+    skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
+    prep = Prepared(tuple(recordings), [], [], [], [], [])
+    for rec in recordings:
+        if rec.n_samples <= skip + config.selection.min_block_samples:
+            raise DiagnosisError(
+                f'{rec.name}: {rec.n_samples} samples ({rec.duration_s:.2f} s); the feature '
+                f'filters need {skip / rec.fs_hz:.2f} s to settle, too little data remains')
+        pred = reference.predict(rec)
+        ctxs = channel_contexts(rec.inputs, rec.input_channels, rec.fs_hz, rec.input_quantity,
+                                pred, sources, partners, config.features)
+        prep.targets.append(np.asarray(rec.outputs)[:, skip:])
+        prep.predictions.append(pred[:, skip:])
+        prep.contexts.append([trim(c, skip) for c in ctxs])
+        prep.starts_s.append(rec.start_s + skip / rec.fs_hz)
+        prep.full_predictions.append(pred)
+    return prep
+
+
+def axis(channel: str) -> str:
+    """Return the force axis of a vehicle channel (``lf_fz`` -> ``z``), else the name itself."""
+    corner, sep, name = channel.rpartition('_f')
+    return name if sep else channel
+
+
+def trim(ctx, skip):
+    """Return ``ctx`` without its first ``skip`` samples."""
+    return replace(ctx, **{k: (None if getattr(ctx, k) is None else getattr(ctx, k)[skip:])
+                           for k in ('disp', 'vel', 'acc', 'level', 'load', 'partner_disp')})
+
+
+def pieces(prep: Prepared, o: int, channel: str) -> List[Piece]:
+    """Return output ``o`` (named ``channel``) of every record as selection pieces."""
+    return [Piece(prep.contexts[i][o], prep.targets[i][o] - prep.predictions[i][o],
+                  prep.targets[i][o], i, channel) for i in range(len(prep.recordings))]
