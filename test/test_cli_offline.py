@@ -197,6 +197,25 @@ def test_bad_arguments_exit_2():
     assert 'usage' in proc.stderr
 
 
+def test_closed_stdout_exits_quietly(tmp_path):
+    # The reader is gone before the command prints its summary (``wheel-force fit ... | head
+    # -0``): no traceback, the exit code a SIGPIPE death would give (141).
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=4096)
+    data = np.column_stack([x, 3.0 * x + 0.1 * rng.normal(size=x.size)])
+    np.savetxt(tmp_path / 'rig.csv', data, delimiter=',', header='disp,force', comments='')
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'wheel_force_estimator', 'fit', str(tmp_path / 'rig.csv'),
+         '-o', str(tmp_path / 'm.npz'), '--input', 'disp:displacement:m',
+         '--output', 'force:force:N', '--fs', '512'],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()
+    stderr = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141, stderr
+    assert 'Traceback' not in stderr and 'BrokenPipe' not in stderr
+    assert (tmp_path / 'm.npz').is_file()  # the work was done; only the summary was lost
+
+
 def test_help_lists_every_subcommand():
     proc = _cli('--help')
     assert proc.returncode == 0

@@ -3,6 +3,7 @@
 """``wheel-force`` console script: one parser, one thin module per subcommand."""
 import argparse
 import importlib
+import os
 import sys
 from typing import List, Optional
 
@@ -11,6 +12,9 @@ from wheel_force_estimator.cli.common import UsageError
 from wheel_force_estimator.core.errors import WheelForceError
 
 SUBCOMMANDS = ('simulate', 'fit', 'predict', 'evaluate', 'diagnose', 'node', 'replay')
+#: Exit code when the reader of stdout went away (``wheel-force evaluate ... | head``): what a
+#: process killed by SIGPIPE reports to the shell.
+EXIT_BROKEN_PIPE = 128 + 13
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -36,6 +40,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Optional[List[str]] = None) -> int:
     """Run ``wheel-force``; return the process exit code (0 ok, 1 user error, 2 usage)."""
+    try:
+        try:
+            return _run(argv)
+        finally:
+            # Output still buffered must fail here, not in the interpreter's exit.
+            sys.stdout.flush()
+    except BrokenPipeError:
+        # Python ignores SIGPIPE; without this the interpreter's final flush of stdout
+        # would print a traceback after the reader (head, less) has gone.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
+
+
+def _run(argv: Optional[List[str]]) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
