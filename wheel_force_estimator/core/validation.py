@@ -1,7 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """Argument checks shared by the numeric core: reject, never repair."""
-from typing import Optional, Sequence
+from typing import Optional, Sequence, Tuple, Type
 
 import numpy as np
 
@@ -80,3 +80,42 @@ def positive_float(value, name: str) -> float:
     if not np.isfinite(v) or v <= 0.0:
         raise ConfigError(f'{name} must be finite and > 0, got {value!r}')
     return v
+
+
+def paired_signals(inputs, outputs, input_channels: Sequence[str],
+                   output_channels: Sequence[str], name: str, error: Type[Exception],
+                   min_samples: int = 1) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Return one record's inputs and outputs as read-only signals of one common length.
+
+    Parameters
+    ----------
+    inputs, outputs : array_like, shape (n_in, n) and (n_out, n)
+        Signals, time last (checked by :func:`as_signals` against the channel names).
+    input_channels, output_channels : sequence of str
+        Row names.
+    name : str
+        The record, for messages.
+    error : type
+        Exception raised for unequal lengths or too few samples (the caller's domain error).
+    min_samples : int
+        Fewest samples accepted.
+
+    Raises
+    ------
+    ShapeError, NonFiniteError
+        From :func:`as_signals`.
+    error
+        Inputs and outputs differ in length, or hold fewer than ``min_samples`` samples.
+
+    """
+    x = as_signals(inputs, f'inputs of {name}', tuple(input_channels), min_samples=0)
+    y = as_signals(outputs, f'outputs of {name}', tuple(output_channels), min_samples=0)
+    if x.shape[1] != y.shape[1]:
+        raise error(f'{name}: {x.shape[1]} input samples but {y.shape[1]} output samples')
+    if x.shape[1] < min_samples:
+        raise error(f'{name}: no samples' if x.shape[1] == 0 else
+                    f'{name}: {x.shape[1]} samples, at least {min_samples} required')
+    x.setflags(write=False)
+    y.setflags(write=False)
+    return x, y

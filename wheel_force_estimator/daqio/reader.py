@@ -27,7 +27,7 @@ import numpy as np
 
 from wheel_force_estimator.core.errors import RecordingError
 from wheel_force_estimator.core.errors import WheelForceError
-from wheel_force_estimator.core.validation import as_signals
+from wheel_force_estimator.core.validation import paired_signals
 from wheel_force_estimator.core.validation import positive_float
 from wheel_force_estimator.daqio.channels import ChannelSpec
 from wheel_force_estimator.daqio.channels import check_specs
@@ -88,17 +88,8 @@ class DaqRecording:
         if self.input_quantity not in INPUT_QUANTITIES:
             raise RecordingError(f'{self.path}: input quantity {self.input_quantity!r} is not '
                                  f'one of {list(INPUT_QUANTITIES)}')
-        x = as_signals(self.inputs, f'inputs of {self.path}', tuple(self.input_channels),
-                       min_samples=0)
-        y = as_signals(self.outputs, f'outputs of {self.path}', tuple(self.output_channels),
-                       min_samples=0)
-        if x.shape[1] != y.shape[1]:
-            raise RecordingError(f'{self.path}: {x.shape[1]} input samples but '
-                                 f'{y.shape[1]} output samples')
-        if x.shape[1] == 0:
-            raise RecordingError(f'{self.path}: no samples')
-        x.setflags(write=False)
-        y.setflags(write=False)
+        x, y = paired_signals(self.inputs, self.outputs, self.input_channels,
+                              self.output_channels, self.path, RecordingError)
         object.__setattr__(self, 'fs_hz', fs)
         object.__setattr__(self, 'inputs', x)
         object.__setattr__(self, 'outputs', y)

@@ -8,7 +8,7 @@ import numpy as np
 
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.physics import QUANTITIES
-from wheel_force_estimator.core.validation import as_signals
+from wheel_force_estimator.core.validation import paired_signals
 from wheel_force_estimator.core.validation import positive_float
 
 
@@ -50,16 +50,11 @@ class MotionRecording:
 
     def __post_init__(self):
         fs = positive_float(self.fs_hz, f'{self.name}: sample rate')
-        x = as_signals(self.inputs, f'inputs of {self.name}', tuple(self.input_channels))
-        y = as_signals(self.outputs, f'outputs of {self.name}', tuple(self.output_channels))
-        if x.shape[1] != y.shape[1]:
-            raise DiagnosisError(f'{self.name}: {x.shape[1]} input samples but '
-                                 f'{y.shape[1]} output samples')
+        x, y = paired_signals(self.inputs, self.outputs, self.input_channels,
+                              self.output_channels, self.name, DiagnosisError)
         if self.input_quantity not in QUANTITIES:
             raise DiagnosisError(f'{self.name}: input quantity {self.input_quantity!r} is not '
                                  f'one of {list(QUANTITIES)}')
-        x.setflags(write=False)
-        y.setflags(write=False)
         object.__setattr__(self, 'fs_hz', fs)
         object.__setattr__(self, 'inputs', x)
         object.__setattr__(self, 'outputs', y)
