@@ -25,9 +25,9 @@ time-shifted-feature null, no practical thresholds - naming the best one.  A goo
 names the true effect as often and "none" far more often when nothing is there.
 
 Usage: ``.venv/bin/python bench/diagnose_blind.py [--seeds N] [--sim-seeds N]
-[--duration-scale X] [--sizes concealed|default] [--skip-sim] [--effects a,b]`` (defaults: 3
-synthetic seeds, 3 simulator seeds at duration scale 0.2 = 2-minute recordings, ~20 min on a
-2-core machine).
+[--duration-scale X] [--holdout-scale X] [--sizes concealed|default] [--skip-sim]
+[--effects a,b]`` (defaults: 3 synthetic seeds, 3 simulator seeds at duration scale 0.2 =
+2-minute recordings with 5-minute holdouts, ~25 min on a 2-core machine).
 """
 import argparse
 from collections import Counter
@@ -156,15 +156,16 @@ def _rec(result, name):
                            INPUT_CHANNELS, OUTPUT_CHANNELS)
 
 
-def run_sim(seeds, duration_scale, effects, sizes):
+def run_sim(seeds, duration_scale, effects, sizes, holdout_scale):
     import numpy as np
     from wheel_force_estimator.sim.api import simulate
     from wheel_force_estimator.sim.concealment import measure_concealment
     from wheel_force_estimator.sim.effects import EFFECT_NAMES
     rows = []
     config = DiagnosisConfig()
-    print(f'\n== simulator pairs ({sizes} sizes, proving ground x {duration_scale:g}, MIMO FRF '
-          f'on the sim, holdout RMSE % with 1 Hz high-pass over the named channels)')
+    print(f'\n== simulator pairs ({sizes} sizes, proving ground x {duration_scale:g}, holdout x '
+          f'{holdout_scale:g}, MIMO FRF on the sim, holdout RMSE % with 1 Hz high-pass over the '
+          f'named channels)')
     print(f'{"effect":18s} seed  draw  named             naive             before  after  '
           f'lin.real aug.real  all named')
     for seed in seeds:
@@ -185,7 +186,7 @@ def run_sim(seeds, duration_scale, effects, sizes):
             real_run = simulate('proving_ground', physics, real_seed, duration_scale,
                                 effect_params=params)
             real = [_rec(real_run, 'real')]
-            holdout = [_rec(simulate('proving_ground', physics, seed + 100, duration_scale,
+            holdout = [_rec(simulate('proving_ground', physics, seed + 100, holdout_scale,
                                      effect_params=params), 'holdout')]
             hidden = None
             if effect not in NULLS:
@@ -260,6 +261,8 @@ def main(argv=None) -> int:
     parser.add_argument('--sim-seeds', type=int, default=3, help='simulator seeds per effect')
     parser.add_argument('--duration-scale', type=float, default=0.2,
                         help='proving-ground duration scale (1 = ~10 min per recording)')
+    parser.add_argument('--holdout-scale', type=float, default=0.5,
+                        help='holdout duration scale (0.5 = ~5 min; half of it reports)')
     parser.add_argument('--sizes', choices=('concealed', 'default'), default='concealed',
                         help='simulator effect sizes: concealed (sim/concealment.py) or the '
                              "simulator's default, visible sizes")
@@ -273,7 +276,7 @@ def main(argv=None) -> int:
     if not args.skip_sim:
         from wheel_force_estimator.sim.effects import EFFECT_NAMES
         run_sim(range(args.sim_seeds), args.duration_scale,
-                chosen or NULLS + tuple(EFFECT_NAMES), args.sizes)
+                chosen or NULLS + tuple(EFFECT_NAMES), args.sizes, args.holdout_scale)
     run_real()
     print(f'\ntotal {time.time() - t0:.0f} s')
     return 0
