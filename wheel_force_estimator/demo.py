@@ -24,9 +24,9 @@ import time
 from typing import List
 
 import numpy as np
-import yaml
 
 from wheel_force_estimator.cli.main import main as wheel_force
+import yaml
 
 
 def _run(argv: List[str]):
