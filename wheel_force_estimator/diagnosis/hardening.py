@@ -69,7 +69,8 @@ def hardening_winner(findings, pooled: Pooled) -> Optional[str]:
     return max(scores, key=lambda n: scores[n][0])
 
 
-def settle_hardening(findings, builder, prep, sim_prep, channels, config) -> List:
+def settle_hardening(findings, builder, prep, sim_prep, channels, config,
+                     pooled: Pooled) -> List:
     """
     Replace per-channel hardenings by a kind no channel selected when it clearly fits better.
 
@@ -78,15 +79,13 @@ def settle_hardening(findings, builder, prep, sim_prep, channels, config) -> Lis
     :data:`HARDENING_SWITCH` times what the best selected kind explains and beats its own
     time-shifted null by the selection's ``null_factor``, it becomes one finding on those
     channels and the selected hardenings (its stand-ins on single corners) are dropped.
+    ``pooled(group, key)`` is :func:`pooled_gain` on these records (memoised by the caller).
     """
     hard = [f for f in findings if f.physics in HARDENINGS and f.terms]
     if not hard:
         return findings
     axes = {axis(c) for f in hard for c in f.channels}
     group = [c for c in channels if axis(c) in axes]
-
-    def pooled(g, key):
-        return pooled_gain(prep, sim_prep, channels, g, key, config)
     scores = _scores(pooled, group, HARDENINGS)
     found = {f.physics for f in hard}
     best_found = max(found, key=lambda n: scores[n][0])

@@ -409,10 +409,18 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
         added += omitted
         findings = findings + added
         structural = [id(f) for f in added]
+    gains: Dict[tuple, float] = {}
+
+    def pooled(group, key):
+        # Shared-parameter fits are the costly part; hardening and ranking ask for the same
+        # (a group's gain does not depend on the order of its channels).
+        index = (tuple(sorted(group)), key)
+        if index not in gains:
+            gains[index] = pooled_gain(prep, sim_prep, channels, index[0], key, config)
+        return gains[index]
     if mode == 'sim':
-        findings = settle_hardening(findings, builder, prep, sim_prep, channels, config)
-    findings = _ranked(findings, prep, channels, hp, fs_hz, structural,
-                       lambda g, k: pooled_gain(prep, sim_prep, channels, g, k, config))
+        findings = settle_hardening(findings, builder, prep, sim_prep, channels, config, pooled)
+    findings = _ranked(findings, prep, channels, hp, fs_hz, structural, pooled)
     terms = [t for f in findings for t in f.terms]
     gated = []
     if holdout:
