@@ -106,8 +106,8 @@ def settle_hardening(findings, builder, prep, sim_prep, channels, config,
     return [f for f in findings if f not in hard] + [finding]
 
 
-def add_omissions(findings, real, sim, reference, prep, sim_prep, channels, sources,
-                  config) -> Tuple[List, List]:
+def add_omissions(findings, real, sim, reference, channels, sources, config,
+                  pooled: Pooled) -> Tuple[List, List]:
     """
     Return ``(findings, omissions)``: a wrong sprung mass / spring rate found by :mod:`omissions`.
 
@@ -115,6 +115,7 @@ def add_omissions(findings, real, sim, reference, prep, sim_prep, channels, sour
     named only when a load-proportional term explains clearly more of the pooled vertical
     residual than the best hardening candidate (or physics found on those channels), and then
     replaces the hardening findings of those channels (they were its linearisation).
+    ``pooled(group, key)`` is :func:`pooled_gain` on the real / sim records (memoised).
     """
     rec0 = real[0]
     skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
@@ -126,16 +127,14 @@ def add_omissions(findings, real, sim, reference, prep, sim_prep, channels, sour
     for f in extra:
         if f.physics == 'stiffness_error':
             group = list(f.channels)
-            linear = pooled_gain(prep, sim_prep, channels, group, 'stiffness_error:load',
-                                 config)
+            linear = pooled(group, 'stiffness_error:load')
             # Any per-channel physics found on these channels competes too (a friction
             # also adds body-band force in phase with the load).
             rivals = set(STIFFENING) | {
                 t.physics if t.state == 'motion' else f'{t.physics}:{t.state}'
                 for g in findings for t in g.terms
                 if t.physics not in LINEAR_COMPANIONS and set(t.channels) & set(group)}
-            hardening = max(pooled_gain(prep, sim_prep, channels, group, k, config)
-                            for k in sorted(rivals & set(BY_KEY)))
+            hardening = max(pooled(group, k) for k in sorted(rivals & set(BY_KEY)))
             if linear < LINEAR_OVER_HARDENING * max(hardening, 0.0):
                 continue
             f = replace(f, evidence=f.evidence + (

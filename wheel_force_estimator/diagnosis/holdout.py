@@ -62,63 +62,54 @@ def rmse_by_channel(targets, predictions, channels, highpass_hz=0.0, fs_hz=1.0,
     return dict(zip(channels, (float(v) for v in rmse_pct(t, p, channels))))
 
 
+def _with_terms(prep, terms) -> List[np.ndarray]:
+    """Return the reference prediction plus the physics stage, full records."""
+    return [apply_physics(terms, rec.fs_hz, rec.input_channels, rec.output_channels,
+                          rec.inputs, pred, rest_inputs=rec.inputs.mean(axis=1))
+            for rec, pred in zip(prep.recordings, prep.full_predictions)]
+
+
 def augmented(prep, terms) -> List[np.ndarray]:
     """Return the reference prediction plus the physics stage, over the trimmed records."""
-    out = []
-    for rec, pred, target in zip(prep.recordings, prep.full_predictions, prep.targets):
-        y = apply_physics(terms, rec.fs_hz, rec.input_channels, rec.output_channels,
-                          rec.inputs, pred, rest_inputs=rec.inputs.mean(axis=1))
-        out.append(y[:, -target.shape[1]:])
-    return out
+    return [y[:, -target.shape[1]:] for y, target in zip(_with_terms(prep, terms), prep.targets)]
 
 
-def contributions(prep, findings, hp: float) -> List[List[np.ndarray]]:
-    """Per finding, per record: the force its terms add (high-passed like the metric)."""
-    out = []
-    for f in findings:
-        per_rec = []
-        for y, pred in zip(augmented(prep, f.terms), prep.predictions):
-            d = y - pred
-            if hp > 0.0 and np.any(d):
-                d = highpass(d, prep.recordings[0].fs_hz, hp, 'term contribution')
-            per_rec.append(d)
-        out.append(per_rec)
-    return out
+def _unit_forces(findings, prep) -> List[List[np.ndarray]]:
+    """Per finding, per record: the force its terms add to the prediction (full records)."""
+    return [[y - pred for y, pred in zip(_with_terms(prep, f.terms), prep.full_predictions)]
+            for f in findings]
 
 
-def _strengths(findings, prep, hp: float) -> np.ndarray:
+def _strengths(units, prep, hp: float) -> np.ndarray:
     """
     Least-squares strength factor per finding on the residual of ``prep``'s reference.
 
-    Channels are weighted by their force RMS (like the RMSE %); residual and contributions
-    are high-passed like the metric.
+    ``units`` are the findings' :func:`_unit_forces` on ``prep``.  Channels are weighted by
+    their force RMS (like the RMSE %); residual and contributions are high-passed like the
+    metric.
     """
     fs_hz = prep.recordings[0].fs_hz
-    cols = contributions(prep, findings, hp)
     a_rows, b_rows = [], []
     for i, (y, p) in enumerate(zip(prep.targets, prep.predictions)):
+        cols = [u[i][:, -y.shape[1]:] for u in units]
         r = y - p
         t = y
         if hp > 0.0:
+            cols = [highpass(c, fs_hz, hp, 'term contribution') if np.any(c) else c
+                    for c in cols]
             r = highpass(r, fs_hz, hp, 'refit residual')
             t = highpass(y, fs_hz, hp, 'refit target')
         w = 1.0 / np.maximum(np.sqrt(np.mean(t ** 2, axis=1, keepdims=True)), 1e-300)
-        a_rows.append(np.stack([(c[i] * w).ravel() for c in cols], axis=1))
+        a_rows.append(np.stack([(c * w).ravel() for c in cols], axis=1))
         b_rows.append((r * w).ravel())
     beta, *_ = np.linalg.lstsq(np.concatenate(a_rows), np.concatenate(b_rows), rcond=None)
     return beta
 
 
-def _added_force(findings, beta, prep) -> List[np.ndarray]:
+def _added_force(units, beta, prep) -> List[np.ndarray]:
     """Per record of ``prep``: the force the findings add with strengths ``beta`` (full)."""
-    out = [np.zeros_like(p) for p in prep.full_predictions]
-    for k, f in enumerate(findings):
-        for i, rec in enumerate(prep.recordings):
-            pred = prep.full_predictions[i]
-            y = apply_physics(f.terms, rec.fs_hz, rec.input_channels, rec.output_channels,
-                              rec.inputs, pred, rest_inputs=rec.inputs.mean(axis=1))
-            out[i] += beta[k] * (y - pred)
-    return out
+    return [sum((b * u[i] for b, u in zip(beta, units)), np.zeros_like(pred))
+            for i, pred in enumerate(prep.full_predictions)]
 
 
 def backfitted(findings, real, holdout, reference, fit_linear, prepare, hp: float,
@@ -157,16 +148,18 @@ def backfitted(findings, real, holdout, reference, fit_linear, prepare, hp: floa
     """
     findings = [f for f in findings if f.terms]
     real_prep = prepare(real, reference)
-    beta = _strengths(findings, real_prep, hp) if findings else np.zeros(0)
+    units = _unit_forces(findings, real_prep)
+    beta = _strengths(units, real_prep, hp) if findings else np.zeros(0)
     for _ in range(iterations if findings else 0):
-        added = _added_force(findings, beta, real_prep)
+        added = _added_force(units, beta, real_prep)
         corrected = [replace(rec, outputs=np.asarray(rec.outputs) - a)
                      for rec, a in zip(real, added)]
         reference = fit_linear(corrected)
         real_prep = prepare(real, reference)
-        beta = _strengths(findings, real_prep, hp)
+        units = _unit_forces(findings, real_prep)
+        beta = _strengths(units, real_prep, hp)
     hold_prep = prepare(holdout, reference)
-    added = _added_force(findings, beta, hold_prep)
+    added = _added_force(_unit_forces(findings, hold_prep), beta, hold_prep)
     preds = [p + a[:, -p.shape[1]:] for p, a in zip(hold_prep.predictions, added)]
     return hold_prep.targets, preds
 

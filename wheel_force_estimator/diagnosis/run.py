@@ -391,6 +391,16 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     builder = _Builder(prep, outcomes, channels, sources, partners, config, companions,
                        sim_prep)
     findings = builder.findings()
+    gains: Dict[tuple, float] = {}
+
+    def pooled(group, key):
+        # Shared-parameter fits are the costly part, and omissions, hardening and ranking
+        # ask for the same ones (a group's gain does not depend on its channel order).
+        index = (tuple(sorted(group)), key)
+        if index not in gains:
+            gains[index] = pooled_gain(prep, sim_prep, channels, index[0], key, config)
+        return gains[index]
+
     structural = []
     real_linear = None
     if mode == 'sim' and reference.kind == 'frf':
@@ -404,20 +414,11 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
                 real, reference, real_linear, channels,
                 settle_samples(fs_hz, rec0.input_quantity, config.features), hp)
         added = [coupling] if coupling is not None else []
-        findings, omitted = add_omissions(findings, real, sim, reference, prep, sim_prep,
-                                          channels, sources, config)
+        findings, omitted = add_omissions(findings, real, sim, reference, channels, sources,
+                                          config, pooled)
         added += omitted
         findings = findings + added
         structural = [id(f) for f in added]
-    gains: Dict[tuple, float] = {}
-
-    def pooled(group, key):
-        # Shared-parameter fits are the costly part; hardening and ranking ask for the same
-        # (a group's gain does not depend on the order of its channels).
-        index = (tuple(sorted(group)), key)
-        if index not in gains:
-            gains[index] = pooled_gain(prep, sim_prep, channels, index[0], key, config)
-        return gains[index]
     if mode == 'sim':
         findings = settle_hardening(findings, builder, prep, sim_prep, channels, config, pooled)
     findings = _ranked(findings, prep, channels, hp, fs_hz, structural, pooled)
