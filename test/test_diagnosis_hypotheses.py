@@ -1,6 +1,6 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""Candidate rules: sign of load-driven terms, lift-off only on preloaded loads, roll pairs."""
+"""Candidate rules: sign of load-driven terms, lift-off, roll pairs, linear-rate tolerance."""
 import numpy as np
 
 from wheel_force_estimator import INPUT_CHANNELS
@@ -76,3 +76,52 @@ def test_holdout_blocks_split_every_record_in_two_disjoint_halves():
         assert g.any() and r.any()
     # 5000 samples at 100 Hz in 4 s blocks: 12 blocks, alternating, gate first.
     assert gate[0][0] and not gate[0][417] and gate[0][834]
+
+
+def _linear_motion(n=60 * 256, seed=3):
+    """Wheel motion with exact derivatives: 24 sines, 1.5-15 Hz, random phases."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / FS_HZ
+    w = 2 * np.pi * rng.uniform(1.5, 15.0, 24)
+    amp = 2e-3 / (w / w.min())
+    phase = rng.uniform(0.0, 2 * np.pi, 24)
+    arg = np.outer(w, t) + phase[:, np.newaxis]
+    disp = amp @ np.sin(arg)
+    vel = (amp * w) @ np.cos(arg)
+    acc = -(amp * w * w) @ np.sin(arg)
+    return disp, vel, acc
+
+
+def test_a_damping_change_inside_the_tolerance_is_drift_and_outside_it_is_named():
+    stiffness, damping, mass = 20000.0, 2000.0, 15.0
+    disp, vel, acc = _linear_motion()
+    load = stiffness * disp + damping * vel + mass * acc
+    noise = np.random.default_rng(4).normal(0.0, 0.005 * np.std(damping * vel), disp.size)
+    config = SelectionConfig(linear_tolerance=0.04)
+
+    def select(change):
+        ctx = ChannelContext(disp, vel, acc, acc, load, None, FS_HZ)
+        residual = change * damping * vel + noise
+        selector = Selector([Piece(ctx, residual, load + residual, 0, 'lf_fz')], config)
+        return selector, selector.run([BY_KEY['damping_error']])
+
+    selector, drift = select(-0.02)
+    rates = selector.apparent_rates()
+    # The reference's own rates are read back from its prediction (exact linear law).
+    assert abs(rates['damping_error'] / damping - 1.0) < 1e-3
+    assert abs(rates['stiffness_error'] / stiffness - 1.0) < 1e-3
+    assert abs(rates['mass_error'] / mass - 1.0) < 1e-3
+    # 2 % is far above the noise (the change explains most of the residual) but within the
+    # 4 % tolerance: drift, not a finding.
+    assert drift.accepted == ()
+    choice, _, reason = drift.rejected
+    assert choice.hypothesis.physics == 'damping_error' and choice.gain > 0.9
+    assert 'tolerance' in reason and '-2.0%' in reason
+    _, error = select(-0.08)
+    assert [a.hypothesis.physics for a in error.accepted] == ['damping_error']
+    assert abs(error.accepted[0].coefficient / (-0.08 * damping) - 1.0) < 0.02
+    ctx = ChannelContext(disp, vel, acc, acc, load, None, FS_HZ)
+    residual = -0.02 * damping * vel + noise
+    strict = Selector([Piece(ctx, residual, load + residual, 0, 'lf_fz')],
+                      SelectionConfig(linear_tolerance=0.0)).run([BY_KEY['damping_error']])
+    assert [a.hypothesis.physics for a in strict.accepted] == ['damping_error']

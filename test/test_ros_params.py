@@ -184,3 +184,13 @@ def test_dataclass_is_frozen():
     params = NodeParams(**values())
     with pytest.raises(dataclasses.FrozenInstanceError):
         params.block_size = 3
+
+
+def test_model_layout_refuses_a_model_fitted_on_other_input_units():
+    import dataclasses
+    model = synthetic_model()
+    params = NodeParams(**values(causal_delay_s=0.05))
+    assert model_layout(model, params).input_order == tuple(range(12))
+    displacement = dataclasses.replace(model, units={'input': 'm', 'output': 'N'})
+    with pytest.raises(ModelFileError, match="units .*'input': 'm'.* needs a model with units"):
+        model_layout(displacement, params)

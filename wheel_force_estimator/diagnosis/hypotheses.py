@@ -315,6 +315,10 @@ LOAD_LINEAR = Hypothesis(
 #: Linear parameter errors: refitted with every nonlinear term when the reference is a linear
 #: law fitted on the real data itself (they stand for what that fit got wrong).
 LINEAR_COMPANIONS = ('stiffness_error', 'damping_error', 'mass_error')
+#: Feature each linear rate multiplies, with the rate's name and unit (for tolerances).
+LINEAR_RATES = {'stiffness_error': ('disp', 'stiffness', 'N/m'),
+                'damping_error': ('vel', 'damping', 'N s/m'),
+                'mass_error': ('acc', 'mass', 'kg')}
 BY_NAME = {h.physics: h for h in HYPOTHESES if h.state == 'motion'}
 BY_KEY = {h.key: h for h in HYPOTHESES + (LOAD_LINEAR,)}
 

@@ -25,6 +25,8 @@ from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis import text
+from wheel_force_estimator.diagnosis.agreement import agreed_findings
+from wheel_force_estimator.diagnosis.agreement import AgreementConfig
 from wheel_force_estimator.diagnosis.coupling import left_right_coupling
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.features import motion_features
@@ -86,6 +88,9 @@ class DiagnosisConfig:
         Zero-phase high-pass of residuals before locating, fitting and scoring (the paper's
         1 Hz RMSE for road events); None = 1 Hz for an FRF reference (which cannot follow
         quasi-static load transfer), none for a linear-law reference.
+    agreement : AgreementConfig
+        When the corners of an axis that agree on a candidate name it together
+        (:mod:`diagnosis.agreement`; against a simulation or a model only).
 
     """
 
@@ -96,6 +101,7 @@ class DiagnosisConfig:
     merge_ratio: float = 0.85
     range_ratio: float = 10.0
     residual_highpass_hz: Optional[float] = None
+    agreement: AgreementConfig = field(default_factory=AgreementConfig)
 
     def __post_init__(self):
         if self.linear not in ('auto', 'frf', 'regression'):
@@ -391,6 +397,9 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     builder = _Builder(prep, outcomes, channels, sources, partners, config, companions,
                        sim_prep)
     findings = builder.findings()
+    if mode != 'linear':
+        findings += agreed_findings(outcomes, channels, prep, sim_prep, builder, config,
+                                    config.agreement)
     gains: Dict[tuple, float] = {}
 
     def pooled(group, key):
@@ -451,8 +460,10 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
         fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},
                             {c: outcomes[c].cv_after_pct for c in channels},
                             'cross_validation', None, hp)
+    named = {(c, f.physics) for f in findings for c in f.channels}
     rejected = tuple(text.rejection(ch, outcomes[ch].rejected) for ch in channels
-                     if outcomes[ch].rejected is not None and outcomes[ch].rejected[0].gain > 0)
+                     if outcomes[ch].rejected is not None and outcomes[ch].rejected[0].gain > 0
+                     and (ch, outcomes[ch].rejected[0].hypothesis.physics) not in named)
     rejected = tuple(gated) + rejected
     summary = text.summary(findings, fit, rejected)
     model = None

@@ -53,7 +53,8 @@ def summary(findings, fit, rejected: Sequence[str]) -> List[str]:
     if not findings:
         lines.append('No physics beyond noise found: no candidate explains enough of the '
                      'residual on held-out data, and clearly more than it does on unrelated '
-                     '(time-shifted) features (see "rejected").')
+                     '(time-shifted) features, beyond the tolerance of a linear rate (see '
+                     '"rejected").')
     if fit.linear_real is not None and findings:
         beaten = [c for f in findings for c in f.channels
                   if c in fit.after and fit.after[c] < fit.linear_real[c]]

@@ -246,8 +246,8 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
     ------
     ModelFileError
         The model's channels are not the 12 spindle accelerations / 12 (or 24) wheel loads,
-        its sample rate differs from ``sample_rate_hz``, or its look-ahead is shorter than
-        ``causal_delay_s``.
+        its units are not m/s^2 in and N out, its sample rate differs from
+        ``sample_rate_hz``, or its look-ahead is shorter than ``causal_delay_s``.
 
     """
     where = f'model {params.model_path}'
@@ -262,6 +262,14 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
         raise ModelFileError(
             f'{where}: output channels {outputs} do not fit the node (missing '
             f'{missing or "none"}, unknown {unknown or "none"})')
+    units = dict(model.units)
+    if units.get('input') != 'm/s^2' or units.get('output') != 'N':
+        # Imu messages carry m/s^2; a model fitted on displacement or velocity inputs (a
+        # generic DAQ fit) would turn them into forces off by orders of magnitude.
+        raise ModelFileError(
+            f'{where}: units {units} - the node feeds sensor_msgs/Imu linear accelerations '
+            f"[m/s^2] and publishes forces [N]; it needs a model with units input 'm/s^2', "
+            f"output 'N'")
     moments = [c for c in outputs if c in MOMENT_CHANNELS]
     if moments and len(moments) != len(MOMENT_CHANNELS):
         raise ModelFileError(f'{where}: has moments {moments} but not all of '
