@@ -17,10 +17,9 @@ from dataclasses import replace
 from typing import Dict, List
 
 from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.diagnosis.hardening import pooled_selector
 from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
 from wheel_force_estimator.diagnosis.prepared import axis
-from wheel_force_estimator.diagnosis.prepared import pieces
-from wheel_force_estimator.diagnosis.selection import Selector
 
 
 @dataclass(frozen=True)
@@ -80,17 +79,14 @@ def agreed_findings(outcomes, channels, prep, sim_prep, builder, config,
     """
     if agreement.min_votes == 0:
         return []
-    rules = replace(config.selection, min_gain=agreement.min_gain, max_terms=1)
+    rules = replace(config, selection=replace(config.selection, min_gain=agreement.min_gain,
+                                              max_terms=1))
     found = []
     channels = list(channels)
     for (_, key), group in votes(outcomes, channels).items():
         if len(group) < agreement.min_votes:
             continue
-        real = [p for c in group for p in pieces(prep, channels.index(c), c)]
-        sim = None
-        if sim_prep is not None:
-            sim = [p for c in group for p in pieces(sim_prep, channels.index(c), c)]
-        outcome = Selector(real, rules, (), sim).run([BY_KEY[key]])
+        outcome = pooled_selector(prep, sim_prep, channels, group, rules).run([BY_KEY[key]])
         if outcome.accepted:
             a = outcome.accepted[0]
             found.append(builder.pooled_finding(key, group, a.shape, a.coefficient, a.gain,
