@@ -3,7 +3,7 @@
 """
 Blind sim-vs-real diagnosis benchmark: confusion matrix, hit rate, holdout RMSE before/after.
 
-Three parts, each printed with a baseline measured in the same run:
+Four parts, each printed with a baseline measured in the same run:
 
 1. Known-answer synthetic pairs (diagnosis/synthetic.py): one concealed effect per case.
 2. Simulator pairs (sim.simulate: nominal car vs car with one effect, holdout on another
@@ -18,7 +18,10 @@ Three parts, each printed with a baseline measured in the same run:
    FRF (before), the augmented model (after), the best linear FRF fitted on the real data
    (linear real) and that FRF plus the named physics refitted on it (aug. real); a confusion
    matrix per seed and pooled, hit rates over all cases and over the concealed ones.
-3. The real datasets in ../shared/data (friction damper, MR damper) through the generic path.
+3. The stop cases again with suspension travel recorded instead of spindle accelerations
+   (generic path): what a travel channel adds where the compression cannot be inferred
+   (baseline: the spindle-only diagnosis of the same pairs in part 2).
+4. The real datasets in ../shared/data (friction damper, MR damper) through the generic path.
 
 Baseline ("naive"): the same candidates ranked by held-out gain alone - no sim contrast, no
 time-shifted-feature null, no practical thresholds - naming the best one.  A good diagnosis
@@ -219,6 +222,59 @@ def run_sim(seeds, duration_scale, effects, sizes, holdout_scale):
           f'{sum(r[6] < r[5] for r in nonlinear)}/{len(nonlinear)}')
 
 
+#: Effects diagnosed again with the compression recorded (suspension travel, generic path).
+TRAVEL_CASES = ('none', 'small_drift', 'bump_stop')
+
+
+def _travel_rec(result, name):
+    fz = [OUTPUT_CHANNELS.index(c) for c in OUTPUT_CHANNELS if c.endswith('fz')]
+    outputs = tuple(OUTPUT_CHANNELS[i] for i in fz)
+    return MotionRecording(name, result.fs_hz, result.states['suspension_compression_m'],
+                           result.force_n[fz], tuple(c[:2] + '_travel' for c in outputs),
+                           outputs, input_quantity='displacement')
+
+
+def run_travel(seeds, duration_scale, sizes, holdout_scale):
+    """
+    Diagnose the stop cases from suspension travel instead of spindle accelerations.
+
+    The spindle-only diagnosis cannot tell when a rarely engaged bump stop is in contact (the
+    compression has to be inferred); with the compression recorded (string potentiometers in a
+    DAQ export) the generic path fits a linear law on the sim and seeks the physics it misses.
+    """
+    import numpy as np
+    from wheel_force_estimator.sim.api import simulate
+    print(f'\n== suspension travel in, Fz out (generic path, {sizes} sizes, linear law on the sim;'
+          f' holdout RMSE % with 1 Hz high-pass over the named channels, Fz when none)')
+    print(f'{"effect":18s} seed  draw  named             before  after  findings')
+    rows = []
+    for seed in seeds:
+        sim = [_travel_rec(simulate('proving_ground', (), seed, duration_scale), 'sim')]
+        for effect in TRAVEL_CASES:
+            params, factor = draw_params(effect, seed, sizes)
+            physics = ((() if effect != 'small_drift' else tuple(SMALL_DRIFT))
+                       if effect in NULLS else (effect,))
+            real = [_travel_rec(simulate('proving_ground', physics, seed, duration_scale,
+                                         effect_params=params), 'real')]
+            holdout = [_travel_rec(simulate('proving_ground', physics, seed + 100,
+                                            holdout_scale, effect_params=params), 'holdout')]
+            result = diagnose(real, sim, holdout)
+            chans = (result.findings[0].channels if result.findings
+                     else real[0].output_channels)
+            before, after = (float(np.mean([getattr(result.fit, k)[c] for c in chans]))
+                             for k in ('before', 'after'))
+            rows.append((truth_of(effect), named(result)))
+            detail = '; '.join(f'{f.physics} {",".join(f.channels)} gap '
+                               f'{f.parameters.get("gap_m", float("nan")) * 1e3:.1f} mm'
+                               for f in result.findings) or '-'
+            print(f'{effect:18s} {seed:4d}  {factor:4.2f}  {named(result):17s} {before:6.1f} '
+                  f'{after:6.1f}  {detail}', flush=True)
+    hits = sum(t == n for t, n in rows if t != 'none')
+    alarms = sum(n != 'none' for t, n in rows if t == 'none')
+    print(f'travel: stops named {hits}/{sum(t != "none" for t, _ in rows)}, false alarms on '
+          f'nulls {alarms}/{sum(t == "none" for t, _ in rows)}')
+
+
 def run_real():
     from wheel_force_estimator.diagnosis.generic import load_generic
     from wheel_force_estimator.diagnosis.generic import parse_spec
@@ -277,6 +333,9 @@ def main(argv=None) -> int:
         from wheel_force_estimator.sim.effects import EFFECT_NAMES
         run_sim(range(args.sim_seeds), args.duration_scale,
                 chosen or NULLS + tuple(EFFECT_NAMES), args.sizes, args.holdout_scale)
+        if not chosen or 'bump_stop' in chosen:
+            run_travel(range(args.sim_seeds), args.duration_scale, args.sizes,
+                       args.holdout_scale)
     run_real()
     print(f'\ntotal {time.time() - t0:.0f} s')
     return 0
