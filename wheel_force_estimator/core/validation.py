@@ -119,3 +119,46 @@ def paired_signals(inputs, outputs, input_channels: Sequence[str],
     x.setflags(write=False)
     y.setflags(write=False)
     return x, y
+
+
+def freeze_paired_record(record, label: str, quantities: Sequence[str],
+                         error: Type[Exception]) -> None:
+    """
+    Validate a frozen motion record's common fields and store them read-only, in place.
+
+    ``record`` is a frozen dataclass with ``fs_hz`` [Hz], ``inputs``, ``outputs``,
+    ``input_channels``, ``output_channels`` and ``input_quantity`` (a recording read from a
+    DAQ file, a segment the diagnosis works on); called from its ``__post_init__``.
+
+    Parameters
+    ----------
+    record : dataclass instance
+        The record; its fields are replaced by the validated values.
+    label : str
+        The record (file or segment name), for messages.
+    quantities : sequence of str
+        Accepted input quantities.
+    error : type
+        The caller's domain error, raised for every problem found here (chained).
+
+    Raises
+    ------
+    error
+        Sample rate not finite and > 0, unknown input quantity, unequal lengths, no samples.
+    ShapeError, NonFiniteError
+        From :func:`as_signals` (wrong shapes, NaN or inf in the signals).
+
+    """
+    try:
+        fs = positive_float(record.fs_hz, f'{label}: sample rate')
+    except ConfigError as err:
+        raise error(*err.args) from err
+    if record.input_quantity not in quantities:
+        raise error(f'{label}: input quantity {record.input_quantity!r} is not one of '
+                    f'{list(quantities)}')
+    x, y = paired_signals(record.inputs, record.outputs, record.input_channels,
+                          record.output_channels, label, error)
+    for field, value in (('fs_hz', fs), ('inputs', x), ('outputs', y),
+                         ('input_channels', tuple(record.input_channels)),
+                         ('output_channels', tuple(record.output_channels))):
+        object.__setattr__(record, field, value)

@@ -27,8 +27,7 @@ import numpy as np
 
 from wheel_force_estimator.core.errors import RecordingError
 from wheel_force_estimator.core.errors import WheelForceError
-from wheel_force_estimator.core.validation import paired_signals
-from wheel_force_estimator.core.validation import positive_float
+from wheel_force_estimator.core.validation import freeze_paired_record
 from wheel_force_estimator.daqio.channels import ChannelSpec
 from wheel_force_estimator.daqio.channels import check_specs
 from wheel_force_estimator.daqio.channels import INPUT_QUANTITIES
@@ -81,20 +80,7 @@ class DaqRecording:
 
     def __post_init__(self):
         """Validate; freeze the arrays."""
-        try:
-            fs = positive_float(self.fs_hz, f'{self.path}: sample rate')
-        except WheelForceError as err:
-            raise RecordingError(*err.args) from err
-        if self.input_quantity not in INPUT_QUANTITIES:
-            raise RecordingError(f'{self.path}: input quantity {self.input_quantity!r} is not '
-                                 f'one of {list(INPUT_QUANTITIES)}')
-        x, y = paired_signals(self.inputs, self.outputs, self.input_channels,
-                              self.output_channels, self.path, RecordingError)
-        object.__setattr__(self, 'fs_hz', fs)
-        object.__setattr__(self, 'inputs', x)
-        object.__setattr__(self, 'outputs', y)
-        object.__setattr__(self, 'input_channels', tuple(self.input_channels))
-        object.__setattr__(self, 'output_channels', tuple(self.output_channels))
+        freeze_paired_record(self, str(self.path), INPUT_QUANTITIES, RecordingError)
 
     @property
     def n_samples(self) -> int:

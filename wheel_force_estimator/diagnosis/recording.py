@@ -8,8 +8,7 @@ import numpy as np
 
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.physics import QUANTITIES
-from wheel_force_estimator.core.validation import paired_signals
-from wheel_force_estimator.core.validation import positive_float
+from wheel_force_estimator.core.validation import freeze_paired_record
 
 
 @dataclass(frozen=True)
@@ -49,17 +48,7 @@ class MotionRecording:
     events: Tuple[Tuple[float, str], ...] = ()
 
     def __post_init__(self):
-        fs = positive_float(self.fs_hz, f'{self.name}: sample rate')
-        x, y = paired_signals(self.inputs, self.outputs, self.input_channels,
-                              self.output_channels, self.name, DiagnosisError)
-        if self.input_quantity not in QUANTITIES:
-            raise DiagnosisError(f'{self.name}: input quantity {self.input_quantity!r} is not '
-                                 f'one of {list(QUANTITIES)}')
-        object.__setattr__(self, 'fs_hz', fs)
-        object.__setattr__(self, 'inputs', x)
-        object.__setattr__(self, 'outputs', y)
-        object.__setattr__(self, 'input_channels', tuple(self.input_channels))
-        object.__setattr__(self, 'output_channels', tuple(self.output_channels))
+        freeze_paired_record(self, self.name, QUANTITIES, DiagnosisError)
 
     @property
     def n_samples(self) -> int:
