@@ -227,26 +227,35 @@ def plot_frf_diagonal(path, f_hz, h, input_channels: Sequence[str],
             if outputs[o].partition('_')[2] != q:
                 continue
             corner = outputs[o].partition('_')[0]
-            ax_mag.plot(f, np.abs(frf[:, o, i]), color=colours[corner], lw=1.0,
-                        label=corner.upper())
-            phase = np.angle(frf[:, o, i], deg=True)
-            # Break the line at +-180 wraps instead of drawing a vertical stroke across.
-            wraps = np.nonzero(np.abs(np.diff(phase)) > 180.0)[0] + 1
-            ax_ph.plot(np.insert(f, wraps, np.nan), np.insert(phase, wraps, np.nan),
-                       color=colours[corner], lw=0.8)
+            _frf_lines(ax_mag, ax_ph, f, frf[:, o, i], colours[corner], corner.upper())
             unit = f'{_unit(outputs[o])}/({_unit(inputs[i])})'
         ax_mag.set_yscale('log')
-        ax_mag.set_title(f'{q.capitalize()} / a{q[1:]}', fontsize=11)
-        ax_mag.set_ylabel(f'|H| [{unit}]')
-        ax_mag.grid(alpha=0.3, which='both')
-        ax_mag.legend(fontsize=8, loc='best')
-        ax_ph.set_ylim(-190.0, 190.0)
-        ax_ph.set_yticks([-180, -90, 0, 90, 180])
-        ax_ph.set_ylabel('phase [deg]')
-        ax_ph.set_xlabel('frequency [Hz]')
-        ax_ph.set_xlim(f[0], f_end)
-        ax_ph.grid(alpha=0.3)
+        _frf_axes(ax_mag, ax_ph, f'{q.capitalize()} / a{q[1:]}', unit, f[0], f_end)
     return _save(fig, out)
+
+
+def _frf_lines(ax_mag, ax_ph, f, h_line, colour, label) -> None:
+    """Draw one FRF's magnitude and phase (phase line broken at the +-180 deg wraps)."""
+    ax_mag.plot(f, np.abs(h_line), color=colour, lw=1.0, label=label)
+    phase = np.angle(h_line, deg=True)
+    # Break the line at +-180 wraps instead of drawing a vertical stroke across.
+    wraps = np.nonzero(np.abs(np.diff(phase)) > 180.0)[0] + 1
+    ax_ph.plot(np.insert(f, wraps, np.nan), np.insert(phase, wraps, np.nan), color=colour,
+               lw=0.8)
+
+
+def _frf_axes(ax_mag, ax_ph, title, unit, f_start, f_end) -> None:
+    """Title, labels, grids and limits of a magnitude / phase pair of FRF axes."""
+    ax_mag.set_title(title, fontsize=11)
+    ax_mag.set_ylabel(f'|H| [{unit}]')
+    ax_mag.grid(alpha=0.3, which='both')
+    ax_mag.legend(fontsize=8, loc='best')
+    ax_ph.set_ylim(-190.0, 190.0)
+    ax_ph.set_yticks([-180, -90, 0, 90, 180])
+    ax_ph.set_ylabel('phase [deg]')
+    ax_ph.set_xlabel('frequency [Hz]')
+    ax_ph.set_xlim(f_start, f_end)
+    ax_ph.grid(alpha=0.3)
 
 
 def plot_frf_matrix(path, f_hz, h, input_channels: Sequence[str],
@@ -308,25 +317,11 @@ def plot_frf_matrix(path, f_hz, h, input_channels: Sequence[str],
         ax_ph = fig.add_subplot(gs[2 * block + 1, col], sharex=ax_mag)
         rms = np.sqrt(np.mean(np.abs(frf[:, o, :]) ** 2, axis=0))
         for i in sorted(np.argsort(rms)[::-1][:max_inputs]):
-            colour = f'C{i % 10}'
-            ax_mag.plot(f, np.abs(frf[:, o, i]), color=colour, lw=1.0, label=inputs[i])
-            phase = np.angle(frf[:, o, i], deg=True)
-            wraps = np.nonzero(np.abs(np.diff(phase)) > 180.0)[0] + 1
-            ax_ph.plot(np.insert(f, wraps, np.nan), np.insert(phase, wraps, np.nan),
-                       color=colour, lw=0.8)
+            _frf_lines(ax_mag, ax_ph, f, frf[:, o, i], f'C{i % 10}', inputs[i])
         if np.any(rms > 0):
             ax_mag.set_yscale('log')
-        ax_mag.set_title(name, fontsize=11)
-        ax_mag.set_ylabel(f'|H| [{unit}]')
-        ax_mag.grid(alpha=0.3, which='both')
-        ax_mag.legend(fontsize=8, loc='best')
+        _frf_axes(ax_mag, ax_ph, name, unit, f[0], f_end)
         ax_mag.tick_params(labelbottom=False)
-        ax_ph.set_ylim(-190.0, 190.0)
-        ax_ph.set_yticks([-180, -90, 0, 90, 180])
-        ax_ph.set_ylabel('phase [deg]')
-        ax_ph.set_xlabel('frequency [Hz]')
-        ax_ph.set_xlim(f[0], f_end)
-        ax_ph.grid(alpha=0.3)
     return _save(fig, out)
 
 
