@@ -18,7 +18,7 @@ from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
 from wheel_force_estimator.diagnosis.hypotheses import LINEAR_COMPANIONS
 from wheel_force_estimator.diagnosis.omissions import linear_omissions
 from wheel_force_estimator.diagnosis.prepared import axis
-from wheel_force_estimator.diagnosis.prepared import pieces
+from wheel_force_estimator.diagnosis.prepared import group_pieces
 from wheel_force_estimator.diagnosis.selection import Selector
 
 #: The kinds of hardening of the vocabulary.
@@ -37,11 +37,8 @@ Pooled = Callable[[Sequence[str], str], float]
 
 def pooled_selector(prep, sim_prep, channels, group, config) -> Selector:
     """Return a :class:`Selector` over the pieces of every channel in ``group``."""
-    real = [p for c in group for p in pieces(prep, channels.index(c), c)]
-    sim = None
-    if sim_prep is not None:
-        sim = [p for c in group for p in pieces(sim_prep, channels.index(c), c)]
-    return Selector(real, config.selection, (), sim)
+    sim = None if sim_prep is None else group_pieces(sim_prep, channels, group)
+    return Selector(group_pieces(prep, channels, group), config.selection, (), sim)
 
 
 def pooled_gain(prep, sim_prep, channels, group, key, config) -> float:

@@ -8,7 +8,7 @@ channel out of it for the selection (:class:`diagnosis.selection.Piece`).
 """
 from dataclasses import dataclass
 from dataclasses import replace
-from typing import List, Tuple
+from typing import List, Sequence, Tuple
 
 import numpy as np
 
@@ -76,3 +76,8 @@ def pieces(prep: Prepared, o: int, channel: str) -> List[Piece]:
     """Return output ``o`` (named ``channel``) of every record as selection pieces."""
     return [Piece(prep.contexts[i][o], prep.targets[i][o] - prep.predictions[i][o],
                   prep.targets[i][o], i, channel) for i in range(len(prep.recordings))]
+
+
+def group_pieces(prep: Prepared, channels: Sequence[str], group) -> List[Piece]:
+    """Return the pieces of every channel in ``group`` (positions in ``channels``), pooled."""
+    return [p for c in group for p in pieces(prep, channels.index(c), c)]

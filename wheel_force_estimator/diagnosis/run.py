@@ -34,6 +34,7 @@ from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.features import settle_samples
 from wheel_force_estimator.diagnosis.hardening import add_omissions
 from wheel_force_estimator.diagnosis.hardening import hardening_winner
+from wheel_force_estimator.diagnosis.hardening import HARDENINGS
 from wheel_force_estimator.diagnosis.hardening import pooled_gain
 from wheel_force_estimator.diagnosis.hardening import settle_hardening
 from wheel_force_estimator.diagnosis.holdout import alternate_blocks
@@ -49,6 +50,7 @@ from wheel_force_estimator.diagnosis.hypotheses import term_parameters
 from wheel_force_estimator.diagnosis.locate import locate_channel
 from wheel_force_estimator.diagnosis.locate import regime_ratios
 from wheel_force_estimator.diagnosis.prepared import axis
+from wheel_force_estimator.diagnosis.prepared import group_pieces
 from wheel_force_estimator.diagnosis.prepared import pieces
 from wheel_force_estimator.diagnosis.prepared import prepare
 from wheel_force_estimator.diagnosis.recording import check_compatible
@@ -205,10 +207,8 @@ class _Builder:
     def _shared(self, key, group):
         """Pooled fit over ``group``: (shape, gain, coefficient, sse drop)."""
         real = [p for c in group for p in self._cleaned_pieces(c, key)]
-        sim_pieces = None
-        if self.sim_prep is not None:
-            sim_pieces = [p for c in group
-                          for p in pieces(self.sim_prep, self.channels.index(c), c)]
+        sim_pieces = (None if self.sim_prep is None
+                      else group_pieces(self.sim_prep, self.channels, group))
         sel = Selector(real, self.config.selection, (), sim_pieces)
         shape, gain, coef, base = sel.fit_single(BY_KEY[key])
         return shape, gain, coef, gain * base
@@ -327,8 +327,8 @@ def _ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
         total[f.physics] = total.get(f.physics, 0.0) + weight(f)
     winner = hardening_winner(findings, pooled) if pooled is not None else None
     if winner is not None:
-        total[winner] = max(v for k, v in total.items() if k in (
-            'cubic_stiffness', 'bump_stop', 'rebound_stop')) * (1.0 + 1e-9) + 1e-300
+        total[winner] = max(v for k, v in total.items()
+                            if k in HARDENINGS) * (1.0 + 1e-9) + 1e-300
     first = set(structural)
     return sorted(findings, key=lambda f: (not BY_NAME[f.physics].priority, id(f) not in first,
                                            -total[f.physics], -weight(f)))
