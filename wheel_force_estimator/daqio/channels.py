@@ -17,6 +17,7 @@ import re
 from typing import Dict, Optional, Sequence, Tuple
 
 from wheel_force_estimator.core.errors import RecordingError
+from wheel_force_estimator.core.physics import QUANTITIES
 
 _INCH = 0.0254
 _LBF = 4.4482216152605
@@ -29,7 +30,8 @@ UNITS: Dict[str, Dict[str, float]] = {
 }
 SI_UNITS: Dict[str, str] = {'displacement': 'm', 'velocity': 'm/s', 'acceleration': 'm/s^2',
                             'force': 'N'}
-INPUT_QUANTITIES = ('displacement', 'velocity', 'acceleration')
+#: Motion quantities an input may declare (the physics features' quantities).
+INPUT_QUANTITIES = QUANTITIES
 ROLES = ('input', 'output')
 _NAME = re.compile(r'^(?P<key>[^\[\]]+?)(?:\[(?P<col>\d+)\])?$')
 
