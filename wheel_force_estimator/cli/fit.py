@@ -160,12 +160,10 @@ def command(args: argparse.Namespace) -> int:
                 'long_segment_length': args.long_segment_length}
     config = load_fit_config(args.config, **settings)
     note = ''
-    if request is None:
-        data = _bag_data(args, config)
-        _check_lengths(data, config)
-    else:
-        data = _generic_data(request, args.recordings, config)
-        _check_lengths(data, config)
+    data = (_bag_data(args, config) if request is None
+            else _generic_data(request, args.recordings, config))
+    _check_lengths(data, config)
+    if request is not None:
         config, note = _short_record_fallback(config, data,
                                               explicit_fit_keys(args.config, **settings))
     model = fit_model(data.segments, data.fs_hz, config, data.input_channels,
