@@ -78,6 +78,13 @@ def truth_of(effect: str) -> str:
     return 'none' if effect in NULLS + ('offset_drift',) else effect
 
 
+def simulated_physics(effect: str) -> tuple:
+    """Effects the 'real' car of a case is simulated with (nulls: none, or the small drift)."""
+    if effect == 'small_drift':
+        return tuple(SMALL_DRIFT)
+    return () if effect in NULLS else (effect,)
+
+
 def draw_params(effect: str, seed: int, sizes: str):
     """
     Effect parameters of one simulator case and the strength factor drawn for it.
@@ -180,8 +187,7 @@ def run_sim(seeds, duration_scale, effects, sizes, holdout_scale):
             if effect not in NULLS and effect not in EFFECT_NAMES:
                 continue
             params, factor = draw_params(effect, seed, sizes)
-            physics = ((() if effect != 'small_drift' else tuple(SMALL_DRIFT))
-                       if effect in NULLS else (effect,))
+            physics = simulated_physics(effect)
             t0 = time.time()
             # 'none' is the matched pair (real == sim); 'none_reseeded' drives the nominal car
             # over other roads, so the sim FRF meets data it was not fitted on.
@@ -252,8 +258,7 @@ def run_travel(seeds, duration_scale, sizes, holdout_scale):
         sim = [_travel_rec(simulate('proving_ground', (), seed, duration_scale), 'sim')]
         for effect in TRAVEL_CASES:
             params, factor = draw_params(effect, seed, sizes)
-            physics = ((() if effect != 'small_drift' else tuple(SMALL_DRIFT))
-                       if effect in NULLS else (effect,))
+            physics = simulated_physics(effect)
             real = [_travel_rec(simulate('proving_ground', physics, seed, duration_scale,
                                          effect_params=params), 'real')]
             holdout = [_travel_rec(simulate('proving_ground', physics, seed + 100,
