@@ -28,6 +28,9 @@ setup(
         'tqdm>=4.60',
         'numba>=0.58',
         'rosbags>=0.11',
+        # wheel-force fleet: one task per bag on a Dask cluster (local or remote)
+        'dask>=2024.1',
+        'distributed>=2024.1',
     ],
     # faster mcap chunk CRCs (bagio/checksum.py; the stdlib zlib fallback gives equal values)
     extras_require={'fast': ['isal>=1.0']},

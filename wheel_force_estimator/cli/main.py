@@ -11,7 +11,8 @@ from wheel_force_estimator import __version__
 from wheel_force_estimator.cli.common import UsageError
 from wheel_force_estimator.core.errors import WheelForceError
 
-SUBCOMMANDS = ('simulate', 'fit', 'predict', 'evaluate', 'diagnose', 'node', 'replay')
+SUBCOMMANDS = ('simulate', 'fit', 'predict', 'evaluate', 'diagnose', 'fleet', 'node',
+               'replay')
 #: Exit code when the reader of stdout went away (``wheel-force evaluate ... | head``): what a
 #: process killed by SIGPIPE reports to the shell.
 EXIT_BROKEN_PIPE = 128 + 13

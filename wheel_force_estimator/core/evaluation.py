@@ -142,6 +142,39 @@ def _rmse_pair(targets: List[np.ndarray], preds: List[np.ndarray], fs_hz: float,
     return raw, hp
 
 
+def damage_figures(signals: Sequence[np.ndarray], fs_hz: float, sn_slope: float,
+                   bands_hz: Sequence[Tuple[float, float]]) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Return the pseudo damage and relative damage spectrum of gap-separated segments.
+
+    Each segment is rainflow-counted (and band-filtered) on its own and the results are
+    summed: a join between segments is not a load reversal.  ``evaluate`` (target and
+    prediction) and ``fleet`` (prediction) both use this one rule.
+
+    Parameters
+    ----------
+    signals : sequence of numpy.ndarray, shape (n_channels, n_i)
+        Load histories of the segments, e.g. force_n.
+    fs_hz : float
+        Sample rate [Hz].
+    sn_slope : float
+        Basquin exponent ``k`` [-].
+    bands_hz : sequence of (lo_hz, hi_hz)
+        Bands of the relative damage spectrum [Hz].
+
+    Returns
+    -------
+    damage : numpy.ndarray, shape (n_channels,)
+        Pseudo damage, (unit of the signals)**k.
+    rds : numpy.ndarray, shape (n_channels, n_bands)
+        Pseudo damage per band.
+
+    """
+    damage = sum(pseudo_damage(x, sn_slope) for x in signals)
+    rds = sum(relative_damage_spectrum(x, fs_hz, sn_slope, bands_hz=bands_hz) for x in signals)
+    return np.asarray(damage), np.asarray(rds)
+
+
 def evaluate_segments(segments: Sequence[EvalSegment], fs_hz: float, channels: Sequence[str],
                       sn_slope: float = 5.0,
                       events: Sequence[Tuple[int, str]] = (),
@@ -183,11 +216,9 @@ def evaluate_segments(segments: Sequence[EvalSegment], fs_hz: float, channels: S
     preds = [np.asarray(s.prediction_n, dtype=np.float64) for s in segments]
     hp_min = 64
     raw, hp = _rmse_pair(targets, preds, fs_hz, channels, hp_min)
-    dmg_t = sum(pseudo_damage(t, sn_slope) for t in targets)
-    dmg_p = sum(pseudo_damage(p, sn_slope) for p in preds)
     bands = tuple(tuple(b) for b in damage_bands_hz(fs_hz))
-    rds_t = sum(relative_damage_spectrum(t, fs_hz, sn_slope, bands_hz=bands) for t in targets)
-    rds_p = sum(relative_damage_spectrum(p, fs_hz, sn_slope, bands_hz=bands) for p in preds)
+    dmg_t, rds_t = damage_figures(targets, fs_hz, sn_slope, bands)
+    dmg_p, rds_p = damage_figures(preds, fs_hz, sn_slope, bands)
     nperseg = int(min(asd_segment_length, min(t.shape[1] for t in targets)))
     cfg = WelchConfig(fs_hz=fs_hz, segment_length=nperseg)
     weights = np.array([t.shape[1] for t in targets], dtype=np.float64)
@@ -202,9 +233,9 @@ def evaluate_segments(segments: Sequence[EvalSegment], fs_hz: float, channels: S
     per_event = _event_figures(segments, targets, preds, fs_hz, channels, events, end_stamp_ns)
     return Evaluation(
         channels=tuple(channels), fs_hz=float(fs_hz), sn_slope=float(sn_slope),
-        rmse_pct=raw, rmse_hp1_pct=hp, damage_target=np.asarray(dmg_t),
-        damage_prediction=np.asarray(dmg_p), bands_hz=bands, rds_target=np.asarray(rds_t),
-        rds_prediction=np.asarray(rds_p), f_hz=f_hz, asd_target=asd_t,
+        rmse_pct=raw, rmse_hp1_pct=hp, damage_target=dmg_t,
+        damage_prediction=dmg_p, bands_hz=bands, rds_target=rds_t,
+        rds_prediction=rds_p, f_hz=f_hz, asd_target=asd_t,
         asd_prediction=asd_p, asd_error=asd_e, events=per_event)
 
 
