@@ -37,7 +37,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--workers', type=int, metavar='N',
                    help='worker processes of the local cluster (default: the usable cores)')
     p.add_argument('--write-forces', action='store_true',
-                   help='write each bag\'s predicted forces to DIR/forces/<bag id> as '
+                   help="write each bag's predicted forces to DIR/forces/<bag id> as "
                         '`predict` does')
     p.add_argument('--config', metavar='YAML', help='params file (topic names)')
     p.add_argument('--sn-slope', type=float, default=5.0, help='Basquin exponent k')
