@@ -227,8 +227,8 @@ def test_interrupted_run_resumes_to_the_uninterrupted_table(cluster, data, tmp_p
     assert (other.n_cached, other.n_computed) == (0, 5)
 
 
-def test_a_bag_that_kills_two_workers_is_failed_and_the_rest_finish(cluster, data,
-                                                                     tmp_path):
+def test_a_bag_that_kills_two_workers_is_failed_and_the_rest_finish(
+        cluster, data, tmp_path):
     """Bug caught: a crashing bag retried forever, aborting the run, or taking others down."""
     def crash_on_run_2(ref, settings):
         if ref.bag_id == 'car_01/run_2':

@@ -189,7 +189,7 @@ def test_report_writes_plots_and_a_readable_table(tmp_path):
     channels = ('lf_fx', 'lf_fz')
     results = tuple(_ok(f'car_{i}', {c: float(i + j) for j, c in enumerate(channels)})
                     for i in range(1, 6)) + (failed('/x', 'car_9', 'corrupt bag'),)
-    ref = Reference((_ok('pg', {c: 2.0 for c in channels}),), 10.0)
+    ref = Reference((_ok('pg', dict.fromkeys(channels, 2.0)),), 10.0)
     doc = fleet_document(results, ref, 5.0, 'car.npz')
     outcome = FleetOutcome(results, ref.results, ref, doc, 0, 7, tmp_path / 'a.csv',
                            tmp_path / 'a.json')
