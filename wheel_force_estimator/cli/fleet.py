@@ -91,7 +91,9 @@ def command(args: argparse.Namespace) -> int:
     from wheel_force_estimator.report.fleet import fleet_text
 
     _check_args(args)
-    # Dask logs every worker restart and cluster shutdown; a failed bag is reported in its row
+    # Dask logs worker restarts and slow shutdowns as warnings; a failed bag is reported in
+    # its row instead.  (Importing distributed configures its loggers, so quiet them after.)
+    import distributed  # noqa: F401
     logging.getLogger('distributed').setLevel(logging.ERROR)
     outcome = run_fleet(
         args.model, args.paths, args.out, reference_paths=args.reference,
