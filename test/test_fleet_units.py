@@ -203,3 +203,28 @@ def test_report_writes_plots_and_a_readable_table(tmp_path):
     assert 'damage_rate_distribution.png' in md and 'P95 repeats' in md
     for png in ('damage_rate_distribution.png', 'relative_damage_spectrum_fleet.png'):
         assert (tmp_path / 'rep' / png).read_bytes()[:4] == b'\x89PNG'
+
+
+def test_cli_usage_errors_exit_2(tmp_path, capsys):
+    """Bug caught: options that do not fit together silently ignored."""
+    from wheel_force_estimator.cli.main import main
+    bag = _rosbag2(tmp_path / 'run')
+    base = ['fleet', str(tmp_path / 'm.npz'), str(bag), '--out', str(tmp_path / 'out')]
+    for extra, message in ((['--target-hours', '10'], '--target-hours needs --reference'),
+                           (['--workers', '2', '--scheduler', 'tcp://h:1'], 'own workers'),
+                           (['--workers', '0'], '--workers must be >= 1'),
+                           (['--sn-slope', '-1'], '--sn-slope must be')):
+        assert main(base + extra) == 2
+        assert message in capsys.readouterr().err
+    assert not (tmp_path / 'out').exists()
+
+
+def test_cli_module_imports_dask_lazily():
+    """Bug caught: `wheel-force --help` paying for (or failing on) the Dask import."""
+    import subprocess
+    import sys
+    code = ('import sys, wheel_force_estimator.cli.main as m; m.build_parser(); '
+            'print("distributed" in sys.modules, "dask" in sys.modules)')
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.split() == ['False', 'False']

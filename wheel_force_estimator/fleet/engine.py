@@ -19,6 +19,7 @@ import contextlib
 import os
 from typing import Dict, Iterator, Optional, Sequence, Tuple
 import uuid
+import warnings
 
 from wheel_force_estimator.fleet.discover import BagRef
 from wheel_force_estimator.fleet.errors import FleetError
@@ -80,7 +81,11 @@ def dask_client(scheduler: Optional[str] = None, workers: Optional[int] = None):
         n = default_workers() if workers is None else int(workers)
         if n < 1:
             raise FleetError(f'--workers must be >= 1, got {n}')
-        with dask.config.set({'distributed.comm.timeouts.connect': f'{START_TIMEOUT_S}s'}):
+        with dask.config.set({'distributed.comm.timeouts.connect': f'{START_TIMEOUT_S}s'}), \
+                warnings.catch_warnings():
+            # the scheduler's HTTP endpoint (metrics; no dashboard here) moves to a free port
+            # when another cluster holds 8787, which it reports as a warning
+            warnings.filterwarnings('ignore', message='Port 8787 is already in use')
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                    dashboard_address=None)
         with cluster, Client(cluster, timeout=f'{START_TIMEOUT_S}s') as client:
