@@ -12,6 +12,11 @@ the heavier path), fits a model on one of them, then times:
 - ``run_fleet`` on a LocalCluster of 1 and of 2 worker processes (one thread each), warmed up
   on every worker first (numba compiles once per process); the cluster start is timed apart.
 
+The settings are timed in interleaved rounds (best wall time of ``--repeat`` each), with the
+CPU time they used (workers + the client process, which hosts the LocalCluster's scheduler)
+and the load average around each run, because on a shared machine the wall-time ratios
+measure the other users as much as this code.
+
 Goals (issue 17): 2 workers >= 1.7x the throughput of 1 on this 2-core machine; 1 worker
 within 10 % of the plain loop.  Also printed: each worker's peak RSS (``ru_maxrss`` of the
 worker process) and, from the measured per-bag cost, what a 1000-vehicle season costs on N
@@ -20,6 +25,7 @@ workers.
 Usage: ``python bench/bench_fleet.py [--bags 16] [--minutes 2] [--repeat 2] [--keep DIR]``
 """
 import argparse
+import os
 from pathlib import Path
 import shutil
 import subprocess
@@ -56,8 +62,35 @@ def _warm(path, model, sha):
     return process_bag(ref, FleetSettings(model, sha, 5.0)).status
 
 
-def timed_cluster(n_workers, fleet_dir, model, sha, warm_bag, out, repeat):
-    """Return (start s, best run s, peak RSS MB per worker) on a fresh LocalCluster."""
+def _cpu_s():
+    """Return this process's CPU time, user + system [s]."""
+    t = os.times()
+    return t.user + t.system
+
+
+class Setting:
+    """One way of running the fleet, timed in rounds interleaved with the others."""
+
+    def __init__(self, name, run, cpu):
+        self.name, self._run, self._cpu = name, run, cpu
+        self.walls, self.cpus, self.loads = [], [], []
+
+    def measure(self):
+        load0 = os.getloadavg()[0]
+        c0 = self._cpu()
+        t0 = time.perf_counter()
+        self._run()
+        self.walls.append(time.perf_counter() - t0)
+        self.cpus.append(self._cpu() - c0)
+        self.loads.append((load0 + os.getloadavg()[0]) / 2)
+
+    @property
+    def best(self):
+        return min(self.walls)
+
+
+def start_cluster(n_workers, model, sha, warm_bag):
+    """Return (cluster, client, start s) with every worker warmed up (numba compiled)."""
     from distributed import Client
     from distributed import LocalCluster
     t0 = time.perf_counter()
@@ -65,21 +98,24 @@ def timed_cluster(n_workers, fleet_dir, model, sha, warm_bag, out, repeat):
                            dashboard_address=None)
     client = Client(cluster)
     t_start = time.perf_counter() - t0
-    try:
-        client.run(_warm, str(warm_bag), str(model), sha)
-        best = float('inf')
-        for i in range(repeat):
-            target = out / f'w{n_workers}_{i}'
-            t0 = time.perf_counter()
-            outcome = run_fleet(model, [fleet_dir], target,
-                                scheduler=cluster.scheduler_address)
-            best = min(best, time.perf_counter() - t0)
-            assert outcome.n_computed == len(outcome.results) and not outcome.failed
-        rss = sorted(client.run(_peak_rss_mb).values())
-    finally:
-        client.close()
-        cluster.close()
-    return t_start, best, rss
+    client.run(_warm, str(warm_bag), str(model), sha)
+    return cluster, client, t_start
+
+
+def cluster_setting(name, cluster, client, fleet_dir, model, out):
+    """Return the Setting running ``run_fleet`` on ``cluster`` (into a fresh --out)."""
+    count = [0]
+
+    def run():
+        count[0] += 1
+        outcome = run_fleet(model, [fleet_dir], out / f'{name}_{count[0]}',
+                            scheduler=cluster.scheduler_address)
+        assert outcome.n_computed == len(outcome.results) and not outcome.failed
+
+    def cpu():
+        # workers + this process (the LocalCluster's scheduler runs in it)
+        return sum(client.run(_cpu_s).values()) + _cpu_s()
+    return Setting(name, run, cpu)
 
 
 def main() -> int:
@@ -113,30 +149,52 @@ def main() -> int:
         refs = find_bags([fleet_dir])
         settings = FleetSettings(str(model), sha, 5.0)
         _warm(str(warm_bag), str(model), sha)
-        t_loop = float('inf')
-        for _ in range(args.repeat):
-            t0 = time.perf_counter()
+
+        def loop():
             for ref in refs:
                 assert process_bag(ref, settings).ok
-            t_loop = min(t_loop, time.perf_counter() - t0)
-        rss_loop = _peak_rss_mb()
         out = work / 'out'
         shutil.rmtree(out, ignore_errors=True)
-        start1, t1, rss1 = timed_cluster(1, fleet_dir, model, sha, warm_bag, out, args.repeat)
-        start2, t2, rss2 = timed_cluster(2, fleet_dir, model, sha, warm_bag, out, args.repeat)
+        plain = Setting('plain loop, one process', loop, _cpu_s)
+        plain.measure()
+        rss_loop = _peak_rss_mb()
+        c1, client1, start1 = start_cluster(1, model, sha, warm_bag)
+        c2, client2, start2 = start_cluster(2, model, sha, warm_bag)
+        try:
+            one = cluster_setting('w1', c1, client1, fleet_dir, model, out)
+            two = cluster_setting('w2', c2, client2, fleet_dir, model, out)
+            # interleaved rounds: a change of the machine's load hits every setting alike
+            for i in range(args.repeat):
+                for setting in ((one, two) if i == 0 else (plain, one, two)):
+                    setting.measure()
+            rss1 = sorted(client1.run(_peak_rss_mb).values())
+            rss2 = sorted(client2.run(_peak_rss_mb).values())
+        finally:
+            for client, cluster in ((client1, c1), (client2, c2)):
+                client.close()
+                cluster.close()
+        t_loop, t1, t2 = plain.best, one.best, two.best
         data_s = args.bags * args.minutes * 60.0
-        print(f'\n{"setting":34s} {"wall s":>7s} {"s/bag":>6s} {"x real time":>11s}  notes')
-        print(f'{"plain loop, one process":34s} {t_loop:7.2f} {t_loop / args.bags:6.3f} '
-              f'{data_s / t_loop:11.0f}  peak RSS {rss_loop:.0f} MB')
-        print(f'{"run_fleet, 1 worker process":34s} {t1:7.2f} {t1 / args.bags:6.3f} '
-              f'{data_s / t1:11.0f}  cluster start {start1:.1f} s, worker peak RSS '
-              f'{", ".join(f"{r:.0f}" for r in rss1)} MB')
-        print(f'{"run_fleet, 2 worker processes":34s} {t2:7.2f} {t2 / args.bags:6.3f} '
-              f'{data_s / t2:11.0f}  cluster start {start2:.1f} s, worker peak RSS '
-              f'{", ".join(f"{r:.0f}" for r in rss2)} MB')
-        print(f'\nspeed-up 2 vs 1 worker: {t1 / t2:.2f}x (goal >= 1.7x)')
-        print(f'overhead of 1 worker vs the plain loop: {100 * (t1 / t_loop - 1):+.1f} % '
-              f'(goal <= 10 %)')
+        print(f'\n{"setting":30s} {"best wall s":>11s} {"s/bag":>6s} {"x real time":>11s} '
+              f'{"CPU s/bag":>9s} {"load avg":>8s}  notes')
+        notes = {plain: f'peak RSS {rss_loop:.0f} MB',
+                 one: f'cluster start {start1:.1f} s, worker peak RSS '
+                      f'{", ".join(f"{r:.0f}" for r in rss1)} MB',
+                 two: f'cluster start {start2:.1f} s, worker peak RSS '
+                      f'{", ".join(f"{r:.0f}" for r in rss2)} MB'}
+        names = {plain: 'plain loop, one process', one: 'run_fleet, 1 worker process',
+                 two: 'run_fleet, 2 worker processes'}
+        for setting in (plain, one, two):
+            print(f'{names[setting]:30s} {setting.best:11.2f} {setting.best / args.bags:6.3f} '
+                  f'{data_s / setting.best:11.0f} {min(setting.cpus) / args.bags:9.3f} '
+                  f'{setting.loads[setting.walls.index(setting.best)]:8.1f}  '
+                  f'{notes[setting]}')
+        print(f'\nspeed-up 2 vs 1 worker (best wall): {t1 / t2:.2f}x (goal >= 1.7x)')
+        print(f'overhead of 1 worker vs the plain loop: wall {100 * (t1 / t_loop - 1):+.1f} %, '
+              f'CPU {100 * (min(one.cpus) / min(plain.cpus) - 1):+.1f} % (goal <= 10 %)')
+        print(f'machine: {os.cpu_count()} cores, load average during the runs '
+              f'{min(min(s.loads) for s in (plain, one, two)):.1f}-'
+              f'{max(max(s.loads) for s in (plain, one, two)):.1f}')
         per_hour_s = t1 / (data_s / 3600.0)
         season_h = 1000 * 200.0
         print(f'\nper worker: {per_hour_s:.2f} s of compute per hour of recording')

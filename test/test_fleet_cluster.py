@@ -10,6 +10,7 @@ start); the CLI joins it with ``--scheduler``.  One test starts its own cluster 
 import json
 import os
 from pathlib import Path
+import shutil
 import time
 
 import numpy as np
@@ -140,6 +141,13 @@ def test_fleet_equals_serial_evaluate_and_predict(cluster, data, tmp_path, capsy
                                    np.percentile(rates, float(p), axis=0), rtol=1e-12)
     csv_lines = (out / 'fleet.csv').read_text().splitlines()
     assert len(csv_lines) == 1 + 5 and csv_lines[0].startswith('path,bag_id,duration_s,status')
+    # a forces bag deleted since is written again; the other bags come from --out
+    shutil.rmtree(out / 'forces' / 'car_02' / 'run_1')
+    again = run_fleet(data / 'model.npz', [data / 'fleet'], out, write_forces=True,
+                      scheduler=cluster.scheduler_address)
+    assert (again.n_cached, again.n_computed) == (4, 1)
+    assert (out / 'forces' / 'car_02' / 'run_1' / 'metadata.yaml').is_file()
+    assert (out / 'fleet.csv').read_text().splitlines() == csv_lines
 
 
 def _forces(bag):

@@ -146,7 +146,11 @@ def run_fleet(model_path, paths: Sequence, out_dir, *, reference_paths: Sequence
     done = {}
     for ref in everything:
         cached = store.get(keys[ref.path])
+        if cached is not None and cached.forces is not None and not Path(cached.forces).is_dir():
+            cached = None  # its forces bag was deleted since: write it again
         if cached is not None:
+            # the same bag named the way this run names it (./fleet vs fleet)
+            cached = dataclasses.replace(cached, path=ref.path)
             done[ref.path] = cached
             if on_result is not None:
                 on_result(cached, len(done), len(everything))
