@@ -9,7 +9,8 @@ the heavier path), fits a model on one of them, then times:
 
 - baseline: a plain loop over the same bags in this one process (``fleet.task.process_bag``,
   no Dask, no store), after one warm-up bag;
-- ``run_fleet`` on a LocalCluster of 1 and of 2 worker processes (one thread each), warmed up
+- ``run_fleet`` on the LocalCluster it starts itself (``fleet.engine.dask_client``) with 1 and
+  with 2 worker processes (one thread each), warmed up
   on every worker first (numba compiles once per process); the cluster start is timed apart.
 
 The settings are timed in interleaved rounds (best wall time of ``--repeat`` each), with the
@@ -25,6 +26,7 @@ workers.
 Usage: ``python bench/bench_fleet.py [--bags 16] [--minutes 2] [--repeat 2] [--keep DIR]``
 """
 import argparse
+import contextlib
 import os
 from pathlib import Path
 import shutil
@@ -35,6 +37,7 @@ import time
 
 from wheel_force_estimator.fleet.discover import file_sha256
 from wheel_force_estimator.fleet.discover import find_bags
+from wheel_force_estimator.fleet.engine import dask_client
 from wheel_force_estimator.fleet.run import run_fleet
 from wheel_force_estimator.fleet.task import FleetSettings
 from wheel_force_estimator.fleet.task import process_bag
@@ -89,27 +92,23 @@ class Setting:
         return min(self.walls)
 
 
-def start_cluster(n_workers, model, sha, warm_bag):
-    """Return (cluster, client, start s) with every worker warmed up (numba compiled)."""
-    from distributed import Client
-    from distributed import LocalCluster
+def start_cluster(stack, n_workers, model, sha, warm_bag):
+    """Return (client, start s) of the LocalCluster ``run_fleet`` starts, workers warmed up."""
     t0 = time.perf_counter()
-    cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                           dashboard_address=None)
-    client = Client(cluster)
+    client = stack.enter_context(dask_client(None, n_workers))
     t_start = time.perf_counter() - t0
     client.run(_warm, str(warm_bag), str(model), sha)
-    return cluster, client, t_start
+    return client, t_start
 
 
-def cluster_setting(name, cluster, client, fleet_dir, model, out):
+def cluster_setting(name, client, fleet_dir, model, out):
     """Return the Setting running ``run_fleet`` on ``cluster`` (into a fresh --out)."""
     count = [0]
 
     def run():
         count[0] += 1
         outcome = run_fleet(model, [fleet_dir], out / f'{name}_{count[0]}',
-                            scheduler=cluster.scheduler_address)
+                            scheduler=client.scheduler.address)
         assert outcome.n_computed == len(outcome.results) and not outcome.failed
 
     def cpu():
@@ -158,21 +157,17 @@ def main() -> int:
         plain = Setting('plain loop, one process', loop, _cpu_s)
         plain.measure()
         rss_loop = _peak_rss_mb()
-        c1, client1, start1 = start_cluster(1, model, sha, warm_bag)
-        c2, client2, start2 = start_cluster(2, model, sha, warm_bag)
-        try:
-            one = cluster_setting('w1', c1, client1, fleet_dir, model, out)
-            two = cluster_setting('w2', c2, client2, fleet_dir, model, out)
+        with contextlib.ExitStack() as stack:
+            client1, start1 = start_cluster(stack, 1, model, sha, warm_bag)
+            client2, start2 = start_cluster(stack, 2, model, sha, warm_bag)
+            one = cluster_setting('w1', client1, fleet_dir, model, out)
+            two = cluster_setting('w2', client2, fleet_dir, model, out)
             # interleaved rounds: a change of the machine's load hits every setting alike
             for i in range(args.repeat):
                 for setting in ((one, two) if i == 0 else (plain, one, two)):
                     setting.measure()
             rss1 = sorted(client1.run(_peak_rss_mb).values())
             rss2 = sorted(client2.run(_peak_rss_mb).values())
-        finally:
-            for client, cluster in ((client1, c1), (client2, c2)):
-                client.close()
-                cluster.close()
         t_loop, t1, t2 = plain.best, one.best, two.best
         data_s = args.bags * args.minutes * 60.0
         print(f'\n{"setting":30s} {"best wall s":>11s} {"s/bag":>6s} {"x real time":>11s} '

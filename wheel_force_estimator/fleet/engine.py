@@ -44,6 +44,22 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
+def worker_environ() -> dict:
+    """
+    Return the environment the LocalCluster's worker processes start with.
+
+    Dask's defaults (``distributed.nanny.pre-spawn-environ``: one BLAS/OpenMP thread per
+    worker, which is right here) minus ``MALLOC_TRIM_THRESHOLD_``: that setting turns off
+    glibc's adaptive mmap threshold, so every large array a task allocates is a fresh mmap
+    and is page-faulted again, which measured 2.6-2.8 s of system time against 0.5-1.6 s
+    for five 2-minute bags in one process (``bench/bench_fleet.py`` shows the effect).
+    """
+    import dask
+    environ = dict(dask.config.get('distributed.nanny.pre-spawn-environ', default={}) or {})
+    environ.pop('MALLOC_TRIM_THRESHOLD_', None)
+    return environ
+
+
 @contextlib.contextmanager
 def dask_client(scheduler: Optional[str] = None, workers: Optional[int] = None):
     """
@@ -81,7 +97,8 @@ def dask_client(scheduler: Optional[str] = None, workers: Optional[int] = None):
         n = default_workers() if workers is None else int(workers)
         if n < 1:
             raise FleetError(f'--workers must be >= 1, got {n}')
-        with dask.config.set({'distributed.comm.timeouts.connect': f'{START_TIMEOUT_S}s'}), \
+        with dask.config.set({'distributed.comm.timeouts.connect': f'{START_TIMEOUT_S}s',
+                              'distributed.nanny.pre-spawn-environ': worker_environ()}), \
                 warnings.catch_warnings():
             # the scheduler's HTTP endpoint (metrics; no dashboard here) moves to a free port
             # when another cluster holds 8787, which it reports as a warning
