@@ -190,13 +190,17 @@ def main() -> int:
         print(f'machine: {os.cpu_count()} cores, load average during the runs '
               f'{min(min(s.loads) for s in (plain, one, two)):.1f}-'
               f'{max(max(s.loads) for s in (plain, one, two)):.1f}')
-        per_hour_s = t1 / (data_s / 3600.0)
+        cpu1, cpu2 = min(one.cpus), min(two.cpus)
+        print(f'CPU per bag 2 vs 1 worker: {cpu2 / cpu1:.2f}x; projected speed-up with a free '
+              f'core per worker: {2 * cpu1 / cpu2:.2f}x')
+        per_hour_s = cpu1 / (data_s / 3600.0)
         season_h = 1000 * 200.0
-        print(f'\nper worker: {per_hour_s:.2f} s of compute per hour of recording')
+        print(f'\nper worker: {per_hour_s:.1f} s of CPU per hour of recording (1 worker, a '
+              f'dedicated core assumed)')
         print(f'1000-vehicle season, 200 h of recording per vehicle = {season_h:.0f} h:')
-        for n in (1, 2, 16, 64, 256):
+        for n in (1, 16, 64, 256):
             print(f'  {n:4d} workers: {season_h * per_hour_s / n / 3600.0:8.2f} h '
-                  f'(assuming linear scaling and storage keeping up)')
+                  f'(linear scaling, storage keeping up)')
     finally:
         if not args.keep:
             shutil.rmtree(work, ignore_errors=True)
