@@ -4,30 +4,47 @@
 Bulk payloads of an MCAP storage file, memory-mapped.
 
 Chunks are located through the summary's chunk indexes and messages through each chunk's
-message indexes; the records of all chunks in a ~64 MiB batch are checked with one vectorised
-pass per channel, and every chunk's CRC is computed by a worker thread one batch ahead.
-Batches go to the per-topic sinks of :mod:`.storage`.
+message indexes.  Message indexes are optional in MCAP and not covered by any CRC, so a chunk
+without them, or whose index does not match the records it points at (opcode, channel,
+length and log time are checked for every message), is read through its own records instead
+(:mod:`.mcap_records`); its CRC is checked either way.  A file without a summary or chunk
+indexes, or with messages outside chunks, is read record by record from start to end
+(``scan=True`` forces that for every file: the independent fallback path).
+
+The records of all chunks in a ~64 MiB batch are checked with one vectorised pass per channel
+(the decompressed records of a batch's chunks are joined first, so the cost is per batch,
+not per chunk), and every uncompressed chunk's CRC is computed by a worker thread one batch
+ahead.  Batches go to the per-topic sinks of :mod:`.storage`.
 """
 from concurrent.futures import ThreadPoolExecutor
 import mmap
 from pathlib import Path
 import struct
 import sys
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
 from wheel_force_estimator.bagio.checksum import crc32
 from wheel_force_estimator.bagio.fastcdr import gather_bytes
 from wheel_force_estimator.bagio.fastpath import FastPathUnavailable
+from wheel_force_estimator.bagio.mcap_records import OP_CHANNEL
+from wheel_force_estimator.bagio.mcap_records import OP_CHUNK
+from wheel_force_estimator.bagio.mcap_records import OP_DATA_END
+from wheel_force_estimator.bagio.mcap_records import OP_MESSAGE
+from wheel_force_estimator.bagio.mcap_records import OP_SCHEMA
+from wheel_force_estimator.bagio.mcap_records import Registry
+from wheel_force_estimator.bagio.mcap_records import scan_messages
+from wheel_force_estimator.bagio.mcap_records import walk
 from wheel_force_estimator.core.errors import BagError
 
 _MCAP_MAGIC = b'\x89MCAP0\r\n'
 _FOOTER_LEN = 1 + 8 + 20 + 8  # opcode, length, footer fields, magic
 # Message record: opcode(1) length(8) channel(2) sequence(4) log_time(8) publish_time(8)
 _MSG_HEADER = 31
-_RECORD_DTYPE = np.dtype({'names': ['opcode', 'length', 'channel'],
-                          'formats': ['u1', '<u8', '<u2'], 'offsets': [0, 1, 9], 'itemsize': 11})
+_RECORD_DTYPE = np.dtype({'names': ['opcode', 'length', 'channel', 'log_time'],
+                          'formats': ['u1', '<u8', '<u2', '<i8'], 'offsets': [0, 1, 9, 15],
+                          'itemsize': 23})
 # Bytes of nearby chunks read and checked together: large enough that per-batch Python work
 # vanishes (one vectorised check and decode per channel), small enough to bound memory.
 _BATCH_BYTES = 64 << 20
@@ -54,20 +71,49 @@ def _lz4_decompress(data: bytes) -> bytes:
     return decompress(data)
 
 
+class _Group:
+    """
+    Message records of consecutive chunks that live in one buffer, delivered together.
+
+    Uncompressed chunks are read in place from the mapped batch; compressed chunks' records
+    are decompressed into ``pieces`` and joined into one buffer on delivery.  ``pending``
+    holds, per channel, parts ``(log_time, record starts, base, end, chunk offset)``:
+    records of one chunk at ``[base, end)`` of the group's buffer.
+    """
+
+    def __init__(self, compressed: bool):
+        self.compressed = compressed
+        self.pieces: List[np.ndarray] = []
+        self.size = 0
+        self.pending: Dict[int, list] = {}
+
+    def add(self, parts: dict, base: int, usize: int, start: int) -> None:
+        for cid, (times, offsets) in parts.items():
+            self.pending.setdefault(cid, []).append(
+                (np.asarray(times, np.int64), base + np.asarray(offsets, np.int64), base,
+                 base + usize, start))
+
+
 class McapFile:
     """Just enough of the MCAP format to pull message payloads out by channel in bulk."""
 
-    def __init__(self, file: Path):
+    def __init__(self, file: Path, scan: bool = False):
         self.file = file
+        self.scan = scan
 
     def _fail(self, what: str, offset: Optional[int] = None) -> BagError:
         where = f' at offset {offset}' if offset is not None else ''
         return BagError(f'{self.file}: corrupt or truncated mcap: {what}{where}')
 
     def read(self, topics: Sequence[str], collectors):
+        """Deliver the payloads of ``topics`` to ``collectors``; return ``{topic: type}``."""
         try:
             with self.file.open('rb') as fh:
-                return self._read(fh, topics, collectors)
+                self._decoders = ThreadPoolExecutor(max_workers=_DECODE_THREADS)
+                try:
+                    return self._read(fh, topics, collectors)
+                finally:
+                    self._decoders.shutdown(wait=True, cancel_futures=True)
         except OSError as err:
             raise BagError(f'{self.file}: cannot read mcap: {err.strerror or err}') from err
 
@@ -83,65 +129,62 @@ class McapFile:
         if footer[-8:] != _MCAP_MAGIC or footer[0] != 0x02:
             raise self._fail('bad footer magic (file truncated?)', size - _FOOTER_LEN)
         summary_start, _ = struct.unpack_from('<QQ', footer, 9)
-        if summary_start == 0:
-            raise FastPathUnavailable(f'{self.file}: mcap without summary')
-        if not 8 <= summary_start <= size - _FOOTER_LEN:
+        if summary_start and not 8 <= summary_start <= size - _FOOTER_LEN:
             raise self._fail('summary offset out of range', size - _FOOTER_LEN)
+        if self.scan or summary_start == 0:
+            return self._scan_file(fh, summary_start or size - _FOOTER_LEN, topics, collectors)
         fh.seek(summary_start)
         summary = fh.read(size - _FOOTER_LEN - summary_start)
-        schemas, channels, chunks, stats = self._summary(summary, summary_start)
-        if not channels:
-            raise FastPathUnavailable(f'{self.file}: mcap summary lists no channels')
+        registry, chunks, stats = self._summary(summary, summary_start)
+        present, wanted = self._present(registry, topics)
+        if not wanted:
+            return present
+        if not chunks:  # messages outside chunks (or no chunk index): read every record
+            return self._scan_file(fh, summary_start, topics, collectors)
+        # chunks without message indexes may hold any channel: they are read record by record
+        todo = [c for c in sorted(chunks, key=lambda c: c[0])
+                if not c[2] or any(cid in wanted for cid in c[2])]
+        for start, length, _, index_length, _ in todo:
+            if start + length + index_length > size:
+                raise self._fail('chunk beyond end of file', start)
+        counts = dict.fromkeys(wanted, 0)
+        self._read_chunks(fh, todo, wanted, collectors, counts)
+        if stats is not None and any(counts[c] != stats.get(c, 0) for c in wanted):
+            # indexes that list fewer messages than the statistics count (or messages
+            # outside chunks): only reading every record finds them all
+            raise FastPathUnavailable(f'{self.file}: mcap indexes miss messages')
+        return present
+
+    def _present(self, registry: Registry, topics):
         wanted = {}
-        present = {}
-        for cid, (schema_id, topic) in channels.items():
-            msgtype = schemas.get(schema_id, '')
+        present: Dict[str, str] = {}
+        for cid, (topic, msgtype) in registry.channels.items():
             if present.setdefault(topic, msgtype) != msgtype:
                 raise BagError(f'{self.file}: topic {topic} recorded with two types '
                                f'{present[topic]} and {msgtype}')
             if topic in topics:
                 wanted[cid] = (topic, msgtype)
-        if wanted and (not chunks or (stats is None and any(not c[3] for c in chunks))):
-            raise FastPathUnavailable(f'{self.file}: mcap without chunk or message indexes')
-        counts = dict.fromkeys(wanted, 0)
-        todo = [c for c in sorted(chunks, key=lambda c: c[0])
-                if any(cid in wanted for cid in c[2])]
-        for start, length, _, index_length, _ in todo:
-            if start + length + index_length > size:
-                raise self._fail('chunk beyond end of file', start)
-        self._read_chunks(fh, todo, wanted, collectors, counts)
-        if stats is not None and any(counts[c] != stats.get(c, 0) for c in wanted):
-            # message indexes are optional in MCAP: without them we cannot find messages
-            raise FastPathUnavailable(f'{self.file}: mcap message indexes incomplete')
-        return present
+        return present, wanted
 
     def _summary(self, data: bytes, base: int):
-        schemas: Dict[int, str] = {}
-        channels: Dict[int, Tuple[int, str]] = {}
+        registry = Registry()
         chunks = []
         stats = None
         pos = 0
         try:
-            while pos < len(data):
-                op, length = struct.unpack_from('<BQ', data, pos)
-                body = pos + 9
-                if body + length > len(data):
-                    raise self._fail('summary record overruns the summary', base + pos)
-                if op == 0x03:
-                    sid, nlen = struct.unpack_from('<HI', data, body)
-                    schemas[sid] = data[body + 6:body + 6 + nlen].decode()
-                elif op == 0x04:
-                    cid, sid, tlen = struct.unpack_from('<HHI', data, body)
-                    channels[cid] = (sid, data[body + 8:body + 8 + tlen].decode())
+            for op, body, length in walk(data, 0, len(data), lambda what, at: self._fail(
+                    f'summary {what}', base + at)):
+                pos = body - 9
+                if op in (OP_SCHEMA, OP_CHANNEL):
+                    registry.add(op, data, body)
                 elif op == 0x08:
                     chunks.append(self._chunk_index(data, body))
                 elif op == 0x0B:
                     (map_len,) = struct.unpack_from('<I', data, body + 42)
                     stats = dict(struct.iter_unpack('<HQ', data[body + 46:body + 46 + map_len]))
-                pos = body + length
         except (struct.error, UnicodeDecodeError) as err:
             raise self._fail(f'unreadable summary ({err})', base + pos) from err
-        return schemas, channels, chunks, stats
+        return registry, chunks, stats
 
     @staticmethod
     def _chunk_index(data: bytes, pos: int):
@@ -159,8 +202,6 @@ class McapFile:
         # chunks.  A worker thread computes the CRCs one batch ahead of the decoding (zlib
         # releases the GIL), which also faults the pages in for it; a batch's pages are
         # released once its CRCs are checked, so the resident set stays at a few batches.
-        if not chunks:
-            return
         mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
         batches = list(_batches(chunks))
         previous: List[tuple] = []
@@ -170,7 +211,6 @@ class McapFile:
         # comparisons and copies release the GIL); every sink exists before that starts.
         for topic, msgtype in wanted.values():
             collectors.sink(topic, msgtype)
-        self._decoders = ThreadPoolExecutor(max_workers=_DECODE_THREADS)
         try:
             upcoming = self._submit_crcs(mm, batches[0], pool)
             for k, (batch, lo, hi) in enumerate(batches):
@@ -189,7 +229,6 @@ class McapFile:
             self._check_crcs(previous)
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
-            self._decoders.shutdown(wait=True, cancel_futures=True)
             try:
                 mm.close()
             except BufferError:  # views still referenced by a traceback: unmapped by GC
@@ -215,41 +254,79 @@ class McapFile:
 
     def _read_batch(self, view, lo, batch, wanted, collectors, counts):
         buf = np.frombuffer(view, np.uint8)
-        pending: Dict[int, list] = {cid: [] for cid in wanted}
-        for chunk in batch:
-            start, length, index_offsets, index_length, _ = chunk
+        group: Optional[_Group] = None
+        for start, length, index_offsets, index_length, _ in batch:
             rel = start - lo
             end = rel + length + index_length
             first, usize, crc, comp = self._chunk_header(view, rel, end, start)
+            if group is None or group.compressed != bool(comp) or group.size > _BATCH_BYTES:
+                if group is not None:  # storage order is kept across buffers
+                    self._deliver_all(group, buf, wanted, collectors, counts)
+                group = _Group(bool(comp))
             if comp:
-                # decompressed records live in their own buffer: deliver what is pending
-                # first so that storage order is kept
-                self._deliver_all(buf, pending, wanted, collectors)
                 records = self._decompress(view, first, comp, usize, crc, start)
-                base = 0
+                base, src, src_first = group.size, records, 0
+                group.pieces.append(records)
+                group.size += usize
             else:  # CRC checked by the caller
-                records, base = buf, first
-            for cid in index_offsets:
-                if cid not in wanted:
-                    continue
-                log_time, offsets = self._message_index(
-                    view, rel + index_offsets[cid] - start, rel + length, end, cid, start)
-                if offsets.size and (offsets.min() < 0 or offsets.max() + _MSG_HEADER > usize):
-                    raise self._fail(f'message offset outside chunk for channel {cid}', start)
-                counts[cid] += len(offsets)
-                pending[cid].append((log_time, base + offsets, base + usize, start))
-            if comp:
-                self._deliver_all(records, pending, wanted, collectors)
-        self._deliver_all(buf, pending, wanted, collectors)
+                base, src, src_first = first, view, first
+            parts = self._indexed(view, rel, length, end, index_offsets, wanted, usize, start)
+            if parts is None:  # no usable message index: the chunk's own records
+                parts = scan_messages(src, src_first, src_first + usize,
+                                      wanted.__contains__, Registry(),
+                                      self._chunk_fail(start))
+                parts = {cid: (t, np.asarray(o, np.int64) - src_first)
+                         for cid, (t, o) in parts.items()}
+            group.add(parts, base, usize, start)
+        if group is not None:
+            self._deliver_all(group, buf, wanted, collectors, counts)
+
+    def _chunk_fail(self, start: int):
+        def fail(what: str, at: int) -> BagError:
+            return self._fail(f'{what} (record {at} of the chunk)', start)
+        return fail
+
+    def _indexed(self, view, rel: int, length: int, end: int, index_offsets, wanted,
+                 usize: int, start: int):
+        """Messages of wanted channels per the chunk's message indexes, or None if unusable."""
+        if not index_offsets:
+            return None
+        parts = {}
+        for cid, offset in index_offsets.items():
+            if cid not in wanted:
+                continue
+            found = self._message_index(view, rel + offset - start, rel + length, end, cid)
+            if found is None:
+                return None
+            log_time, offsets = found
+            if offsets.size and (offsets.min() < 0 or offsets.max() + _MSG_HEADER > usize):
+                return None
+            parts[cid] = (log_time, offsets)
+        return parts
+
+    def _message_index(self, view, pos: int, lo: int, hi: int, cid: int):
+        try:
+            if pos < lo:
+                return None
+            op, _, index_cid, arr_len = struct.unpack_from('<BQHI', view, pos)
+        except struct.error:
+            return None
+        if op != 0x07 or index_cid != cid or pos + 15 + arr_len > hi or arr_len % 16:
+            return None
+        pairs = np.frombuffer(view, '<u8', count=arr_len // 8, offset=pos + 15)
+        # a view (times and offsets are far below 2**63): _deliver copies what it keeps
+        # before the batch's pages are released
+        pairs = pairs.view(np.int64).reshape(-1, 2)
+        return pairs[:, 0], pairs[:, 1]
 
     def _chunk_header(self, view, rel: int, end: int, start: int):
         try:
-            if view[rel] != 0x06:
+            if view[rel] != OP_CHUNK:
                 raise self._fail('chunk record expected', start)
             (rec_len, _, _, usize, crc, clen) = struct.unpack_from('<QQQQII', view, rel + 1)
             comp = bytes(view[rel + 41:rel + 41 + clen]).decode()
             (csize,) = struct.unpack_from('<Q', view, rel + 41 + clen)
-        except (struct.error, UnicodeDecodeError) as err:
+        except (struct.error, UnicodeDecodeError, IndexError) as err:
             raise self._fail(f'unreadable chunk header ({err})', start) from err
         first = rel + 49 + clen
         if first + csize > end or rel + 9 + rec_len > end:
@@ -276,55 +353,150 @@ class McapFile:
             raise self._fail('chunk CRC mismatch', start)
         return np.frombuffer(data, np.uint8)
 
-    def _message_index(self, view, pos: int, lo: int, hi: int, cid: int, start: int):
-        try:
-            if pos < lo:
-                raise struct.error('before the end of the chunk')
-            op, _, index_cid, arr_len = struct.unpack_from('<BQHI', view, pos)
-        except struct.error as err:
-            raise self._fail('message index out of range', start + pos - lo) from err
-        if op != 0x07 or index_cid != cid or pos + 15 + arr_len > hi or arr_len % 16:
-            raise self._fail(f'bad message index for channel {cid}', start + pos - lo)
-        pairs = np.frombuffer(view, '<u8', count=arr_len // 8, offset=pos + 15)
-        # a view (times and offsets are far below 2**63): _deliver_all copies what it keeps
-        # before the batch's pages are released
-        pairs = pairs.view(np.int64).reshape(-1, 2)
-        return pairs[:, 0], pairs[:, 1]
-
-    def _deliver_all(self, buf: np.ndarray, pending, wanted, collectors):
+    def _deliver_all(self, group: _Group, buf: np.ndarray, wanted, collectors, counts):
         """Check the pending message records of every channel and hand them to the sinks."""
-        jobs = [(cid, self._decoders.submit(self._deliver, buf, cid, list(parts), wanted,
+        if group.compressed:
+            buf = group.pieces[0] if len(group.pieces) == 1 else np.concatenate(group.pieces)
+        jobs = [(cid, self._decoders.submit(self._deliver, buf, cid, parts, wanted,
                                             collectors))
-                for cid, parts in pending.items() if parts]
+                for cid, parts in group.pending.items() if parts]
         for _, job in jobs:  # every job ends before an error (the first channel's) is raised
             job.exception()
         for cid, job in jobs:
-            job.result()
-            pending[cid].clear()
+            counts[cid] = counts.get(cid, 0) + job.result()
+        group.pending.clear()
 
-    def _deliver(self, buf: np.ndarray, cid: int, parts, wanted, collectors):
-        """Check one channel's pending message records and hand them to its sink."""
+    def _check(self, buf: np.ndarray, cid: int, parts):
+        """Gather and check the records of ``parts``; return them and the bad chunks."""
         log_time, starts = (np.concatenate([p[i] for p in parts]) for i in (0, 1))
-        ends = np.repeat([p[2] for p in parts], [len(p[1]) for p in parts])
+        sizes = [len(p[1]) for p in parts]
+        ends = np.repeat([p[3] for p in parts], sizes)
         # One gather per message for the record header and the CDR header after it
         # (each pass over scattered messages is a cache miss per message); the CDR part
         # is only meaningful for payloads of >= 16 bytes, which is all its user reads.
-        combined = starts.size and int(starts.max()) + _MSG_HEADER + 16 <= buf.size
-        rows = gather_bytes(buf, starts, _MSG_HEADER + 16 if combined else 11)
-        head = rows[:, :11].view(_RECORD_DTYPE)[:, 0]
+        combined = bool(starts.size) and int(starts.max()) + _MSG_HEADER + 16 <= buf.size
+        rows = gather_bytes(buf, starts, _MSG_HEADER + 16 if combined else _MSG_HEADER)
+        head = rows[:, :23].view(_RECORD_DTYPE)[:, 0]
         rec_len = head['length'].astype(np.int64)
-        bad = head['opcode'] != 0x05
+        bad = head['opcode'] != OP_MESSAGE
         bad |= head['channel'] != cid
         bad |= (rec_len < 22) | (rec_len > ends - starts - 9)
-        if bad.any():
-            i = int(np.argmax(bad))
-            chunk = parts[int(np.searchsorted(np.cumsum([len(p[1]) for p in parts]), i,
-                                              side='right'))][3]
-            raise self._fail(f'bad message record for channel {cid} in chunk', chunk)
+        bad |= head['log_time'] != log_time  # an index entry that is not this record's
+        bad_chunks = set(np.repeat([p[4] for p in parts], sizes)[bad].tolist())
+        return bad_chunks, (log_time, rec_len, starts, rows, combined)
+
+    def _deliver(self, buf: np.ndarray, cid: int, parts, wanted, collectors) -> int:
+        """Check one channel's pending message records and hand them to its sink."""
+        bad, checked = self._check(buf, cid, parts)
+        if bad:
+            # the message index of these chunks does not match their records (indexes are
+            # outside the chunk CRC): read the chunks' own records instead
+            parts = [p if p[4] not in bad else self._rescan(buf, cid, p) for p in parts]
+            parts = [p for p in parts if len(p[1])]
+            if not parts:
+                return 0
+            bad, checked = self._check(buf, cid, parts)
+            if bad:
+                raise self._fail(f'bad message record for channel {cid} in chunk', min(bad))
+        log_time, rec_len, starts, rows, combined = checked
         topic, msgtype = wanted[cid]
         collectors.sink(topic, msgtype).add(
             log_time, rec_len - 22, buf, starts + _MSG_HEADER,
             head=rows[:, _MSG_HEADER:] if combined else None)
+        return int(starts.size)
+
+    def _rescan(self, buf: np.ndarray, cid: int, part) -> tuple:
+        _, _, base, end, start = part
+        found = scan_messages(buf, base, end, cid.__eq__, Registry(), self._chunk_fail(start))
+        times, offsets = found.get(cid, ([], []))
+        return (np.asarray(times, np.int64), np.asarray(offsets, np.int64), base, end, start)
+
+    def _scan_file(self, fh, data_end: int, topics, collectors):
+        """Read every record from the start: files without summary, indexes or chunks."""
+        mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
+        view = memoryview(mm)
+        buf = np.frombuffer(mm, np.uint8)
+        registry = Registry()
+
+        def wanted(cid):
+            channel = registry.channels.get(cid)
+            return channel is not None and channel[0] in topics
+
+        def channels():
+            return {cid: ch for cid, ch in registry.channels.items() if ch[0] in topics}
+
+        counts: Dict[int, int] = {}
+        group: Optional[_Group] = None
+        loose: Dict[int, tuple] = {}  # messages outside chunks: (times, offsets)
+
+        def flush_loose():
+            nonlocal group
+            if loose:
+                group = self._switch(group, False, buf, channels(), collectors, counts)
+                for cid, (times, offsets) in loose.items():
+                    group.add({cid: (times, offsets)}, 0, data_end, offsets[0])
+                loose.clear()
+        try:
+            for op, body, length in walk(view, 8, data_end, self._fail):
+                if op == OP_DATA_END:
+                    break
+                if op == OP_MESSAGE:
+                    if length < 22:
+                        raise self._fail('message record too short', body - 9)
+                    cid, _, log_time = struct.unpack_from('<HIQ', view, body)
+                    if wanted(cid):
+                        times, offsets = loose.setdefault(cid, ([], []))
+                        times.append(log_time)
+                        offsets.append(body - 9)
+                elif op in (OP_SCHEMA, OP_CHANNEL):
+                    try:
+                        registry.add(op, view, body)
+                    except (struct.error, UnicodeDecodeError) as err:
+                        raise self._fail(f'unreadable schema/channel record ({err})',
+                                         body - 9) from err
+                elif op == OP_CHUNK:
+                    flush_loose()
+                    start = body - 9
+                    first, usize, crc, comp = self._chunk_header(view, start, body + length,
+                                                                 start)
+                    if comp:
+                        records = self._decompress(view, first, comp, usize, crc, start)
+                        src, src_first = records, 0
+                    else:
+                        if crc and crc32(view[first:first + usize]) != crc:
+                            raise self._fail('chunk CRC mismatch', start)
+                        src, src_first = view, first
+                    parts = scan_messages(src, src_first, src_first + usize, wanted, registry,
+                                          self._chunk_fail(start))
+                    group = self._switch(group, bool(comp), buf, channels(), collectors,
+                                         counts)
+                    if comp:
+                        base = group.size
+                        group.pieces.append(records)
+                        group.size += usize
+                    else:
+                        base = src_first
+                    group.add({c: (t, np.asarray(o, np.int64) - src_first)
+                               for c, (t, o) in parts.items()}, base, usize, start)
+            flush_loose()
+            if group is not None:
+                self._deliver_all(group, buf, channels(), collectors, counts)
+            present, _ = self._present(registry, topics)
+            return present
+        finally:
+            del buf, view
+            try:
+                mm.close()
+            except BufferError:  # views still referenced by a traceback: unmapped by GC
+                pass
+
+    def _switch(self, group, compressed: bool, buf, wanted, collectors, counts) -> _Group:
+        """Return ``group``, or a new one after delivering it if it cannot take more."""
+        if group is not None and group.compressed == compressed and group.size <= _BATCH_BYTES:
+            return group
+        if group is not None:
+            self._deliver_all(group, buf, wanted, collectors, counts)
+        return _Group(compressed)
 
 
 def _release(mm: mmap.mmap, lo: int, hi: int):

@@ -5,13 +5,19 @@ Read recordings (rosbag2 mcap/sqlite3 directories, ROS 1 ``.bag`` files) into al
 
 Two decoding paths give identical results:
 
-* bulk: uncompressed rosbag2 storages are read topic-wise with :mod:`.storage` and the
-  fixed-layout Imu / WrenchStamped payloads decoded with :mod:`.fastcdr` (validated against
-  the Jazzy deserialiser on the first messages of every layout group);
-* generic: everything else (ROS 1 bags, compressed rosbag2) goes message by message through
-  rosbags' ``AnyReader`` and its typestore (ROS 1 bags carry their own definitions).
+* bulk: rosbag2 storages (mcap, sqlite3, any compression) are read topic-wise with
+  :mod:`.storage` and the fixed-layout Imu / WrenchStamped payloads decoded with
+  :mod:`.fastcdr` (validated against the Jazzy deserialiser on the first messages of every
+  layout group);
+* fallback (``bulk=False``, or mcap indexes that miss messages): the same storages read
+  without indexes (mcap record by record) and every message deserialised by rosbags'
+  typestore; ROS 1 bags go message by message through rosbags' ``AnyReader`` (they carry
+  their own definitions).
 
-Samples are aligned on ``header.stamp``, never on the bag receive time.
+Only the topics a command needs are decoded; every other topic, of any type or encoding, is
+skipped and listed in the read summary.  Samples are put in ``header.stamp`` order
+(:mod:`.order`: late deliveries are moved and counted) and aligned on it, never on the bag
+receive time.
 """
 from dataclasses import dataclass
 from dataclasses import field
@@ -48,6 +54,8 @@ from wheel_force_estimator.bagio.fastcdr import STRING_TYPE
 from wheel_force_estimator.bagio.fastcdr import TopicDecoder
 from wheel_force_estimator.bagio.fastcdr import WRENCH_TYPE
 from wheel_force_estimator.bagio.fastpath import FastPathUnavailable
+from wheel_force_estimator.bagio.order import order_by_stamp
+from wheel_force_estimator.bagio.storage import RawTopic
 from wheel_force_estimator.bagio.storage import read_raw_topics
 from wheel_force_estimator.bagio.topics import default_topic_config
 from wheel_force_estimator.core.errors import BagError
@@ -101,6 +109,11 @@ class Recording:
         Messages decoded by the bulk numpy path (the rest by rosbags' deserialiser).
     n_messages : int
         All messages decoded (sample topics and events).
+    n_reordered : dict of str to int
+        Messages per sample topic stored after a later-stamped one and put back in stamp
+        order (:mod:`.order`); topics with none are left out.
+    skipped_topics : tuple of (str, str)
+        ``(topic, type)`` of the topics in the bag that were not needed, hence not decoded.
 
     """
 
@@ -115,6 +128,8 @@ class Recording:
     step_range_ns: Tuple[int, int] = (0, 0)
     n_bulk: int = 0
     n_messages: int = 0
+    n_reordered: Dict[str, int] = field(default_factory=dict)
+    skipped_topics: Tuple[Tuple[str, str], ...] = ()
 
     def summary(self) -> str:
         """Describe what was read, used and left out, for logs and reports."""
@@ -125,6 +140,10 @@ class Recording:
             f'{self.n_used / self.fs_hz:.3f} s)',
             '  messages read: ' + ', '.join(f'{t} {n}' for t, n in self.n_read.items()),
             f'  decoded in bulk: {self.n_bulk} of {self.n_messages} messages',
+            '  put back in stamp order (stored late): ' + (', '.join(
+                f'{t} {n}' for t, n in self.n_reordered.items()) or 'none'),
+            '  skipped (not needed, not decoded): ' + (', '.join(
+                f'{t} ({m})' for t, m in self.skipped_topics) or 'none'),
             f'  stamp step inside segments: {self.step_range_ns[0]}..{self.step_range_ns[1]} '
             f'ns (nominal {1e9 / self.fs_hz:.0f} ns)',
         ]
@@ -163,6 +182,11 @@ class _Decoded:
     strings: Dict[str, List[Tuple[int, str]]] = field(default_factory=dict)
     n_bulk: int = 0
     n_messages: int = 0
+    skipped: Tuple[Tuple[str, str], ...] = ()
+
+
+def _skipped(present, wanted) -> Tuple[Tuple[str, str], ...]:
+    return tuple((t, m) for t, m in sorted(present.items()) if t not in wanted)
 
 
 def _check_wanted(path, present, required, optional):
@@ -234,7 +258,16 @@ def _read_topics(path: Path, required: Dict[str, str], optional: Dict[str, str],
         except FastPathUnavailable:
             pass
         else:
-            return _decode_raw(path, raw, _check_wanted(path, present, required, optional))
+            return _decode_raw(path, raw, _check_wanted(path, present, required, optional),
+                               present)
+    if path.suffix != '.bag':
+        try:  # every message through rosbags' deserialiser; mcap read record by record
+            present, raw = read_raw_topics(path, list(required) + list(optional), scan=True)
+        except FastPathUnavailable:
+            pass  # not a rosbag2 recording this package reads: rosbags' AnyReader
+        else:
+            return _decode_raw(path, raw, _check_wanted(path, present, required, optional),
+                               present)
     try:
         reader = AnyReader([path], default_typestore=jazzy_typestore())
         reader.open()
@@ -242,13 +275,16 @@ def _read_topics(path: Path, required: Dict[str, str], optional: Dict[str, str],
         raise _bag_error(path, err) from err
     try:
         present = {name: info.msgtype for name, info in reader.topics.items()}
-        return _decode_generic(path, reader, _check_wanted(path, present, required, optional))
+        wanted = _check_wanted(path, present, required, optional)
+        out = _decode_generic(path, reader, wanted)
+        out.skipped = _skipped(present, wanted)
+        return out
     finally:
         reader.close()
 
 
-def _decode_raw(path, raw, wanted) -> _Decoded:
-    out = _Decoded()
+def _decode_raw(path, raw, wanted, present) -> _Decoded:
+    out = _Decoded(skipped=_skipped(present, wanted))
     store = jazzy_typestore()
     for name, msgtype in wanted.items():
         topic = raw.get(name)
@@ -265,11 +301,25 @@ def _decode_raw(path, raw, wanted) -> _Decoded:
         elif topic is None:
             out.stamp_ns[name] = np.zeros(0, np.int64)
             out.values[name] = np.zeros((0, 3))
+        elif isinstance(topic, RawTopic):  # fallback path: message by message
+            out.stamp_ns[name], out.values[name] = _deserialize_all(path, name, store, topic,
+                                                                    msgtype)
         else:
             out.stamp_ns[name] = topic.stamp_ns
             out.values[name] = topic.values
             out.n_bulk += topic.n_fast
     return out
+
+
+def _deserialize_all(path, name, store, topic: RawTopic, msgtype: str):
+    stamp = np.empty(topic.n, np.int64)
+    values = np.empty((topic.n, 3))
+    layout = LAYOUTS[msgtype]
+    for pos, rows in topic.groups:
+        for p, row in zip(pos.tolist(), rows):
+            stamp[p], values[p] = extract(layout, _deserialize(path, name, store, row.tobytes(),
+                                                               msgtype))
+    return stamp, values
 
 
 def _deserialize(path, topic, store, data: bytes, msgtype: str):
@@ -312,8 +362,14 @@ def _decode_generic(path, reader, wanted) -> _Decoded:
     return out
 
 
-def _series(decoded: _Decoded, topic: str, channels) -> TopicSeries:
-    return TopicSeries(topic, decoded.stamp_ns[topic], decoded.values[topic], tuple(channels))
+def _series(path, decoded: _Decoded, topic: str, channels,
+            reordered: Optional[Dict[str, int]] = None) -> TopicSeries:
+    """One topic in stamp order; late deliveries counted into ``reordered``."""
+    stamp, values, n_late = order_by_stamp(path, topic, decoded.stamp_ns[topic],
+                                           decoded.values[topic])
+    if n_late and reordered is not None:
+        reordered[topic] = n_late
+    return TopicSeries(topic, stamp, values, tuple(channels))
 
 
 def read_recording(path, topics=None, require_wft: bool = True,
@@ -359,9 +415,10 @@ def read_recording(path, topics=None, require_wft: bool = True,
         required.update({t: WRENCH_TYPE for t in topics.wft_topics})
     decoded = _read_topics(path, required, {topics.event_topic: STRING_TYPE}, bulk=bulk,
                            stacked=(topics.imu_topics, topics.wft_topics))
-    imu = [_series(decoded, t, INPUT_CHANNELS[3 * i:3 * i + 3])
+    reordered: Dict[str, int] = {}
+    imu = [_series(path, decoded, t, INPUT_CHANNELS[3 * i:3 * i + 3], reordered)
            for i, t in enumerate(topics.imu_topics)]
-    wft = ([_series(decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3])
+    wft = ([_series(path, decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3], reordered)
             for i, t in enumerate(topics.wft_topics)] if require_wft else None)
     result = align(path, imu, wft, expected_fs_hz)
     if not result.segments:
@@ -381,6 +438,8 @@ def read_recording(path, topics=None, require_wft: bool = True,
         step_range_ns=result.step_range_ns,
         n_bulk=decoded.n_bulk,
         n_messages=decoded.n_messages,
+        n_reordered=reordered,
+        skipped_topics=decoded.skipped,
     )
 
 
@@ -414,7 +473,7 @@ def read_imu_topic(path, topic: str, *, bulk: bool = True):
     """
     path = _check_path(path)
     decoded = _read_topics(path, {topic: IMU_TYPE}, {}, bulk=bulk)
-    series = _series(decoded, topic, ('ax', 'ay', 'az'))
+    series = _series(path, decoded, topic, ('ax', 'ay', 'az'))
     check_series(path, series)
     return series.stamp_ns, np.ascontiguousarray(series.values.T)
 
@@ -456,7 +515,7 @@ def read_wrench_topics(path, topics, *, bulk: bool = True):
         raise ConfigError(f'read_wrench_topics needs 4 topics (lf, rf, lr, rr), got {topics}')
     path = _check_path(path)
     decoded = _read_topics(path, dict.fromkeys(topics, WRENCH_TYPE), {}, bulk=bulk)
-    series = [_series(decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3])
+    series = [_series(path, decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3])
               for i, t in enumerate(topics)]
     for s in series:
         check_series(path, s)
