@@ -20,12 +20,12 @@ from concurrent.futures import ThreadPoolExecutor
 import mmap
 from pathlib import Path
 import struct
-import sys
 from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
 from wheel_force_estimator.bagio.checksum import crc32
+from wheel_force_estimator.bagio.compression import DECOMPRESS
 from wheel_force_estimator.bagio.fastcdr import gather_bytes
 from wheel_force_estimator.bagio.fastpath import FastPathUnavailable
 from wheel_force_estimator.bagio.mcap_records import OP_CHANNEL
@@ -52,23 +52,6 @@ _BATCH_BYTES = 64 << 20
 _MAX_SKIP = 1 << 20
 # Threads decoding the channels of a batch side by side (the machine has 2 cores).
 _DECODE_THREADS = 2
-
-
-def _zstd_decompress(data: bytes) -> bytes:
-    if sys.version_info >= (3, 14):
-        from compression import zstd
-        return zstd.decompress(data)
-    try:
-        from backports import zstd
-        return zstd.decompress(data)
-    except ImportError:
-        import zstandard  # older rosbags releases depend on this one
-        return zstandard.ZstdDecompressor().decompress(data)
-
-
-def _lz4_decompress(data: bytes) -> bytes:
-    from lz4.frame import decompress
-    return decompress(data)
 
 
 class _Group:
@@ -338,13 +321,10 @@ class McapFile:
     def _decompress(self, view, first: int, comp: str, usize: int, crc: int, start: int):
         (csize,) = struct.unpack_from('<Q', view, first - 8)
         data = bytes(view[first:first + csize])
+        if comp not in DECOMPRESS:
+            raise BagError(f'{self.file}: unsupported mcap chunk compression {comp!r}')
         try:
-            if comp == 'zstd':
-                data = _zstd_decompress(data)
-            elif comp == 'lz4':
-                data = _lz4_decompress(data)
-            else:
-                raise BagError(f'{self.file}: unsupported mcap chunk compression {comp!r}')
+            data = DECOMPRESS[comp](data)
         except (ValueError, RuntimeError, OSError) as err:
             raise self._fail(f'chunk does not decompress ({err})', start) from err
         if len(data) != usize:
@@ -484,7 +464,7 @@ class McapFile:
             present, _ = self._present(registry, topics)
             return present
         finally:
-            del buf, view
+            buf = view = None  # release the exports of the map before closing it
             try:
                 mm.close()
             except BufferError:  # views still referenced by a traceback: unmapped by GC

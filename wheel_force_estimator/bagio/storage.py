@@ -29,6 +29,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator.bagio.compression import DECOMPRESS
 from wheel_force_estimator.bagio.fastcdr import gather_bytes
 from wheel_force_estimator.bagio.fastpath import FastPathUnavailable
 from wheel_force_estimator.bagio.mcap_reader import McapFile
@@ -122,9 +123,9 @@ def bag_layout(path: Path) -> BagLayout:
     if mode not in ('', 'file', 'message'):
         raise BagError(f'{path}: unknown compression_mode {mode!r} in metadata.yaml '
                        "(rosbag2 writes 'none', 'file' or 'message')")
-    if mode and fmt not in _DECOMPRESS:
+    if mode and fmt not in DECOMPRESS:
         raise BagError(f'{path}: cannot read compression_format {fmt!r} (readable: '
-                       f'{", ".join(sorted(_DECOMPRESS))})')
+                       f'{", ".join(sorted(DECOMPRESS))})')
     if storage not in ('mcap', 'sqlite3'):
         raise FastPathUnavailable(f'{path}: storage {storage!r}')
     missing = [str(f) for f in files if not f.is_file()]
@@ -133,26 +134,13 @@ def bag_layout(path: Path) -> BagLayout:
     return BagLayout(storage, files, types, counts, mode, fmt)
 
 
-def _zstd_decompress(data: bytes) -> bytes:
-    from wheel_force_estimator.bagio.mcap_reader import _zstd_decompress as decompress
-    return decompress(data)
-
-
-def _lz4_decompress(data: bytes) -> bytes:
-    from wheel_force_estimator.bagio.mcap_reader import _lz4_decompress as decompress
-    return decompress(data)
-
-
-_DECOMPRESS = {'zstd': _zstd_decompress, 'lz4': _lz4_decompress}
-
-
 @contextlib.contextmanager
 def _storage_files(layout: BagLayout):
     """Yield the storage files, decompressed into a temporary directory in file mode."""
     if layout.compression_mode != 'file':
         yield layout.files
         return
-    decompress = _DECOMPRESS[layout.compression_format]
+    decompress = DECOMPRESS[layout.compression_format]
     with tempfile.TemporaryDirectory(prefix='wheel_force_bag_') as tmp:
         files = []
         for file in layout.files:
@@ -175,7 +163,7 @@ class _Decompressing:
         self.sink = sink
         self.fmt = fmt
         self.where = where
-        self._decompress = _DECOMPRESS[fmt]
+        self._decompress = DECOMPRESS[fmt]
 
     def add(self, log_time, lengths, buf, starts, head=None):
         del head  # of the compressed payload: meaningless
