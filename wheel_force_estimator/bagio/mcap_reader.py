@@ -26,8 +26,12 @@ import numpy as np
 
 from wheel_force_estimator.bagio.checksum import crc32
 from wheel_force_estimator.bagio.compression import DECOMPRESS
-from wheel_force_estimator.bagio.fastcdr import gather_bytes
 from wheel_force_estimator.bagio.fastpath import FastPathUnavailable
+from wheel_force_estimator.bagio.mcap_group import chunk_headers
+from wheel_force_estimator.bagio.mcap_group import ChunkGroup
+from wheel_force_estimator.bagio.mcap_group import deliver
+from wheel_force_estimator.bagio.mcap_group import index_entries
+from wheel_force_estimator.bagio.mcap_group import offsets_table
 from wheel_force_estimator.bagio.mcap_records import OP_CHANNEL
 from wheel_force_estimator.bagio.mcap_records import OP_CHUNK
 from wheel_force_estimator.bagio.mcap_records import OP_DATA_END
@@ -40,11 +44,6 @@ from wheel_force_estimator.core.errors import BagError
 
 _MCAP_MAGIC = b'\x89MCAP0\r\n'
 _FOOTER_LEN = 1 + 8 + 20 + 8  # opcode, length, footer fields, magic
-# Message record: opcode(1) length(8) channel(2) sequence(4) log_time(8) publish_time(8)
-_MSG_HEADER = 31
-_RECORD_DTYPE = np.dtype({'names': ['opcode', 'length', 'channel', 'log_time'],
-                          'formats': ['u1', '<u8', '<u2', '<i8'], 'offsets': [0, 1, 9, 15],
-                          'itemsize': 23})
 # Bytes of nearby chunks read and checked together: large enough that per-batch Python work
 # vanishes (one vectorised check and decode per channel), small enough to bound memory.
 _BATCH_BYTES = 64 << 20
@@ -52,29 +51,6 @@ _BATCH_BYTES = 64 << 20
 _MAX_SKIP = 1 << 20
 # Threads decoding the channels of a batch side by side (the machine has 2 cores).
 _DECODE_THREADS = 2
-
-
-class _Group:
-    """
-    Message records of consecutive chunks that live in one buffer, delivered together.
-
-    Uncompressed chunks are read in place from the mapped batch; compressed chunks' records
-    are decompressed into ``pieces`` and joined into one buffer on delivery.  ``pending``
-    holds, per channel, parts ``(log_time, record starts, base, end, chunk offset)``:
-    records of one chunk at ``[base, end)`` of the group's buffer.
-    """
-
-    def __init__(self, compressed: bool):
-        self.compressed = compressed
-        self.pieces: List[np.ndarray] = []
-        self.size = 0
-        self.pending: Dict[int, list] = {}
-
-    def add(self, parts: dict, base: int, usize: int, start: int) -> None:
-        for cid, (times, offsets) in parts.items():
-            self.pending.setdefault(cid, []).append(
-                (np.asarray(times, np.int64), base + np.asarray(offsets, np.int64), base,
-                 base + usize, start))
 
 
 class McapFile:
@@ -125,8 +101,11 @@ class McapFile:
         if not chunks:  # messages outside chunks (or no chunk index): read every record
             return self._scan_file(fh, summary_start, topics, collectors)
         # chunks without message indexes may hold any channel: they are read record by record
-        todo = [c for c in sorted(chunks, key=lambda c: c[0])
-                if not c[2] or any(cid in wanted for cid in c[2])]
+        chunks.sort(key=lambda c: c[0])
+        self._table = offsets_table(np.frombuffer(summary, np.uint8), chunks, wanted)
+        # chunks that may hold wanted messages: indexed for one, or without message indexes
+        listed = set(np.unique(self._table[0]).tolist())
+        todo = [c for c in chunks if not c[2][1] or c[0] in listed]
         for start, length, _, index_length, _ in todo:
             if start + length + index_length > size:
                 raise self._fail('chunk beyond end of file', start)
@@ -173,8 +152,9 @@ class McapFile:
     def _chunk_index(data: bytes, pos: int):
         start_offset, length, map_len = struct.unpack_from('<QQI', data, pos + 16)
         pos += 36
-        pairs = struct.iter_unpack('<HQ', data[pos:pos + map_len])
-        index_offsets = dict(pairs)
+        if map_len % 10:
+            raise struct.error('message index offsets map of a bad length')
+        index_offsets = (pos, map_len // 10)  # read for all chunks at once (offsets_table)
         pos += map_len
         index_length, clen = struct.unpack_from('<QI', data, pos)
         compression = data[pos + 12:pos + 12 + clen].decode()
@@ -221,14 +201,22 @@ class McapFile:
         """Queue the CRC of every uncompressed chunk of a batch: ``(start, crc, future)``."""
         chunks, lo, hi = batch
         view = memoryview(mm)[lo:hi]
-        checks = []
-        for start, length, _, index_length, _ in chunks:
-            rel = start - lo
-            first, usize, crc, comp = self._chunk_header(view, rel, rel + length + index_length,
-                                                         start)
-            if crc and not comp:
-                checks.append((start, crc, pool.submit(crc32, view[first:first + usize])))
-        return checks
+        start, first, usize, crc = self._headers(view, lo, chunks)
+        return [(s, c, pool.submit(crc32, view[f:f + u]))
+                for s, f, u, c, (*_, comp) in zip(start.tolist(), first.tolist(), usize.tolist(),
+                                                  crc.tolist(), chunks) if c and not comp]
+
+    def _headers(self, view, lo: int, chunks):
+        """Chunk offsets and the header fields of a batch; a bad header is named."""
+        start = np.fromiter((c[0] for c in chunks), np.int64, len(chunks))
+        rel = start - lo
+        end = rel + np.fromiter((c[1] + c[3] for c in chunks), np.int64, len(chunks))
+        first, usize, crc, bad = chunk_headers(np.frombuffer(view, np.uint8), rel, end,
+                                               [c[4] for c in chunks])
+        for k in bad.tolist():  # the exact fault, from the one-by-one parser
+            self._chunk_header(view, int(rel[k]), int(end[k]), int(start[k]))
+            raise self._fail('chunk header disagrees with its chunk index', int(start[k]))
+        return start, first, usize, crc
 
     def _check_crcs(self, checks):
         for start, crc, future in checks:
@@ -237,70 +225,44 @@ class McapFile:
 
     def _read_batch(self, view, lo, batch, wanted, collectors, counts):
         buf = np.frombuffer(view, np.uint8)
-        group: Optional[_Group] = None
-        for start, length, index_offsets, index_length, _ in batch:
-            rel = start - lo
-            end = rel + length + index_length
-            first, usize, crc, comp = self._chunk_header(view, rel, end, start)
-            if group is None or group.compressed != bool(comp) or group.size > _BATCH_BYTES:
-                if group is not None:  # storage order is kept across buffers
-                    self._deliver_all(group, buf, wanted, collectors, counts)
-                group = _Group(bool(comp))
-            if comp:
-                records = self._decompress(view, first, comp, usize, crc, start)
-                base, src, src_first = group.size, records, 0
+        start, first, usize, crc = self._headers(view, lo, batch)
+        rel = start - lo
+        length = np.fromiter((c[1] for c in batch), np.int64, len(batch))
+        end = rel + length + np.fromiter((c[3] for c in batch), np.int64, len(batch))
+        indexed = np.fromiter((c[2][1] > 0 for c in batch), bool, len(batch))
+        usable, entries = index_entries(buf, rel, length, end, start, indexed, self._table)
+        comps = [c[4] for c in batch]
+        for a, b in _runs(comps):
+            group = ChunkGroup(bool(comps[a]))
+            if comps[a]:  # CRCs checked on decompression
+                records = self._decompress_run(view, comps[a], first[a:b], usize[a:b],
+                                               crc[a:b], start[a:b])
                 group.pieces.append(records)
-                group.size += usize
-            else:  # CRC checked by the caller
-                base, src, src_first = first, view, first
-            parts = self._indexed(view, rel, length, end, index_offsets, wanted, usize, start)
-            if parts is None:  # no usable message index: the chunk's own records
-                parts = scan_messages(src, src_first, src_first + usize,
-                                      wanted.__contains__, Registry(),
-                                      self._chunk_fail(start))
-                parts = {cid: (t, np.asarray(o, np.int64) - src_first)
-                         for cid, (t, o) in parts.items()}
-            group.add(parts, base, usize, start)
-        if group is not None:
+                group.size = records.size
+                base = np.concatenate(([0], np.cumsum(usize[a:b])[:-1]))
+            else:  # CRCs checked by the caller
+                records, base = view, first[a:b]
+            group.chunks.update(zip(start[a:b].tolist(),
+                                    zip(base.tolist(), (base + usize[a:b]).tolist())))
+            for cid, (pos, count, owner) in entries.items():
+                sel = (owner >= a) & (owner < b)
+                if sel.any():
+                    k = owner[sel]
+                    lo_k = base[k - a]
+                    group.indexed[cid] = [(pos[sel], count[sel], start[k], lo_k,
+                                           lo_k + usize[k])]
+            for k in np.flatnonzero(~usable[a:b]).tolist():
+                # no usable message index: the chunk's own records
+                lo_k = int(base[k])
+                group.add_scanned(int(start[a + k]), scan_messages(
+                    records, lo_k, lo_k + int(usize[a + k]), wanted.__contains__, Registry(),
+                    self._chunk_fail(int(start[a + k]))), 0)
             self._deliver_all(group, buf, wanted, collectors, counts)
 
     def _chunk_fail(self, start: int):
         def fail(what: str, at: int) -> BagError:
             return self._fail(f'{what} (record {at} of the chunk)', start)
         return fail
-
-    def _indexed(self, view, rel: int, length: int, end: int, index_offsets, wanted,
-                 usize: int, start: int):
-        """Messages of wanted channels per the chunk's message indexes, or None if unusable."""
-        if not index_offsets:
-            return None
-        parts = {}
-        for cid, offset in index_offsets.items():
-            if cid not in wanted:
-                continue
-            found = self._message_index(view, rel + offset - start, rel + length, end, cid)
-            if found is None:
-                return None
-            log_time, offsets = found
-            if offsets.size and (offsets.min() < 0 or offsets.max() + _MSG_HEADER > usize):
-                return None
-            parts[cid] = (log_time, offsets)
-        return parts
-
-    def _message_index(self, view, pos: int, lo: int, hi: int, cid: int):
-        try:
-            if pos < lo:
-                return None
-            op, _, index_cid, arr_len = struct.unpack_from('<BQHI', view, pos)
-        except struct.error:
-            return None
-        if op != 0x07 or index_cid != cid or pos + 15 + arr_len > hi or arr_len % 16:
-            return None
-        pairs = np.frombuffer(view, '<u8', count=arr_len // 8, offset=pos + 15)
-        # a view (times and offsets are far below 2**63): _deliver copies what it keeps
-        # before the batch's pages are released
-        pairs = pairs.view(np.int64).reshape(-1, 2)
-        return pairs[:, 0], pairs[:, 1]
 
     def _chunk_header(self, view, rel: int, end: int, start: int):
         try:
@@ -318,6 +280,28 @@ class McapFile:
             raise self._fail(f'chunk holds {csize} bytes, header says {usize}', start)
         return first, usize, crc, comp
 
+    def _decompress_run(self, view, comp: str, first, usize, crc, start) -> np.ndarray:
+        """Decompress consecutive chunks into one array (per-chunk cost kept to a minimum)."""
+        if comp not in DECOMPRESS:
+            raise BagError(f'{self.file}: unsupported mcap chunk compression {comp!r}')
+        decompress = DECOMPRESS[comp]
+        unpack = struct.unpack_from
+        out = []
+        try:
+            for f in first.tolist():
+                out.append(decompress(view[f:f + unpack('<Q', view, f - 8)[0]]))
+        except (ValueError, RuntimeError, OSError):  # the exact fault, chunk by chunk
+            for k in range(len(out), len(first)):
+                self._decompress(view, int(first[k]), comp, int(usize[k]), int(crc[k]),
+                                 int(start[k]))
+            raise
+        for data, u, c, s in zip(out, usize.tolist(), crc.tolist(), start.tolist()):
+            if len(data) != u:
+                raise self._fail(f'chunk holds {len(data)} bytes, header says {u}', s)
+            if c and crc32(data) != c:
+                raise self._fail('chunk CRC mismatch', s)
+        return np.frombuffer(out[0] if len(out) == 1 else b''.join(out), np.uint8)
+
     def _decompress(self, view, first: int, comp: str, usize: int, crc: int, start: int):
         (csize,) = struct.unpack_from('<Q', view, first - 8)
         data = bytes(view[first:first + csize])
@@ -333,63 +317,16 @@ class McapFile:
             raise self._fail('chunk CRC mismatch', start)
         return np.frombuffer(data, np.uint8)
 
-    def _deliver_all(self, group: _Group, buf: np.ndarray, wanted, collectors, counts):
+    def _deliver_all(self, group: ChunkGroup, buf: np.ndarray, wanted, collectors, counts):
         """Check the pending message records of every channel and hand them to the sinks."""
-        if group.compressed:
-            buf = group.pieces[0] if len(group.pieces) == 1 else np.concatenate(group.pieces)
-        jobs = [(cid, self._decoders.submit(self._deliver, buf, cid, parts, wanted,
-                                            collectors))
-                for cid, parts in group.pending.items() if parts]
+        records = group.buffer(buf)
+        jobs = [(cid, self._decoders.submit(deliver, group, buf, records, cid,
+                                            collectors.sink(*wanted[cid]), self._fail))
+                for cid in sorted(group.channels())]
         for _, job in jobs:  # every job ends before an error (the first channel's) is raised
             job.exception()
         for cid, job in jobs:
             counts[cid] = counts.get(cid, 0) + job.result()
-        group.pending.clear()
-
-    def _check(self, buf: np.ndarray, cid: int, parts):
-        """Gather and check the records of ``parts``; return them and the bad chunks."""
-        log_time, starts = (np.concatenate([p[i] for p in parts]) for i in (0, 1))
-        sizes = [len(p[1]) for p in parts]
-        ends = np.repeat([p[3] for p in parts], sizes)
-        # One gather per message for the record header and the CDR header after it
-        # (each pass over scattered messages is a cache miss per message); the CDR part
-        # is only meaningful for payloads of >= 16 bytes, which is all its user reads.
-        combined = bool(starts.size) and int(starts.max()) + _MSG_HEADER + 16 <= buf.size
-        rows = gather_bytes(buf, starts, _MSG_HEADER + 16 if combined else _MSG_HEADER)
-        head = rows[:, :23].view(_RECORD_DTYPE)[:, 0]
-        rec_len = head['length'].astype(np.int64)
-        bad = head['opcode'] != OP_MESSAGE
-        bad |= head['channel'] != cid
-        bad |= (rec_len < 22) | (rec_len > ends - starts - 9)
-        bad |= head['log_time'] != log_time  # an index entry that is not this record's
-        bad_chunks = set(np.repeat([p[4] for p in parts], sizes)[bad].tolist())
-        return bad_chunks, (log_time, rec_len, starts, rows, combined)
-
-    def _deliver(self, buf: np.ndarray, cid: int, parts, wanted, collectors) -> int:
-        """Check one channel's pending message records and hand them to its sink."""
-        bad, checked = self._check(buf, cid, parts)
-        if bad:
-            # the message index of these chunks does not match their records (indexes are
-            # outside the chunk CRC): read the chunks' own records instead
-            parts = [p if p[4] not in bad else self._rescan(buf, cid, p) for p in parts]
-            parts = [p for p in parts if len(p[1])]
-            if not parts:
-                return 0
-            bad, checked = self._check(buf, cid, parts)
-            if bad:
-                raise self._fail(f'bad message record for channel {cid} in chunk', min(bad))
-        log_time, rec_len, starts, rows, combined = checked
-        topic, msgtype = wanted[cid]
-        collectors.sink(topic, msgtype).add(
-            log_time, rec_len - 22, buf, starts + _MSG_HEADER,
-            head=rows[:, _MSG_HEADER:] if combined else None)
-        return int(starts.size)
-
-    def _rescan(self, buf: np.ndarray, cid: int, part) -> tuple:
-        _, _, base, end, start = part
-        found = scan_messages(buf, base, end, cid.__eq__, Registry(), self._chunk_fail(start))
-        times, offsets = found.get(cid, ([], []))
-        return (np.asarray(times, np.int64), np.asarray(offsets, np.int64), base, end, start)
 
     def _scan_file(self, fh, data_end: int, topics, collectors):
         """Read every record from the start: files without summary, indexes or chunks."""
@@ -402,20 +339,24 @@ class McapFile:
             channel = registry.channels.get(cid)
             return channel is not None and channel[0] in topics
 
-        def channels():
-            return {cid: ch for cid, ch in registry.channels.items() if ch[0] in topics}
-
         counts: Dict[int, int] = {}
-        group: Optional[_Group] = None
         loose: Dict[int, tuple] = {}  # messages outside chunks: (times, offsets)
+        group: Optional[ChunkGroup] = None  # consecutive chunks, delivered together
 
-        def flush_loose():
+        def flush():
+            """Deliver the chunks and then the loose messages so far (storage order kept)."""
             nonlocal group
+            channels = {c: ch for c, ch in registry.channels.items() if ch[0] in topics}
+            if group is not None:
+                self._deliver_all(group, buf, channels, collectors, counts)
+                group = None
             if loose:
-                group = self._switch(group, False, buf, channels(), collectors, counts)
-                for cid, (times, offsets) in loose.items():
-                    group.add({cid: (times, offsets)}, 0, data_end, offsets[0])
+                first = min(o[0] for _, o in loose.values())
+                run = ChunkGroup(False)
+                run.add_records(first, 0, data_end)
+                run.add_scanned(first, dict(loose), 0)
                 loose.clear()
+                self._deliver_all(run, buf, channels, collectors, counts)
         try:
             for op, body, length in walk(view, 8, data_end, self._fail):
                 if op == OP_DATA_END:
@@ -425,6 +366,8 @@ class McapFile:
                         raise self._fail('message record too short', body - 9)
                     cid, _, log_time = struct.unpack_from('<HIQ', view, body)
                     if wanted(cid):
+                        if group is not None:
+                            flush()
                         times, offsets = loose.setdefault(cid, ([], []))
                         times.append(log_time)
                         offsets.append(body - 9)
@@ -435,32 +378,11 @@ class McapFile:
                         raise self._fail(f'unreadable schema/channel record ({err})',
                                          body - 9) from err
                 elif op == OP_CHUNK:
-                    flush_loose()
-                    start = body - 9
-                    first, usize, crc, comp = self._chunk_header(view, start, body + length,
-                                                                 start)
-                    if comp:
-                        records = self._decompress(view, first, comp, usize, crc, start)
-                        src, src_first = records, 0
-                    else:
-                        if crc and crc32(view[first:first + usize]) != crc:
-                            raise self._fail('chunk CRC mismatch', start)
-                        src, src_first = view, first
-                    parts = scan_messages(src, src_first, src_first + usize, wanted, registry,
-                                          self._chunk_fail(start))
-                    group = self._switch(group, bool(comp), buf, channels(), collectors,
-                                         counts)
-                    if comp:
-                        base = group.size
-                        group.pieces.append(records)
-                        group.size += usize
-                    else:
-                        base = src_first
-                    group.add({c: (t, np.asarray(o, np.int64) - src_first)
-                               for c, (t, o) in parts.items()}, base, usize, start)
-            flush_loose()
-            if group is not None:
-                self._deliver_all(group, buf, channels(), collectors, counts)
+                    if loose:
+                        flush()
+                    group = self._scan_chunk(view, body - 9, body + length, wanted, registry,
+                                             group, flush)
+            flush()
             present, _ = self._present(registry, topics)
             return present
         finally:
@@ -470,13 +392,29 @@ class McapFile:
             except BufferError:  # views still referenced by a traceback: unmapped by GC
                 pass
 
-    def _switch(self, group, compressed: bool, buf, wanted, collectors, counts) -> _Group:
-        """Return ``group``, or a new one after delivering it if it cannot take more."""
-        if group is not None and group.compressed == compressed and group.size <= _BATCH_BYTES:
+    def _scan_chunk(self, view, start: int, end: int, wanted, registry, group,
+                    flush) -> ChunkGroup:
+        """Add a chunk's wanted records to ``group`` (flushed first if it cannot take them)."""
+        first, usize, crc, comp = self._chunk_header(view, start, end, start)
+        if group is not None and (group.compressed != bool(comp) or group.size > _BATCH_BYTES):
+            flush()
+            group = None
+        group = group or ChunkGroup(bool(comp))
+        if comp:
+            records = self._decompress(view, first, comp, usize, crc, start)
+            scanned = scan_messages(records, 0, usize, wanted, registry,
+                                    self._chunk_fail(start))
+            group.add_records(start, group.size, usize)
+            group.add_scanned(start, scanned, group.size)
+            group.pieces.append(records)
+            group.size += usize
             return group
-        if group is not None:
-            self._deliver_all(group, buf, wanted, collectors, counts)
-        return _Group(compressed)
+        if crc and crc32(view[first:first + usize]) != crc:
+            raise self._fail('chunk CRC mismatch', start)
+        group.add_records(start, first, usize)
+        group.add_scanned(start, scan_messages(view, first, first + usize, wanted, registry,
+                                               self._chunk_fail(start)), 0)
+        return group
 
 
 def _release(mm: mmap.mmap, lo: int, hi: int):
@@ -484,6 +422,15 @@ def _release(mm: mmap.mmap, lo: int, hi: int):
     lo -= lo % mmap.PAGESIZE
     if hi > lo and hasattr(mm, 'madvise') and hasattr(mmap, 'MADV_DONTNEED'):
         mm.madvise(mmap.MADV_DONTNEED, lo, hi - lo)
+
+
+def _runs(compression):
+    """Yield ``(a, b)`` index ranges of consecutive chunks with the same compression."""
+    a = 0
+    for b in range(1, len(compression) + 1):
+        if b == len(compression) or compression[b] != compression[a]:
+            yield a, b
+            a = b
 
 
 def _batches(chunks):
