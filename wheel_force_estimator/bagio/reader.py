@@ -21,6 +21,7 @@ receive time.
 """
 from dataclasses import dataclass
 from dataclasses import field
+from dataclasses import replace
 import functools
 from pathlib import Path
 import sqlite3
@@ -43,6 +44,7 @@ from wheel_force_estimator.bagio.align import align
 from wheel_force_estimator.bagio.align import check_same_clock
 from wheel_force_estimator.bagio.align import check_series
 from wheel_force_estimator.bagio.align import Gap
+from wheel_force_estimator.bagio.align import RATE_TOLERANCE
 from wheel_force_estimator.bagio.align import Segment
 from wheel_force_estimator.bagio.align import stack_corners
 from wheel_force_estimator.bagio.align import stamp_text
@@ -58,6 +60,7 @@ from wheel_force_estimator.bagio.order import order_by_stamp
 from wheel_force_estimator.bagio.storage import RawTopic
 from wheel_force_estimator.bagio.storage import read_raw_topics
 from wheel_force_estimator.bagio.topics import default_topic_config
+from wheel_force_estimator.bagio import travel as travel_io
 from wheel_force_estimator.core.errors import BagError
 from wheel_force_estimator.core.errors import ConfigError
 
@@ -114,6 +117,10 @@ class Recording:
         order (:mod:`.order`); topics with none are left out.
     skipped_topics : tuple of (str, str)
         ``(topic, type)`` of the topics in the bag that were not needed, hence not decoded.
+    travel_topic : str or None
+        The suspension travel topic when the bag carries it (``Segment.travel_m`` is set).
+    travel_dropped : tuple of (int, int)
+        Samples dropped from every channel for want of travel: ``(missing, not finite)``.
 
     """
 
@@ -130,6 +137,8 @@ class Recording:
     n_messages: int = 0
     n_reordered: Dict[str, int] = field(default_factory=dict)
     skipped_topics: Tuple[Tuple[str, str], ...] = ()
+    travel_topic: Optional[str] = None
+    travel_dropped: Tuple[int, int] = (0, 0)
 
     def summary(self) -> str:
         """Describe what was read, used and left out, for logs and reports."""
@@ -156,6 +165,11 @@ class Recording:
             lines.append(f'  left out: segment of {n} sample(s) at {stamp_text(stamp)} '
                          '(too short)')
         lines.append(f'  events: {len(self.events)}')
+        if self.travel_topic is not None:
+            missing, bad = self.travel_dropped
+            lines.append(f'  suspension travel ({self.travel_topic}): {missing + bad} sample(s) '
+                         f'dropped from every channel ({missing} without travel, {bad} not '
+                         'finite)')
         return '\n'.join(lines)
 
 
@@ -178,7 +192,7 @@ class _Decoded:
     """Per-topic decode results (internal)."""
 
     stamp_ns: Dict[str, np.ndarray] = field(default_factory=dict)
-    values: Dict[str, np.ndarray] = field(default_factory=dict)
+    values: Dict[str, np.ndarray] = field(default_factory=dict)  # (n, 3); travel (n, 4)
     strings: Dict[str, List[Tuple[int, str]]] = field(default_factory=dict)
     n_bulk: int = 0
     n_messages: int = 0
@@ -267,7 +281,7 @@ def _read_topics(path: Path, required: Dict[str, str], optional: Dict[str, str],
             pass  # not a rosbag2 recording this package reads: rosbags' AnyReader
         else:
             return _decode_raw(path, raw, _check_wanted(path, present, required, optional),
-                               present)
+                               present, bulk=False)
     try:
         reader = AnyReader([path], default_typestore=jazzy_typestore())
         reader.open()
@@ -283,7 +297,7 @@ def _read_topics(path: Path, required: Dict[str, str], optional: Dict[str, str],
         reader.close()
 
 
-def _decode_raw(path, raw, wanted, present) -> _Decoded:
+def _decode_raw(path, raw, wanted, present, bulk: bool = True) -> _Decoded:
     out = _Decoded(skipped=_skipped(present, wanted))
     store = jazzy_typestore()
     for name, msgtype in wanted.items():
@@ -300,7 +314,20 @@ def _decode_raw(path, raw, wanted, present) -> _Decoded:
             out.strings[name] = texts
         elif topic is None:
             out.stamp_ns[name] = np.zeros(0, np.int64)
-            out.values[name] = np.zeros((0, 3))
+            out.values[name] = np.zeros((0, 4 if msgtype == travel_io.TRAVEL_TYPE else 3))
+        elif msgtype == travel_io.TRAVEL_TYPE:
+            def deserialize(data, name=name, msgtype=msgtype):
+                return _deserialize(path, name, store, data, msgtype)
+            if bulk:
+                out.stamp_ns[name], out.values[name] = travel_io.decode_rows(
+                    path, name, topic.groups, topic.n, deserialize,
+                    lambda msg: store.serialize_cdr(msg, travel_io.TRAVEL_TYPE))
+            else:
+                msgs = [None] * topic.n
+                for pos, rows in topic.groups:
+                    for p, row in zip(pos.tolist(), rows):
+                        msgs[p] = deserialize(row.tobytes())
+                out.stamp_ns[name], out.values[name] = travel_io.decode_messages(path, name, msgs)
         elif isinstance(topic, RawTopic):  # fallback path: message by message
             out.stamp_ns[name], out.values[name] = _deserialize_all(path, name, store, topic,
                                                                     msgtype)
@@ -340,6 +367,9 @@ def _decode_generic(path, reader, wanted) -> _Decoded:
             msgtype = wanted[conn.topic]
             if msgtype == STRING_TYPE:
                 stamps[conn.topic].append((log_time, msg.data))
+            elif msgtype == travel_io.TRAVEL_TYPE:
+                vals[conn.topic].append(msg)
+                stamps[conn.topic].append(0)
             else:
                 stamp, vec = extract(LAYOUTS[msgtype], msg)
                 stamps[conn.topic].append(stamp)
@@ -356,6 +386,9 @@ def _decode_generic(path, reader, wanted) -> _Decoded:
         out.n_messages += got
         if msgtype == STRING_TYPE:
             out.strings[name] = stamps[name]
+        elif msgtype == travel_io.TRAVEL_TYPE:
+            out.stamp_ns[name], out.values[name] = travel_io.decode_messages(path, name,
+                                                                             vals[name])
         else:
             out.stamp_ns[name] = np.asarray(stamps[name], np.int64).reshape(-1)
             out.values[name] = np.asarray(vals[name], np.float64).reshape(-1, 3)
@@ -413,25 +446,39 @@ def read_recording(path, topics=None, require_wft: bool = True,
     required = {t: IMU_TYPE for t in topics.imu_topics}
     if require_wft:
         required.update({t: WRENCH_TYPE for t in topics.wft_topics})
-    decoded = _read_topics(path, required, {topics.event_topic: STRING_TYPE}, bulk=bulk,
+    optional = {topics.event_topic: STRING_TYPE, topics.travel_topic: travel_io.TRAVEL_TYPE}
+    decoded = _read_topics(path, required, optional, bulk=bulk,
                            stacked=(topics.imu_topics, topics.wft_topics))
     reordered: Dict[str, int] = {}
     imu = [_series(path, decoded, t, INPUT_CHANNELS[3 * i:3 * i + 3], reordered)
            for i, t in enumerate(topics.imu_topics)]
     wft = ([_series(path, decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3], reordered)
             for i, t in enumerate(topics.wft_topics)] if require_wft else None)
+    travel = None
+    dropped = (0, 0)
+    if topics.travel_topic in decoded.stamp_ns:
+        imu, wft, travel, dropped = _with_travel(path, topics.travel_topic, decoded, imu, wft,
+                                                 reordered)
     result = align(path, imu, wft, expected_fs_hz)
     if not result.segments:
         raise BagError(f'{path}: no segment of at least 2 samples between gaps '
                        f'({len(result.gaps)} gaps in {imu[0].stamp_ns.size} samples)')
+    segments = result.segments
+    if travel is not None:
+        clock, travel_m = travel
+        segments = tuple(replace(seg, travel_m=np.ascontiguousarray(
+            travel_m[:, np.searchsorted(clock, seg.stamp_ns)])) for seg in segments)
     events = tuple((int(s), str(name)) for s, name in
                    decoded.strings.get(topics.event_topic, ()))
+    n_read = {t: int(decoded.stamp_ns[t].size) for t in required}
+    if travel is not None:
+        n_read[topics.travel_topic] = int(decoded.stamp_ns[topics.travel_topic].size)
     return Recording(
         path=path,
         fs_hz=result.fs_hz,
-        segments=result.segments,
+        segments=segments,
         events=events,
-        n_read={t: int(decoded.stamp_ns[t].size) for t in required},
+        n_read=n_read,
         n_used=sum(s.n_samples for s in result.segments),
         gaps=result.gaps,
         short_segments=result.short_segments,
@@ -440,7 +487,36 @@ def read_recording(path, topics=None, require_wft: bool = True,
         n_messages=decoded.n_messages,
         n_reordered=reordered,
         skipped_topics=decoded.skipped,
+        travel_topic=topics.travel_topic if travel is not None else None,
+        travel_dropped=dropped,
     )
+
+
+def _with_travel(path, topic: str, decoded: _Decoded, imu, wft, reordered):
+    """
+    Put the travel topic on the Imu clock; drop samples without finite travel everywhere.
+
+    Returns the (filtered) series, ``(clock, travel_m (4, n))`` and ``(missing, not finite)``.
+    """
+    stamp, values, n_late = order_by_stamp(path, topic, decoded.stamp_ns[topic],
+                                           decoded.values[topic])
+    if n_late:
+        reordered[topic] = n_late
+    clock = imu[0].stamp_ns
+    travel_m, missing, bad = travel_io.on_clock(path, topic, clock, stamp, values,
+                                                RATE_TOLERANCE)
+    keep = travel_io.usable(travel_m)
+    if not keep.all():
+        # the same samples leave every topic (a gap where any is missing: nothing filled)
+        drop = clock[~keep]
+
+        def cut(series):
+            mask = ~np.isin(series.stamp_ns, drop)
+            return replace(series, stamp_ns=series.stamp_ns[mask], values=series.values[mask])
+        imu = [cut(s) for s in imu]
+        wft = None if wft is None else [cut(s) for s in wft]
+        clock, travel_m = clock[keep], travel_m[:, keep]
+    return imu, wft, (clock, travel_m), (missing, bad)
 
 
 def read_imu_topic(path, topic: str, *, bulk: bool = True):
