@@ -38,7 +38,7 @@ from wheel_force_estimator.bagio import write_recording
 from wheel_force_estimator.bagio.checksum import CRC32_LIBRARY
 from wheel_force_estimator.bagio.fastcdr import IMU_TYPE
 from wheel_force_estimator.bagio.fastcdr import WRENCH_TYPE
-from wheel_force_estimator.bagio.reader import _read_topics
+from wheel_force_estimator.bagio.decode import read_topics
 from wheel_force_estimator.bagio.reader import jazzy_typestore
 
 FS_HZ = 512.0
@@ -98,7 +98,7 @@ def main(argv=None) -> int:
             assert np.array_equal(rec.segments[0].force_n, force)
             wanted = dict.fromkeys(topics.imu_topics, IMU_TYPE)
             wanted.update(dict.fromkeys(topics.wft_topics, WRENCH_TYPE))
-            t_decode = best_of(lambda: _read_topics(path, wanted, {}), args.repeat)[0]
+            t_decode = best_of(lambda: read_topics(path, wanted, {}), args.repeat)[0]
             t_imu = best_of(
                 lambda: read_recording(path, topics, require_wft=False), args.repeat)[0]
             t_raw = min(_baseline(path, names, False) for _ in range(args.repeat))

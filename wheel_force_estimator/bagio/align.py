@@ -280,7 +280,7 @@ def stack_corners(series: Sequence[TopicSeries]) -> np.ndarray:
     """Corner-major (12, n) C-contiguous array from four (n, 3) topics."""
     shared = _shared_stack(series)
     if shared is not None:
-        return shared  # decoded in place already (reader._StackedValues): no copy
+        return shared  # decoded in place already (decode._StackedValues): no copy
     out = np.empty((3 * len(series), series[0].values.shape[0]), np.float64)
     # row by row: concatenating the transposed views gives a Fortran-ordered array whose
     # C-ordered copy (and the transposed copy itself) cost ~15x more than these strided reads

@@ -28,7 +28,7 @@ _NS_PER_S = 1_000_000_000
 
 
 def _positions(path, topic: str, msg) -> np.ndarray:
-    """The four compressions of one message in corner order (names checked)."""
+    """Return the four compressions of one message in corner order (names checked)."""
     names = tuple(msg.name)
     position = np.asarray(msg.position, np.float64).reshape(-1)
     if sorted(names) != sorted(JOINT_NAMES) or len(set(names)) != len(names):

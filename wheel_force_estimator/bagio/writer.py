@@ -220,7 +220,7 @@ def _make_wrench(store, frame_id: str):
 
 
 def _travel_topic(stamp_fields, travel: np.ndarray) -> DenseTopic:
-    """JointState ``{corner}_suspension`` positions as a dense topic, checked against rosbags."""
+    """Describe JointState ``{corner}_suspension`` positions as a dense topic (rosbags-checked)."""
     store = jazzy_typestore()
     types = store.types
     time_t = types['builtin_interfaces/msg/Time']
