@@ -36,9 +36,9 @@ from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import TopicConfig
 from wheel_force_estimator.bagio import write_recording
 from wheel_force_estimator.bagio.checksum import CRC32_LIBRARY
+from wheel_force_estimator.bagio.decode import read_topics
 from wheel_force_estimator.bagio.fastcdr import IMU_TYPE
 from wheel_force_estimator.bagio.fastcdr import WRENCH_TYPE
-from wheel_force_estimator.bagio.decode import read_topics
 from wheel_force_estimator.bagio.reader import jazzy_typestore
 
 FS_HZ = 512.0

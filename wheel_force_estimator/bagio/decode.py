@@ -115,7 +115,7 @@ class _StackedValues:
 
 
 def read_topics(path: Path, required: Dict[str, str], optional: Dict[str, str],
-                 bulk: bool = True, stacked: Sequence[Sequence[str]] = ()) -> Decoded:
+                bulk: bool = True, stacked: Sequence[Sequence[str]] = ()) -> Decoded:
     """
     Decode the given topics (name -> expected type) of any supported bag.
 

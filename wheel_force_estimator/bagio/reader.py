@@ -41,6 +41,7 @@ from wheel_force_estimator.bagio.topics import default_topic_config
 from wheel_force_estimator.core.errors import BagError
 from wheel_force_estimator.core.errors import ConfigError
 
+
 @dataclass(frozen=True, eq=False)  # holds arrays: compare fields, not objects
 class Recording:
     """
@@ -196,7 +197,7 @@ def read_recording(path, topics=None, require_wft: bool = True,
         required.update({t: WRENCH_TYPE for t in topics.wft_topics})
     optional = {topics.event_topic: STRING_TYPE, topics.travel_topic: travel_io.TRAVEL_TYPE}
     decoded = read_topics(path, required, optional, bulk=bulk,
-                           stacked=(topics.imu_topics, topics.wft_topics))
+                          stacked=(topics.imu_topics, topics.wft_topics))
     reordered: Dict[str, int] = {}
     imu = [_series(path, decoded, t, INPUT_CHANNELS[3 * i:3 * i + 3], reordered)
            for i, t in enumerate(topics.imu_topics)]
