@@ -43,7 +43,7 @@ def test_travel_round_trip_both_paths(tmp_path, storage):
     stamp, accel, force, travel = _signals()
     path = write_recording(tmp_path / 'b', stamp, accel, force, travel_m=travel, storage=storage)
     for bulk in (True, False):
-        rec = read_recording(path, bulk=bulk)
+        rec = read_recording(path, bulk=bulk, travel=True)
         seg, = rec.segments
         assert np.array_equal(seg.travel_m.view(np.int64), travel.view(np.int64))
         assert np.array_equal(seg.accel_mps2, accel)
@@ -52,10 +52,15 @@ def test_travel_round_trip_both_paths(tmp_path, storage):
 
 
 def test_bag_without_travel_reads_as_before(tmp_path):
-    stamp, accel, force, _ = _signals()
-    rec = read_recording(write_recording(tmp_path / 'b', stamp, accel, force))
+    stamp, accel, force, travel = _signals()
+    rec = read_recording(write_recording(tmp_path / 'b', stamp, accel, force), travel=True)
     assert rec.segments[0].travel_m is None and rec.travel_topic is None
     assert 'suspension travel' not in rec.summary()
+    # travel not asked for (fit, predict, evaluate): skipped and listed
+    path = write_recording(tmp_path / 'c', stamp, accel, force, travel_m=travel)
+    rec = read_recording(path)
+    assert rec.travel_topic is None and rec.segments[0].n_samples == N
+    assert rec.skipped_topics == ((TOPIC, TRAVEL_TYPE),)
 
 
 def _write_travel_bag(path, stamp, accel, force, messages, storage='mcap'):
@@ -95,7 +100,7 @@ def test_independent_writer_names_in_any_order_nan_and_missing_dropped(tmp_path,
     del messages[250]  # a missing message: dropped
     path = _write_travel_bag(tmp_path / 'b', stamp, accel, force, messages, storage)
     for bulk in (True, False):
-        rec = read_recording(path, bulk=bulk)
+        rec = read_recording(path, bulk=bulk, travel=True)
         assert rec.travel_dropped == (1, 1)
         assert [s.n_samples for s in rec.segments] == [100, 149, 149]
         for seg in rec.segments:
@@ -116,7 +121,7 @@ def test_joint_names_not_matching_corners_exit_1(tmp_path, capsys):
                                            r'.*\] do not match the corners; expected '
                                            r'\[.lf_suspension., .rf_suspension., '
                                            r'.lr_suspension., .rr_suspension.\]'):
-            read_recording(path, bulk=bulk)
+            read_recording(path, bulk=bulk, travel=True)
     rc = main(['diagnose', '--real', str(path), '--sim', str(path), '--json',
                str(tmp_path / 'd.json')])
     err = capsys.readouterr().err
@@ -130,7 +135,7 @@ def test_travel_off_the_sample_clock_is_refused(tmp_path):
     path = _write_travel_bag(tmp_path / 'b', stamp, accel, force, shifted)
     with pytest.raises(BagError, match=rf'{TOPIC}: stamp \d+ ns .* is not a sample of the '
                                        r'spindle topics \(400 such\)'):
-        read_recording(path)
+        read_recording(path, travel=True)
 
 
 def test_simulate_travel_writes_the_simulated_compression(tmp_path):
@@ -138,14 +143,14 @@ def test_simulate_travel_writes_the_simulated_compression(tmp_path):
     out = tmp_path / 'sim'
     assert main(['simulate', str(out), '--course', 'speed_bump', '--duration-scale', '0.1',
                  '--seed', '3', '--travel']) == 0
-    rec = read_recording(out)
+    rec = read_recording(out, travel=True)
     result = simulate('speed_bump', (), 3, 0.1)
     seg, = rec.segments
     assert np.array_equal(seg.travel_m, result.states['suspension_compression_m'])
     # without --travel there is no travel topic
     assert main(['simulate', str(tmp_path / 'plain'), '--course', 'speed_bump',
                  '--duration-scale', '0.1']) == 0
-    assert read_recording(tmp_path / 'plain').travel_topic is None
+    assert read_recording(tmp_path / 'plain', travel=True).travel_topic is None
 
 
 @pytest.mark.slow

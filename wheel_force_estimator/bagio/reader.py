@@ -155,7 +155,8 @@ def _series(path, decoded: Decoded, topic: str, channels,
 
 
 def read_recording(path, topics=None, require_wft: bool = True,
-                   expected_fs_hz: Optional[float] = None, *, bulk: bool = True) -> Recording:
+                   expected_fs_hz: Optional[float] = None, *, bulk: bool = True,
+                   travel: bool = False) -> Recording:
     """
     Read a recording and align its topics on ``header.stamp``.
 
@@ -173,6 +174,10 @@ def read_recording(path, topics=None, require_wft: bool = True,
     bulk : bool
         Use the bulk decoder where possible (False forces rosbags' per-message path; both
         give identical results).
+    travel : bool
+        Also read the suspension travel topic (``topics.travel_topic``) when the bag carries
+        it: ``Segment.travel_m`` is set, and samples without finite travel are dropped from
+        every channel and counted.  False (fit, predict, evaluate) leaves it unread.
 
     Returns
     -------
@@ -195,7 +200,9 @@ def read_recording(path, topics=None, require_wft: bool = True,
     required = {t: IMU_TYPE for t in topics.imu_topics}
     if require_wft:
         required.update({t: WRENCH_TYPE for t in topics.wft_topics})
-    optional = {topics.event_topic: STRING_TYPE, topics.travel_topic: travel_io.TRAVEL_TYPE}
+    optional = {topics.event_topic: STRING_TYPE}
+    if travel:
+        optional[topics.travel_topic] = travel_io.TRAVEL_TYPE
     decoded = read_topics(path, required, optional, bulk=bulk,
                           stacked=(topics.imu_topics, topics.wft_topics))
     reordered: Dict[str, int] = {}
@@ -203,24 +210,24 @@ def read_recording(path, topics=None, require_wft: bool = True,
            for i, t in enumerate(topics.imu_topics)]
     wft = ([_series(path, decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3], reordered)
             for i, t in enumerate(topics.wft_topics)] if require_wft else None)
-    travel = None
+    on_clock = None
     dropped = (0, 0)
-    if topics.travel_topic in decoded.stamp_ns:
-        imu, wft, travel, dropped = _with_travel(path, topics.travel_topic, decoded, imu, wft,
-                                                 reordered)
+    if travel and topics.travel_topic in decoded.stamp_ns:
+        imu, wft, on_clock, dropped = _with_travel(path, topics.travel_topic, decoded, imu,
+                                                   wft, reordered)
     result = align(path, imu, wft, expected_fs_hz)
     if not result.segments:
         raise BagError(f'{path}: no segment of at least 2 samples between gaps '
                        f'({len(result.gaps)} gaps in {imu[0].stamp_ns.size} samples)')
     segments = result.segments
-    if travel is not None:
-        clock, travel_m = travel
+    if on_clock is not None:
+        clock, travel_m = on_clock
         segments = tuple(replace(seg, travel_m=np.ascontiguousarray(
             travel_m[:, np.searchsorted(clock, seg.stamp_ns)])) for seg in segments)
     events = tuple((int(s), str(name)) for s, name in
                    decoded.strings.get(topics.event_topic, ()))
     n_read = {t: int(decoded.stamp_ns[t].size) for t in required}
-    if travel is not None:
+    if on_clock is not None:
         n_read[topics.travel_topic] = int(decoded.stamp_ns[topics.travel_topic].size)
     return Recording(
         path=path,
@@ -236,7 +243,7 @@ def read_recording(path, topics=None, require_wft: bool = True,
         n_messages=decoded.n_messages,
         n_reordered=reordered,
         skipped_topics=decoded.skipped,
-        travel_topic=topics.travel_topic if travel is not None else None,
+        travel_topic=topics.travel_topic if on_clock is not None else None,
         travel_dropped=dropped,
     )
 

@@ -55,11 +55,16 @@ def _bags(args):
     from wheel_force_estimator import INPUT_CHANNELS
     from wheel_force_estimator import OUTPUT_CHANNELS
     from wheel_force_estimator.bagio import load_topic_config
+    from wheel_force_estimator.bagio import read_recording
     from wheel_force_estimator.bagio.travel import TRAVEL_CHANNELS
-    from wheel_force_estimator.cli.common import read_recordings
+    from wheel_force_estimator.cli.common import progress
     from wheel_force_estimator.diagnosis.recording import from_bag_recording
     topics = load_topic_config(args.config)
-    read = {name: read_recordings(paths, topics, require_wft=True) if paths else None
+
+    def read_all(paths):  # the travel topic too, unless --no-travel
+        return [read_recording(p, topics, require_wft=True, travel=not args.no_travel)
+                for p in progress(paths, 'reading', total=len(paths))]
+    read = {name: read_all(paths) if paths else None
             for name, paths in (('real', args.real), ('sim', args.sim),
                                 ('holdout', args.holdout))}
     bags = [r for recs in read.values() for r in recs or ()]
