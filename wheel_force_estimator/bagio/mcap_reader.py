@@ -286,21 +286,26 @@ class McapFile:
             raise BagError(f'{self.file}: unsupported mcap chunk compression {comp!r}')
         decompress = DECOMPRESS[comp]
         unpack = struct.unpack_from
-        out = []
-        try:
-            for f in first.tolist():
-                out.append(decompress(view[f:f + unpack('<Q', view, f - 8)[0]]))
-        except (ValueError, RuntimeError, OSError):  # the exact fault, chunk by chunk
-            for k in range(len(out), len(first)):
-                self._decompress(view, int(first[k]), comp, int(usize[k]), int(crc[k]),
-                                 int(start[k]))
-            raise
-        for data, u, c, s in zip(out, usize.tolist(), crc.tolist(), start.tolist()):
+        sizes = usize.tolist()
+        out = np.empty(sum(sizes), np.uint8)
+        at = 0
+        # Each chunk is copied into place at once: its bytes object is freed and its memory
+        # reused by the next one, so only `out` is new memory (fresh pages cost ~2 s/GB on
+        # the benchmark VM, more than the decompression).
+        for k, (f, u, c, s) in enumerate(zip(first.tolist(), sizes, crc.tolist(),
+                                             start.tolist())):
+            try:
+                data = decompress(view[f:f + unpack('<Q', view, f - 8)[0]])
+            except (ValueError, RuntimeError, OSError):  # the exact fault, from the slow path
+                self._decompress(view, f, comp, u, c, s)
+                raise
             if len(data) != u:
                 raise self._fail(f'chunk holds {len(data)} bytes, header says {u}', s)
             if c and crc32(data) != c:
                 raise self._fail('chunk CRC mismatch', s)
-        return np.frombuffer(out[0] if len(out) == 1 else b''.join(out), np.uint8)
+            out[at:at + u] = np.frombuffer(data, np.uint8)
+            at += u
+        return out
 
     def _decompress(self, view, first: int, comp: str, usize: int, crc: int, start: int):
         (csize,) = struct.unpack_from('<Q', view, first - 8)
