@@ -33,7 +33,8 @@ setup(
         'distributed>=2024.1',
     ],
     # faster mcap chunk CRCs (bagio/checksum.py; the stdlib zlib fallback gives equal values)
-    extras_require={'fast': ['isal>=1.0']},
+    # and zstd chunks (bagio/compression.py; backports.zstd from rosbags gives equal bytes)
+    extras_require={'fast': ['isal>=1.0', 'zstandard>=0.21']},
     zip_safe=True,
     maintainer='wheel_force_estimator maintainers',
     maintainer_email='wheel-force@example.com',

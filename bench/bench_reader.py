@@ -14,8 +14,13 @@ rosbag2 mcap and sqlite3 into a temporary directory, then measures messages per 
 
 and prints the speed-up over the baseline (goal >= 10x).
 
+Then (issue #18) the same recording rewritten by the official ``mcap`` writer with 4 KiB,
+64 KiB and default (1 MiB) chunks, zstd and lz4, read by ``read_recording`` beside rosbags in
+the same run and beside our own chunking (goals: at least as fast as rosbags, within 2x of
+our chunking).
+
 Usage: ``.venv/bin/python bench/bench_reader.py [--samples N] [--storage mcap|sqlite3]
-[--repeat K]``
+[--repeat K] [--chunk-samples M]``
 """
 import argparse
 from pathlib import Path
@@ -31,9 +36,9 @@ from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import TopicConfig
 from wheel_force_estimator.bagio import write_recording
 from wheel_force_estimator.bagio.checksum import CRC32_LIBRARY
+from wheel_force_estimator.bagio.decode import read_topics
 from wheel_force_estimator.bagio.fastcdr import IMU_TYPE
 from wheel_force_estimator.bagio.fastcdr import WRENCH_TYPE
-from wheel_force_estimator.bagio.reader import _read_topics
 from wheel_force_estimator.bagio.reader import jazzy_typestore
 
 FS_HZ = 512.0
@@ -62,6 +67,8 @@ def main(argv=None) -> int:
                         help='storage(s) to test (default both)')
     parser.add_argument('--repeat', type=int, default=2,
                         help='best of this many runs per method (shared machine noise)')
+    parser.add_argument('--chunk-samples', type=int, default=25_000,
+                        help='samples per topic of the chunk-size comparison (0 skips it)')
     args = parser.parse_args(argv)
     storages = args.storage or ['mcap', 'sqlite3']
     n = args.samples
@@ -91,7 +98,7 @@ def main(argv=None) -> int:
             assert np.array_equal(rec.segments[0].force_n, force)
             wanted = dict.fromkeys(topics.imu_topics, IMU_TYPE)
             wanted.update(dict.fromkeys(topics.wft_topics, WRENCH_TYPE))
-            t_decode = best_of(lambda: _read_topics(path, wanted, {}), args.repeat)[0]
+            t_decode = best_of(lambda: read_topics(path, wanted, {}), args.repeat)[0]
             t_imu = best_of(
                 lambda: read_recording(path, topics, require_wft=False), args.repeat)[0]
             t_raw = min(_baseline(path, names, False) for _ in range(args.repeat))
@@ -119,9 +126,78 @@ def main(argv=None) -> int:
           f'SQLite itself scanning the rows and formatting the per-row (topic, timestamp, '
           f'length) text, since the sqlite3 module has no way to hand back integer columns '
           f'in bulk (the next query runs in a worker while a batch is decoded).')
-    if min(ratios) < 10.0:
+    if ratios and min(ratios) < 10.0:
         print('GOAL NOT MET on this run (shared machine? rerun when idle)')
+    if args.chunk_samples:
+        _chunk_sizes(args.chunk_samples, args.repeat)
     return 0
+
+
+def _rewrite(src: Path, out: Path, chunk_size: int, compression) -> Path:
+    """Copy every message of our mcap with the official mcap writer."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+    out.mkdir()
+    target = out / 'data.mcap'
+    with next(src.glob('*.mcap')).open('rb') as fi, target.open('wb') as fo:
+        reader = make_reader(fi)
+        writer = Writer(fo, chunk_size=chunk_size, compression=compression)
+        writer.start('ros2', '')
+        summary = reader.get_summary()
+        schemas = {sid: writer.register_schema(x.name, x.encoding, x.data)
+                   for sid, x in summary.schemas.items()}
+        channels = {cid: writer.register_channel(c.topic, c.message_encoding,
+                                                 schemas[c.schema_id], c.metadata)
+                    for cid, c in summary.channels.items()}
+        for _, channel, msg in reader.iter_messages(log_time_order=False):
+            writer.add_message(channels[channel.id], msg.log_time, msg.data, msg.publish_time,
+                               msg.sequence)
+        writer.finish()
+    return target
+
+
+def _chunk_sizes(n: int, repeat: int) -> None:
+    """Chunk size / compression of another writer: our reader vs rosbags, same run."""
+    from mcap.writer import CompressionType
+    rng = np.random.default_rng(2)
+    stamp_ns = 1_000_000_000 + np.arange(n, dtype=np.int64) * int(round(1e9 / FS_HZ))
+    accel, force = rng.standard_normal((12, n)), 1e3 * rng.standard_normal((12, n))
+    topics = TopicConfig()
+    names = set(topics.imu_topics + topics.wft_topics)
+    n_msgs = 8 * n
+    print(f'\nChunk sizes (official mcap writer), {n_msgs} messages; times are best of {repeat}')
+    print(f'  {"bag":28s} {"chunks":>7s} {"ours [s]":>9s} {"rosbags raw":>12s} '
+          f'{"rosbags+deser":>14s} {"vs rosbags raw":>15s} {"vs our zstd":>16s}')
+    with tempfile.TemporaryDirectory() as tmp:
+        ours = {}
+        for comp in ('', 'zstd'):
+            path = write_recording(Path(tmp) / f'ours{comp}', stamp_ns, accel, force,
+                                   topics=topics, storage='mcap', compression=comp)
+            ours[comp] = best_of(lambda: read_recording(path, topics), repeat)[0]
+            print(f'  {"our writer, " + (comp or "uncompressed"):28s} {"":>7s} '
+                  f'{ours[comp]:9.3f}')
+        worst = (0.0, 0.0)
+        for comp in (CompressionType.ZSTD, CompressionType.LZ4):
+            for size in (4 << 10, 64 << 10, 1 << 20):
+                label = f'{comp.name.lower()} {size >> 10} KiB chunks'
+                path = _rewrite(next(Path(tmp).glob('ours')), Path(tmp) / f'{comp.name}_{size}',
+                                size, comp)
+                from mcap.reader import make_reader
+                with path.open('rb') as fh:
+                    n_chunks = len(make_reader(fh).get_summary().chunk_indexes)
+                rec = read_recording(path, topics)
+                assert np.array_equal(rec.segments[0].accel_mps2, accel)
+                assert np.array_equal(rec.segments[0].force_n, force)
+                t = best_of(lambda: read_recording(path, topics), repeat)[0]
+                t_raw = min(_baseline(path, names, False) for _ in range(repeat))
+                t_deser = min(_baseline(path, names, True) for _ in range(repeat))
+                # compressed chunks against our compressed chunking: decompressing costs
+                # fresh memory for every byte (~2 s/GB on the benchmark VM) whatever the size
+                worst = (max(worst[0], t / t_raw), max(worst[1], t / ours['zstd']))
+                print(f'  {label:28s} {n_chunks:7d} {t:9.3f} {t_raw:12.3f} {t_deser:14.3f} '
+                      f'{t_raw / t:14.1f}x {t / ours["zstd"]:15.2f}x')
+    print(f'  worst: {worst[0]:.2f} x the time of rosbags raw iteration (goal <= 1), '
+          f'{worst[1]:.2f} x our (zstd) chunking (goal <= 2)')
 
 
 if __name__ == '__main__':

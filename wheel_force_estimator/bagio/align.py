@@ -73,6 +73,9 @@ class Segment:
         Wheel forces in ``OUTPUT_CHANNELS`` order [N]; None when not read.
     source : str
         Where the samples come from (bag path and segment number).
+    travel_m : numpy.ndarray, shape (4, n), float64, or None
+        Suspension compression per corner [m], positive in bump (``bagio.travel``); None
+        when the recording carries no travel topic.
 
     """
 
@@ -80,6 +83,7 @@ class Segment:
     accel_mps2: np.ndarray
     force_n: Optional[np.ndarray]
     source: str
+    travel_m: Optional[np.ndarray] = None
 
     def __post_init__(self):
         """Check dtypes and shapes so downstream code can rely on them."""
@@ -89,8 +93,9 @@ class Segment:
                              f'{stamp.dtype} {stamp.shape}')
         n = stamp.shape[0]
         for name, arr, rows in (('accel_mps2', self.accel_mps2, len(INPUT_CHANNELS)),
-                                ('force_n', self.force_n, len(OUTPUT_CHANNELS))):
-            if arr is None and name == 'force_n':
+                                ('force_n', self.force_n, len(OUTPUT_CHANNELS)),
+                                ('travel_m', self.travel_m, 4)):
+            if arr is None and name != 'accel_mps2':
                 continue
             arr = np.asarray(arr)
             if arr.shape != (rows, n) or arr.dtype != np.float64:
@@ -275,7 +280,7 @@ def stack_corners(series: Sequence[TopicSeries]) -> np.ndarray:
     """Corner-major (12, n) C-contiguous array from four (n, 3) topics."""
     shared = _shared_stack(series)
     if shared is not None:
-        return shared  # decoded in place already (reader._StackedValues): no copy
+        return shared  # decoded in place already (decode._StackedValues): no copy
     out = np.empty((3 * len(series), series[0].values.shape[0]), np.float64)
     # row by row: concatenating the transposed views gives a Fortran-ordered array whose
     # C-ordered copy (and the transposed copy itself) cost ~15x more than these strided reads

@@ -4,30 +4,47 @@
 Bulk payloads of an MCAP storage file, memory-mapped.
 
 Chunks are located through the summary's chunk indexes and messages through each chunk's
-message indexes; the records of all chunks in a ~64 MiB batch are checked with one vectorised
-pass per channel, and every chunk's CRC is computed by a worker thread one batch ahead.
-Batches go to the per-topic sinks of :mod:`.storage`.
+message indexes.  Message indexes are optional in MCAP and not covered by any CRC, so a chunk
+without them, or whose index does not match the records it points at (opcode, channel,
+length and log time are checked for every message), is read through its own records instead
+(:mod:`.mcap_records`); its CRC is checked either way.  A file without a summary or chunk
+indexes, or with messages outside chunks, is read record by record from start to end
+(``scan=True`` forces that for every file: the independent fallback path).
+
+The records of all chunks in a ~64 MiB batch are checked with one vectorised pass per channel
+(the decompressed records of a batch's chunks are joined first, so the cost is per batch,
+not per chunk), and every uncompressed chunk's CRC is computed by a worker thread one batch
+ahead.  Batches go to the per-topic sinks of :mod:`.storage`.
 """
 from concurrent.futures import ThreadPoolExecutor
 import mmap
 from pathlib import Path
 import struct
-import sys
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
 from wheel_force_estimator.bagio.checksum import crc32
-from wheel_force_estimator.bagio.fastcdr import gather_bytes
+from wheel_force_estimator.bagio.compression import chunk_decompressor
+from wheel_force_estimator.bagio.compression import DECOMPRESS
 from wheel_force_estimator.bagio.fastpath import FastPathUnavailable
+from wheel_force_estimator.bagio.mcap_group import chunk_headers
+from wheel_force_estimator.bagio.mcap_group import ChunkGroup
+from wheel_force_estimator.bagio.mcap_group import deliver
+from wheel_force_estimator.bagio.mcap_group import index_entries
+from wheel_force_estimator.bagio.mcap_group import offsets_table
+from wheel_force_estimator.bagio.mcap_records import OP_CHANNEL
+from wheel_force_estimator.bagio.mcap_records import OP_CHUNK
+from wheel_force_estimator.bagio.mcap_records import OP_DATA_END
+from wheel_force_estimator.bagio.mcap_records import OP_MESSAGE
+from wheel_force_estimator.bagio.mcap_records import OP_SCHEMA
+from wheel_force_estimator.bagio.mcap_records import Registry
+from wheel_force_estimator.bagio.mcap_records import scan_messages
+from wheel_force_estimator.bagio.mcap_records import walk
 from wheel_force_estimator.core.errors import BagError
 
 _MCAP_MAGIC = b'\x89MCAP0\r\n'
 _FOOTER_LEN = 1 + 8 + 20 + 8  # opcode, length, footer fields, magic
-# Message record: opcode(1) length(8) channel(2) sequence(4) log_time(8) publish_time(8)
-_MSG_HEADER = 31
-_RECORD_DTYPE = np.dtype({'names': ['opcode', 'length', 'channel'],
-                          'formats': ['u1', '<u8', '<u2'], 'offsets': [0, 1, 9], 'itemsize': 11})
 # Bytes of nearby chunks read and checked together: large enough that per-batch Python work
 # vanishes (one vectorised check and decode per channel), small enough to bound memory.
 _BATCH_BYTES = 64 << 20
@@ -37,37 +54,26 @@ _MAX_SKIP = 1 << 20
 _DECODE_THREADS = 2
 
 
-def _zstd_decompress(data: bytes) -> bytes:
-    if sys.version_info >= (3, 14):
-        from compression import zstd
-        return zstd.decompress(data)
-    try:
-        from backports import zstd
-        return zstd.decompress(data)
-    except ImportError:
-        import zstandard  # older rosbags releases depend on this one
-        return zstandard.ZstdDecompressor().decompress(data)
-
-
-def _lz4_decompress(data: bytes) -> bytes:
-    from lz4.frame import decompress
-    return decompress(data)
-
-
 class McapFile:
     """Just enough of the MCAP format to pull message payloads out by channel in bulk."""
 
-    def __init__(self, file: Path):
+    def __init__(self, file: Path, scan: bool = False):
         self.file = file
+        self.scan = scan
 
     def _fail(self, what: str, offset: Optional[int] = None) -> BagError:
         where = f' at offset {offset}' if offset is not None else ''
         return BagError(f'{self.file}: corrupt or truncated mcap: {what}{where}')
 
     def read(self, topics: Sequence[str], collectors):
+        """Deliver the payloads of ``topics`` to ``collectors``; return ``{topic: type}``."""
         try:
             with self.file.open('rb') as fh:
-                return self._read(fh, topics, collectors)
+                self._decoders = ThreadPoolExecutor(max_workers=_DECODE_THREADS)
+                try:
+                    return self._read(fh, topics, collectors)
+                finally:
+                    self._decoders.shutdown(wait=True, cancel_futures=True)
         except OSError as err:
             raise BagError(f'{self.file}: cannot read mcap: {err.strerror or err}') from err
 
@@ -83,72 +89,73 @@ class McapFile:
         if footer[-8:] != _MCAP_MAGIC or footer[0] != 0x02:
             raise self._fail('bad footer magic (file truncated?)', size - _FOOTER_LEN)
         summary_start, _ = struct.unpack_from('<QQ', footer, 9)
-        if summary_start == 0:
-            raise FastPathUnavailable(f'{self.file}: mcap without summary')
-        if not 8 <= summary_start <= size - _FOOTER_LEN:
+        if summary_start and not 8 <= summary_start <= size - _FOOTER_LEN:
             raise self._fail('summary offset out of range', size - _FOOTER_LEN)
+        if self.scan or summary_start == 0:
+            return self._scan_file(fh, summary_start or size - _FOOTER_LEN, topics, collectors)
         fh.seek(summary_start)
         summary = fh.read(size - _FOOTER_LEN - summary_start)
-        schemas, channels, chunks, stats = self._summary(summary, summary_start)
-        if not channels:
-            raise FastPathUnavailable(f'{self.file}: mcap summary lists no channels')
+        registry, chunks, stats = self._summary(summary, summary_start)
+        present, wanted = self._present(registry, topics)
+        if not wanted:
+            return present
+        if not chunks:  # messages outside chunks (or no chunk index): read every record
+            return self._scan_file(fh, summary_start, topics, collectors)
+        # chunks without message indexes may hold any channel: they are read record by record
+        chunks.sort(key=lambda c: c[0])
+        self._table = offsets_table(np.frombuffer(summary, np.uint8), chunks, wanted)
+        # chunks that may hold wanted messages: indexed for one, or without message indexes
+        listed = set(np.unique(self._table[0]).tolist())
+        todo = [c for c in chunks if not c[2][1] or c[0] in listed]
+        for start, length, _, index_length, _ in todo:
+            if start + length + index_length > size:
+                raise self._fail('chunk beyond end of file', start)
+        counts = dict.fromkeys(wanted, 0)
+        self._read_chunks(fh, todo, wanted, collectors, counts)
+        if stats is not None and any(counts[c] != stats.get(c, 0) for c in wanted):
+            # indexes that list fewer messages than the statistics count (or messages
+            # outside chunks): only reading every record finds them all
+            raise FastPathUnavailable(f'{self.file}: mcap indexes miss messages')
+        return present
+
+    def _present(self, registry: Registry, topics):
         wanted = {}
-        present = {}
-        for cid, (schema_id, topic) in channels.items():
-            msgtype = schemas.get(schema_id, '')
+        present: Dict[str, str] = {}
+        for cid, (topic, msgtype) in registry.channels.items():
             if present.setdefault(topic, msgtype) != msgtype:
                 raise BagError(f'{self.file}: topic {topic} recorded with two types '
                                f'{present[topic]} and {msgtype}')
             if topic in topics:
                 wanted[cid] = (topic, msgtype)
-        if wanted and (not chunks or (stats is None and any(not c[3] for c in chunks))):
-            raise FastPathUnavailable(f'{self.file}: mcap without chunk or message indexes')
-        counts = dict.fromkeys(wanted, 0)
-        todo = [c for c in sorted(chunks, key=lambda c: c[0])
-                if any(cid in wanted for cid in c[2])]
-        for start, length, _, index_length, _ in todo:
-            if start + length + index_length > size:
-                raise self._fail('chunk beyond end of file', start)
-        self._read_chunks(fh, todo, wanted, collectors, counts)
-        if stats is not None and any(counts[c] != stats.get(c, 0) for c in wanted):
-            # message indexes are optional in MCAP: without them we cannot find messages
-            raise FastPathUnavailable(f'{self.file}: mcap message indexes incomplete')
-        return present
+        return present, wanted
 
     def _summary(self, data: bytes, base: int):
-        schemas: Dict[int, str] = {}
-        channels: Dict[int, Tuple[int, str]] = {}
+        registry = Registry()
         chunks = []
         stats = None
         pos = 0
         try:
-            while pos < len(data):
-                op, length = struct.unpack_from('<BQ', data, pos)
-                body = pos + 9
-                if body + length > len(data):
-                    raise self._fail('summary record overruns the summary', base + pos)
-                if op == 0x03:
-                    sid, nlen = struct.unpack_from('<HI', data, body)
-                    schemas[sid] = data[body + 6:body + 6 + nlen].decode()
-                elif op == 0x04:
-                    cid, sid, tlen = struct.unpack_from('<HHI', data, body)
-                    channels[cid] = (sid, data[body + 8:body + 8 + tlen].decode())
+            for op, body, length in walk(data, 0, len(data), lambda what, at: self._fail(
+                    f'summary {what}', base + at)):
+                pos = body - 9
+                if op in (OP_SCHEMA, OP_CHANNEL):
+                    registry.add(op, data, body)
                 elif op == 0x08:
                     chunks.append(self._chunk_index(data, body))
                 elif op == 0x0B:
                     (map_len,) = struct.unpack_from('<I', data, body + 42)
                     stats = dict(struct.iter_unpack('<HQ', data[body + 46:body + 46 + map_len]))
-                pos = body + length
         except (struct.error, UnicodeDecodeError) as err:
             raise self._fail(f'unreadable summary ({err})', base + pos) from err
-        return schemas, channels, chunks, stats
+        return registry, chunks, stats
 
     @staticmethod
     def _chunk_index(data: bytes, pos: int):
         start_offset, length, map_len = struct.unpack_from('<QQI', data, pos + 16)
         pos += 36
-        pairs = struct.iter_unpack('<HQ', data[pos:pos + map_len])
-        index_offsets = dict(pairs)
+        if map_len % 10:
+            raise struct.error('message index offsets map of a bad length')
+        index_offsets = (pos, map_len // 10)  # read for all chunks at once (offsets_table)
         pos += map_len
         index_length, clen = struct.unpack_from('<QI', data, pos)
         compression = data[pos + 12:pos + 12 + clen].decode()
@@ -159,8 +166,6 @@ class McapFile:
         # chunks.  A worker thread computes the CRCs one batch ahead of the decoding (zlib
         # releases the GIL), which also faults the pages in for it; a batch's pages are
         # released once its CRCs are checked, so the resident set stays at a few batches.
-        if not chunks:
-            return
         mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
         batches = list(_batches(chunks))
         previous: List[tuple] = []
@@ -170,7 +175,6 @@ class McapFile:
         # comparisons and copies release the GIL); every sink exists before that starts.
         for topic, msgtype in wanted.values():
             collectors.sink(topic, msgtype)
-        self._decoders = ThreadPoolExecutor(max_workers=_DECODE_THREADS)
         try:
             upcoming = self._submit_crcs(mm, batches[0], pool)
             for k, (batch, lo, hi) in enumerate(batches):
@@ -189,7 +193,6 @@ class McapFile:
             self._check_crcs(previous)
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
-            self._decoders.shutdown(wait=True, cancel_futures=True)
             try:
                 mm.close()
             except BufferError:  # views still referenced by a traceback: unmapped by GC
@@ -199,14 +202,22 @@ class McapFile:
         """Queue the CRC of every uncompressed chunk of a batch: ``(start, crc, future)``."""
         chunks, lo, hi = batch
         view = memoryview(mm)[lo:hi]
-        checks = []
-        for start, length, _, index_length, _ in chunks:
-            rel = start - lo
-            first, usize, crc, comp = self._chunk_header(view, rel, rel + length + index_length,
-                                                         start)
-            if crc and not comp:
-                checks.append((start, crc, pool.submit(crc32, view[first:first + usize])))
-        return checks
+        start, first, usize, crc = self._headers(view, lo, chunks)
+        return [(s, c, pool.submit(crc32, view[f:f + u]))
+                for s, f, u, c, (*_, comp) in zip(start.tolist(), first.tolist(), usize.tolist(),
+                                                  crc.tolist(), chunks) if c and not comp]
+
+    def _headers(self, view, lo: int, chunks):
+        """Chunk offsets and the header fields of a batch; a bad header is named."""
+        start = np.fromiter((c[0] for c in chunks), np.int64, len(chunks))
+        rel = start - lo
+        end = rel + np.fromiter((c[1] + c[3] for c in chunks), np.int64, len(chunks))
+        first, usize, crc, bad = chunk_headers(np.frombuffer(view, np.uint8), rel, end,
+                                               [c[4] for c in chunks])
+        for k in bad.tolist():  # the exact fault, from the one-by-one parser
+            self._chunk_header(view, int(rel[k]), int(end[k]), int(start[k]))
+            raise self._fail('chunk header disagrees with its chunk index', int(start[k]))
+        return start, first, usize, crc
 
     def _check_crcs(self, checks):
         for start, crc, future in checks:
@@ -215,41 +226,53 @@ class McapFile:
 
     def _read_batch(self, view, lo, batch, wanted, collectors, counts):
         buf = np.frombuffer(view, np.uint8)
-        pending: Dict[int, list] = {cid: [] for cid in wanted}
-        for chunk in batch:
-            start, length, index_offsets, index_length, _ = chunk
-            rel = start - lo
-            end = rel + length + index_length
-            first, usize, crc, comp = self._chunk_header(view, rel, end, start)
-            if comp:
-                # decompressed records live in their own buffer: deliver what is pending
-                # first so that storage order is kept
-                self._deliver_all(buf, pending, wanted, collectors)
-                records = self._decompress(view, first, comp, usize, crc, start)
-                base = 0
-            else:  # CRC checked by the caller
-                records, base = buf, first
-            for cid in index_offsets:
-                if cid not in wanted:
-                    continue
-                log_time, offsets = self._message_index(
-                    view, rel + index_offsets[cid] - start, rel + length, end, cid, start)
-                if offsets.size and (offsets.min() < 0 or offsets.max() + _MSG_HEADER > usize):
-                    raise self._fail(f'message offset outside chunk for channel {cid}', start)
-                counts[cid] += len(offsets)
-                pending[cid].append((log_time, base + offsets, base + usize, start))
-            if comp:
-                self._deliver_all(records, pending, wanted, collectors)
-        self._deliver_all(buf, pending, wanted, collectors)
+        start, first, usize, crc = self._headers(view, lo, batch)
+        rel = start - lo
+        length = np.fromiter((c[1] for c in batch), np.int64, len(batch))
+        end = rel + length + np.fromiter((c[3] for c in batch), np.int64, len(batch))
+        indexed = np.fromiter((c[2][1] > 0 for c in batch), bool, len(batch))
+        usable, entries = index_entries(buf, rel, length, end, start, indexed, self._table)
+        comps = [c[4] for c in batch]
+        for a, b in _runs(comps):
+            group = ChunkGroup(bool(comps[a]))
+            if comps[a]:  # CRCs checked on decompression
+                records = self._decompress_run(view, comps[a], first[a:b], usize[a:b],
+                                               crc[a:b], start[a:b])
+                group.pieces.append(records)
+                group.size = records.size
+                base = np.concatenate(([0], np.cumsum(usize[a:b])[:-1]))
+            else:  # CRCs checked by the caller
+                records, base = view, first[a:b]
+            group.chunks.update(zip(start[a:b].tolist(),
+                                    zip(base.tolist(), (base + usize[a:b]).tolist())))
+            for cid, (pos, count, owner) in entries.items():
+                sel = (owner >= a) & (owner < b)
+                if sel.any():
+                    k = owner[sel]
+                    lo_k = base[k - a]
+                    group.indexed[cid] = [(pos[sel], count[sel], start[k], lo_k,
+                                           lo_k + usize[k])]
+            for k in np.flatnonzero(~usable[a:b]).tolist():
+                # no usable message index: the chunk's own records
+                lo_k = int(base[k])
+                group.add_scanned(int(start[a + k]), scan_messages(
+                    records, lo_k, lo_k + int(usize[a + k]), wanted.__contains__, Registry(),
+                    self._chunk_fail(int(start[a + k]))), 0)
+            self._deliver_all(group, buf, wanted, collectors, counts)
+
+    def _chunk_fail(self, start: int):
+        def fail(what: str, at: int) -> BagError:
+            return self._fail(f'{what} (record {at} of the chunk)', start)
+        return fail
 
     def _chunk_header(self, view, rel: int, end: int, start: int):
         try:
-            if view[rel] != 0x06:
+            if view[rel] != OP_CHUNK:
                 raise self._fail('chunk record expected', start)
             (rec_len, _, _, usize, crc, clen) = struct.unpack_from('<QQQQII', view, rel + 1)
             comp = bytes(view[rel + 41:rel + 41 + clen]).decode()
             (csize,) = struct.unpack_from('<Q', view, rel + 41 + clen)
-        except (struct.error, UnicodeDecodeError) as err:
+        except (struct.error, UnicodeDecodeError, IndexError) as err:
             raise self._fail(f'unreadable chunk header ({err})', start) from err
         first = rel + 49 + clen
         if first + csize > end or rel + 9 + rec_len > end:
@@ -258,16 +281,40 @@ class McapFile:
             raise self._fail(f'chunk holds {csize} bytes, header says {usize}', start)
         return first, usize, crc, comp
 
+    def _decompress_run(self, view, comp: str, first, usize, crc, start) -> np.ndarray:
+        """Decompress consecutive chunks into one array (per-chunk cost kept to a minimum)."""
+        if comp not in DECOMPRESS:
+            raise BagError(f'{self.file}: unsupported mcap chunk compression {comp!r}')
+        decompress = chunk_decompressor(comp)
+        sizes = usize.tolist()
+        csize = np.frombuffer(view, np.uint8)[
+            (first[:, None] - 8 + np.arange(8)).reshape(-1)].view('<u8').tolist()
+        out = np.empty(sum(sizes), np.uint8)
+        at = 0
+        # Each chunk is copied into place at once: its bytes object is freed and its memory
+        # reused by the next one, so only `out` is new memory (fresh pages cost ~2 s/GB on
+        # the benchmark VM, more than the decompression).
+        for f, n, u, c, s in zip(first.tolist(), csize, sizes, crc.tolist(), start.tolist()):
+            try:
+                data = decompress(view[f:f + n])
+            except (ValueError, RuntimeError, OSError):  # the exact fault, from the slow path
+                self._decompress(view, f, comp, u, c, s)
+                raise
+            if len(data) != u:
+                raise self._fail(f'chunk holds {len(data)} bytes, header says {u}', s)
+            if c and crc32(data) != c:
+                raise self._fail('chunk CRC mismatch', s)
+            out[at:at + u] = memoryview(data)
+            at += u
+        return out
+
     def _decompress(self, view, first: int, comp: str, usize: int, crc: int, start: int):
         (csize,) = struct.unpack_from('<Q', view, first - 8)
         data = bytes(view[first:first + csize])
+        if comp not in DECOMPRESS:
+            raise BagError(f'{self.file}: unsupported mcap chunk compression {comp!r}')
         try:
-            if comp == 'zstd':
-                data = _zstd_decompress(data)
-            elif comp == 'lz4':
-                data = _lz4_decompress(data)
-            else:
-                raise BagError(f'{self.file}: unsupported mcap chunk compression {comp!r}')
+            data = DECOMPRESS[comp](data)
         except (ValueError, RuntimeError, OSError) as err:
             raise self._fail(f'chunk does not decompress ({err})', start) from err
         if len(data) != usize:
@@ -276,55 +323,104 @@ class McapFile:
             raise self._fail('chunk CRC mismatch', start)
         return np.frombuffer(data, np.uint8)
 
-    def _message_index(self, view, pos: int, lo: int, hi: int, cid: int, start: int):
-        try:
-            if pos < lo:
-                raise struct.error('before the end of the chunk')
-            op, _, index_cid, arr_len = struct.unpack_from('<BQHI', view, pos)
-        except struct.error as err:
-            raise self._fail('message index out of range', start + pos - lo) from err
-        if op != 0x07 or index_cid != cid or pos + 15 + arr_len > hi or arr_len % 16:
-            raise self._fail(f'bad message index for channel {cid}', start + pos - lo)
-        pairs = np.frombuffer(view, '<u8', count=arr_len // 8, offset=pos + 15)
-        # a view (times and offsets are far below 2**63): _deliver_all copies what it keeps
-        # before the batch's pages are released
-        pairs = pairs.view(np.int64).reshape(-1, 2)
-        return pairs[:, 0], pairs[:, 1]
-
-    def _deliver_all(self, buf: np.ndarray, pending, wanted, collectors):
+    def _deliver_all(self, group: ChunkGroup, buf: np.ndarray, wanted, collectors, counts):
         """Check the pending message records of every channel and hand them to the sinks."""
-        jobs = [(cid, self._decoders.submit(self._deliver, buf, cid, list(parts), wanted,
-                                            collectors))
-                for cid, parts in pending.items() if parts]
+        records = group.buffer(buf)
+        jobs = [(cid, self._decoders.submit(deliver, group, buf, records, cid,
+                                            collectors.sink(*wanted[cid]), self._fail))
+                for cid in sorted(group.channels())]
         for _, job in jobs:  # every job ends before an error (the first channel's) is raised
             job.exception()
         for cid, job in jobs:
-            job.result()
-            pending[cid].clear()
+            counts[cid] = counts.get(cid, 0) + job.result()
 
-    def _deliver(self, buf: np.ndarray, cid: int, parts, wanted, collectors):
-        """Check one channel's pending message records and hand them to its sink."""
-        log_time, starts = (np.concatenate([p[i] for p in parts]) for i in (0, 1))
-        ends = np.repeat([p[2] for p in parts], [len(p[1]) for p in parts])
-        # One gather per message for the record header and the CDR header after it
-        # (each pass over scattered messages is a cache miss per message); the CDR part
-        # is only meaningful for payloads of >= 16 bytes, which is all its user reads.
-        combined = starts.size and int(starts.max()) + _MSG_HEADER + 16 <= buf.size
-        rows = gather_bytes(buf, starts, _MSG_HEADER + 16 if combined else 11)
-        head = rows[:, :11].view(_RECORD_DTYPE)[:, 0]
-        rec_len = head['length'].astype(np.int64)
-        bad = head['opcode'] != 0x05
-        bad |= head['channel'] != cid
-        bad |= (rec_len < 22) | (rec_len > ends - starts - 9)
-        if bad.any():
-            i = int(np.argmax(bad))
-            chunk = parts[int(np.searchsorted(np.cumsum([len(p[1]) for p in parts]), i,
-                                              side='right'))][3]
-            raise self._fail(f'bad message record for channel {cid} in chunk', chunk)
-        topic, msgtype = wanted[cid]
-        collectors.sink(topic, msgtype).add(
-            log_time, rec_len - 22, buf, starts + _MSG_HEADER,
-            head=rows[:, _MSG_HEADER:] if combined else None)
+    def _scan_file(self, fh, data_end: int, topics, collectors):
+        """Read every record from the start: files without summary, indexes or chunks."""
+        mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
+        view = memoryview(mm)
+        buf = np.frombuffer(mm, np.uint8)
+        registry = Registry()
+
+        def wanted(cid):
+            channel = registry.channels.get(cid)
+            return channel is not None and channel[0] in topics
+
+        counts: Dict[int, int] = {}
+        loose: Dict[int, tuple] = {}  # messages outside chunks: (times, offsets)
+        group: Optional[ChunkGroup] = None  # consecutive chunks, delivered together
+
+        def flush():
+            """Deliver the chunks and then the loose messages so far (storage order kept)."""
+            nonlocal group
+            channels = {c: ch for c, ch in registry.channels.items() if ch[0] in topics}
+            if group is not None:
+                self._deliver_all(group, buf, channels, collectors, counts)
+                group = None
+            if loose:
+                first = min(o[0] for _, o in loose.values())
+                run = ChunkGroup(False)
+                run.add_records(first, 0, data_end)
+                run.add_scanned(first, dict(loose), 0)
+                loose.clear()
+                self._deliver_all(run, buf, channels, collectors, counts)
+        try:
+            for op, body, length in walk(view, 8, data_end, self._fail):
+                if op == OP_DATA_END:
+                    break
+                if op == OP_MESSAGE:
+                    if length < 22:
+                        raise self._fail('message record too short', body - 9)
+                    cid, _, log_time = struct.unpack_from('<HIQ', view, body)
+                    if wanted(cid):
+                        if group is not None:
+                            flush()
+                        times, offsets = loose.setdefault(cid, ([], []))
+                        times.append(log_time)
+                        offsets.append(body - 9)
+                elif op in (OP_SCHEMA, OP_CHANNEL):
+                    try:
+                        registry.add(op, view, body)
+                    except (struct.error, UnicodeDecodeError) as err:
+                        raise self._fail(f'unreadable schema/channel record ({err})',
+                                         body - 9) from err
+                elif op == OP_CHUNK:
+                    if loose:
+                        flush()
+                    group = self._scan_chunk(view, body - 9, body + length, wanted, registry,
+                                             group, flush)
+            flush()
+            present, _ = self._present(registry, topics)
+            return present
+        finally:
+            buf = view = None  # release the exports of the map before closing it
+            try:
+                mm.close()
+            except BufferError:  # views still referenced by a traceback: unmapped by GC
+                pass
+
+    def _scan_chunk(self, view, start: int, end: int, wanted, registry, group,
+                    flush) -> ChunkGroup:
+        """Add a chunk's wanted records to ``group`` (flushed first if it cannot take them)."""
+        first, usize, crc, comp = self._chunk_header(view, start, end, start)
+        if group is not None and (group.compressed != bool(comp) or group.size > _BATCH_BYTES):
+            flush()
+            group = None
+        group = group or ChunkGroup(bool(comp))
+        if comp:
+            records = self._decompress(view, first, comp, usize, crc, start)
+            scanned = scan_messages(records, 0, usize, wanted, registry,
+                                    self._chunk_fail(start))
+            group.add_records(start, group.size, usize)
+            group.add_scanned(start, scanned, group.size)
+            group.pieces.append(records)
+            group.size += usize
+            return group
+        if crc and crc32(view[first:first + usize]) != crc:
+            raise self._fail('chunk CRC mismatch', start)
+        group.add_records(start, first, usize)
+        group.add_scanned(start, scan_messages(view, first, first + usize, wanted, registry,
+                                               self._chunk_fail(start)), 0)
+        return group
 
 
 def _release(mm: mmap.mmap, lo: int, hi: int):
@@ -332,6 +428,15 @@ def _release(mm: mmap.mmap, lo: int, hi: int):
     lo -= lo % mmap.PAGESIZE
     if hi > lo and hasattr(mm, 'madvise') and hasattr(mmap, 'MADV_DONTNEED'):
         mm.madvise(mmap.MADV_DONTNEED, lo, hi - lo)
+
+
+def _runs(compression):
+    """Yield ``(a, b)`` index ranges of consecutive chunks with the same compression."""
+    a = 0
+    for b in range(1, len(compression) + 1):
+        if b == len(compression) or compression[b] != compression[a]:
+            yield a, b
+            a = b
 
 
 def _batches(chunks):

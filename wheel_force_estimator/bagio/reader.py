@@ -3,71 +3,43 @@
 """
 Read recordings (rosbag2 mcap/sqlite3 directories, ROS 1 ``.bag`` files) into aligned arrays.
 
-Two decoding paths give identical results:
-
-* bulk: uncompressed rosbag2 storages are read topic-wise with :mod:`.storage` and the
-  fixed-layout Imu / WrenchStamped payloads decoded with :mod:`.fastcdr` (validated against
-  the Jazzy deserialiser on the first messages of every layout group);
-* generic: everything else (ROS 1 bags, compressed rosbag2) goes message by message through
-  rosbags' ``AnyReader`` and its typestore (ROS 1 bags carry their own definitions).
-
-Samples are aligned on ``header.stamp``, never on the bag receive time.
+The needed topics are decoded by :mod:`.decode` (bulk numpy path, or the fallback through
+rosbags' deserialiser; both give identical results); every other topic, of any type or
+encoding, is skipped and listed in the read summary.  Samples are put in ``header.stamp``
+order (:mod:`.order`: late deliveries are moved and counted) and aligned on it, never on the
+bag receive time; the optional suspension travel topic joins them on the same clock
+(:mod:`.travel`).
 """
 from dataclasses import dataclass
 from dataclasses import field
-import functools
+from dataclasses import replace
 from pathlib import Path
-import sqlite3
-import struct
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, Optional, Tuple
 
 import numpy as np
-from rosbags.highlevel import AnyReader
-from rosbags.highlevel import AnyReaderError
-from rosbags.rosbag1 import ReaderError as Reader1Error
-from rosbags.rosbag2 import ReaderError as Reader2Error
-from rosbags.serde import SerdeError
-from rosbags.typesys import get_typestore
-from rosbags.typesys import Stores
-from rosbags.typesys import TypesysError
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.bagio import travel as travel_io
 from wheel_force_estimator.bagio.align import align
 from wheel_force_estimator.bagio.align import check_same_clock
 from wheel_force_estimator.bagio.align import check_series
 from wheel_force_estimator.bagio.align import Gap
+from wheel_force_estimator.bagio.align import RATE_TOLERANCE
 from wheel_force_estimator.bagio.align import Segment
 from wheel_force_estimator.bagio.align import stack_corners
 from wheel_force_estimator.bagio.align import stamp_text
 from wheel_force_estimator.bagio.align import TopicSeries
-from wheel_force_estimator.bagio.fastcdr import extract
+from wheel_force_estimator.bagio.decode import Decoded
+from wheel_force_estimator.bagio.decode import jazzy_typestore
+from wheel_force_estimator.bagio.decode import read_topics
 from wheel_force_estimator.bagio.fastcdr import IMU_TYPE
-from wheel_force_estimator.bagio.fastcdr import LAYOUTS
 from wheel_force_estimator.bagio.fastcdr import STRING_TYPE
-from wheel_force_estimator.bagio.fastcdr import TopicDecoder
 from wheel_force_estimator.bagio.fastcdr import WRENCH_TYPE
-from wheel_force_estimator.bagio.fastpath import FastPathUnavailable
-from wheel_force_estimator.bagio.storage import read_raw_topics
+from wheel_force_estimator.bagio.order import order_by_stamp
 from wheel_force_estimator.bagio.topics import default_topic_config
 from wheel_force_estimator.core.errors import BagError
 from wheel_force_estimator.core.errors import ConfigError
-
-try:  # rosbags' sqlite3 backend; its errors are not rosbags errors
-    from apsw import Error as _ApswError
-except ImportError:  # pragma: no cover - apsw is a rosbags dependency
-    _ApswError = sqlite3.Error
-
-# Low-level failures a damaged file can provoke inside rosbags; re-raised as BagError.
-_ROSBAGS_ERRORS = (AnyReaderError, Reader1Error, Reader2Error, SerdeError, TypesysError,
-                   OSError, ValueError, KeyError, IndexError, struct.error, sqlite3.Error,
-                   _ApswError, EOFError, OverflowError)
-
-
-@functools.lru_cache(maxsize=1)
-def jazzy_typestore():
-    """Return the ROS 2 Jazzy typestore (``Stores.LATEST`` would be Kilted)."""
-    return get_typestore(Stores.ROS2_JAZZY)
 
 
 @dataclass(frozen=True, eq=False)  # holds arrays: compare fields, not objects
@@ -101,6 +73,15 @@ class Recording:
         Messages decoded by the bulk numpy path (the rest by rosbags' deserialiser).
     n_messages : int
         All messages decoded (sample topics and events).
+    n_reordered : dict of str to int
+        Messages per sample topic stored after a later-stamped one and put back in stamp
+        order (:mod:`.order`); topics with none are left out.
+    skipped_topics : tuple of (str, str)
+        ``(topic, type)`` of the topics in the bag that were not needed, hence not decoded.
+    travel_topic : str or None
+        The suspension travel topic when the bag carries it (``Segment.travel_m`` is set).
+    travel_dropped : tuple of (int, int)
+        Samples dropped from every channel for want of travel: ``(missing, not finite)``.
 
     """
 
@@ -115,6 +96,10 @@ class Recording:
     step_range_ns: Tuple[int, int] = (0, 0)
     n_bulk: int = 0
     n_messages: int = 0
+    n_reordered: Dict[str, int] = field(default_factory=dict)
+    skipped_topics: Tuple[Tuple[str, str], ...] = ()
+    travel_topic: Optional[str] = None
+    travel_dropped: Tuple[int, int] = (0, 0)
 
     def summary(self) -> str:
         """Describe what was read, used and left out, for logs and reports."""
@@ -125,6 +110,10 @@ class Recording:
             f'{self.n_used / self.fs_hz:.3f} s)',
             '  messages read: ' + ', '.join(f'{t} {n}' for t, n in self.n_read.items()),
             f'  decoded in bulk: {self.n_bulk} of {self.n_messages} messages',
+            '  put back in stamp order (stored late): ' + (', '.join(
+                f'{t} {n}' for t, n in self.n_reordered.items()) or 'none'),
+            '  skipped (not needed, not decoded): ' + (', '.join(
+                f'{t} ({m})' for t, m in self.skipped_topics) or 'none'),
             f'  stamp step inside segments: {self.step_range_ns[0]}..{self.step_range_ns[1]} '
             f'ns (nominal {1e9 / self.fs_hz:.0f} ns)',
         ]
@@ -137,11 +126,12 @@ class Recording:
             lines.append(f'  left out: segment of {n} sample(s) at {stamp_text(stamp)} '
                          '(too short)')
         lines.append(f'  events: {len(self.events)}')
+        if self.travel_topic is not None:
+            missing, bad = self.travel_dropped
+            lines.append(f'  suspension travel ({self.travel_topic}): {missing + bad} sample(s) '
+                         f'dropped from every channel ({missing} without travel, {bad} not '
+                         'finite)')
         return '\n'.join(lines)
-
-
-def _bag_error(path: Path, err: BaseException) -> BagError:
-    return BagError(f'{path}: cannot read bag: {type(err).__name__}: {err}')
 
 
 def _check_path(path) -> Path:
@@ -154,170 +144,19 @@ def _check_path(path) -> Path:
     return path
 
 
-@dataclass
-class _Decoded:
-    """Per-topic decode results (internal)."""
-
-    stamp_ns: Dict[str, np.ndarray] = field(default_factory=dict)
-    values: Dict[str, np.ndarray] = field(default_factory=dict)
-    strings: Dict[str, List[Tuple[int, str]]] = field(default_factory=dict)
-    n_bulk: int = 0
-    n_messages: int = 0
-
-
-def _check_wanted(path, present, required, optional):
-    wanted = dict(required)
-    for name, msgtype in optional.items():
-        if name in present:
-            wanted[name] = msgtype
-    for name, msgtype in wanted.items():
-        if name not in present:
-            listing = ', '.join(f'{t} ({m})' for t, m in sorted(present.items()))
-            raise BagError(f'{path}: topic {name} ({msgtype}) not found; topics present: '
-                           f'{listing or "none"}')
-        if present[name] != msgtype:
-            raise BagError(f'{path}: topic {name} has type {present[name]}, expected {msgtype}')
-    return wanted
-
-
-class _StackedValues:
-    """
-    One (3k, n) array whose row triplets receive k topics' values as they are decoded.
-
-    :func:`.align.stack_corners` then finds the corners already stacked and copies nothing
-    (an hour of 12 channels is 177 MB).  A topic with another message count gets no rows.
-    """
-
-    def __init__(self, topics):
-        self.topics = list(topics)
-        self.array: Optional[np.ndarray] = None
-
-    def rows(self, topic: str, n: int) -> Optional[np.ndarray]:
-        """Return the (n, 3) view for ``topic``, or None if ``n`` differs from the others."""
-        if self.array is None:
-            self.array = np.empty((3 * len(self.topics), n))
-        if self.array.shape[1] != n:
-            return None
-        k = self.topics.index(topic)
-        return self.array[3 * k:3 * k + 3].T
-
-
-def _read_topics(path: Path, required: Dict[str, str], optional: Dict[str, str],
-                 bulk: bool = True, stacked: Sequence[Sequence[str]] = ()) -> _Decoded:
-    """
-    Decode the given topics (name -> expected type) of any supported bag.
-
-    ``stacked`` lists groups of required topics (e.g. the four Imu corners) whose values the
-    bulk path decodes into one shared corner-stacked array.
-    """
-    if bulk and path.suffix != '.bag':
-        store = jazzy_typestore()
-        groups = [_StackedValues(t for t in group if t in required) for group in stacked]
-
-        def make_sink(topic, msgtype):
-            layout = LAYOUTS.get(msgtype)
-            if layout is None:
-                return None  # keep raw payloads (event strings)
-
-            def deserialize(data):
-                return _deserialize(path, topic, store, data, msgtype)
-
-            def values_out(n):
-                for group in groups:
-                    if topic in group.topics:
-                        return group.rows(topic, n)
-                return None
-            return TopicDecoder(layout, deserialize, values_out)
-
-        try:
-            present, raw = read_raw_topics(path, list(required) + list(optional), make_sink)
-        except FastPathUnavailable:
-            pass
-        else:
-            return _decode_raw(path, raw, _check_wanted(path, present, required, optional))
-    try:
-        reader = AnyReader([path], default_typestore=jazzy_typestore())
-        reader.open()
-    except _ROSBAGS_ERRORS as err:
-        raise _bag_error(path, err) from err
-    try:
-        present = {name: info.msgtype for name, info in reader.topics.items()}
-        return _decode_generic(path, reader, _check_wanted(path, present, required, optional))
-    finally:
-        reader.close()
-
-
-def _decode_raw(path, raw, wanted) -> _Decoded:
-    out = _Decoded()
-    store = jazzy_typestore()
-    for name, msgtype in wanted.items():
-        topic = raw.get(name)
-        out.n_messages += topic.n if topic is not None else 0
-        if msgtype == STRING_TYPE:
-            texts = []
-            if topic is not None:
-                texts = [''] * topic.n
-                for pos, rows in topic.groups:
-                    for p, row in zip(pos, rows):
-                        texts[p] = _deserialize(path, name, store, row.tobytes(), msgtype).data
-                texts = list(zip(topic.log_time_ns.tolist(), texts))
-            out.strings[name] = texts
-        elif topic is None:
-            out.stamp_ns[name] = np.zeros(0, np.int64)
-            out.values[name] = np.zeros((0, 3))
-        else:
-            out.stamp_ns[name] = topic.stamp_ns
-            out.values[name] = topic.values
-            out.n_bulk += topic.n_fast
-    return out
-
-
-def _deserialize(path, topic, store, data: bytes, msgtype: str):
-    try:
-        return store.deserialize_cdr(data, msgtype)
-    except (SerdeError, struct.error, ValueError, IndexError, UnicodeDecodeError) as err:
-        raise BagError(f'{path}: {topic}: undecodable {msgtype} message: {err}') from err
-
-
-def _decode_generic(path, reader, wanted) -> _Decoded:
-    out = _Decoded()
-    conns = [c for c in reader.connections if c.topic in wanted]
-    stamps: Dict[str, list] = {name: [] for name in wanted}
-    vals: Dict[str, list] = {name: [] for name in wanted}
-    try:
-        for conn, log_time, data in reader.messages(connections=conns):
-            msg = reader.deserialize(data, conn.msgtype)
-            msgtype = wanted[conn.topic]
-            if msgtype == STRING_TYPE:
-                stamps[conn.topic].append((log_time, msg.data))
-            else:
-                stamp, vec = extract(LAYOUTS[msgtype], msg)
-                stamps[conn.topic].append(stamp)
-                vals[conn.topic].append(vec)
-    except _ROSBAGS_ERRORS as err:
-        raise _bag_error(path, err) from err
-    for name, msgtype in wanted.items():
-        expected = sum(c.msgcount for c in conns if c.topic == name)
-        got = len(stamps[name])
-        if got != expected:
-            # rosbags matches rosbag2 connections on QoS too and can silently yield nothing
-            raise BagError(f'{path}: {name}: the bag index lists {expected} messages but '
-                           f'{got} could be read')
-        out.n_messages += got
-        if msgtype == STRING_TYPE:
-            out.strings[name] = stamps[name]
-        else:
-            out.stamp_ns[name] = np.asarray(stamps[name], np.int64).reshape(-1)
-            out.values[name] = np.asarray(vals[name], np.float64).reshape(-1, 3)
-    return out
-
-
-def _series(decoded: _Decoded, topic: str, channels) -> TopicSeries:
-    return TopicSeries(topic, decoded.stamp_ns[topic], decoded.values[topic], tuple(channels))
+def _series(path, decoded: Decoded, topic: str, channels,
+            reordered: Optional[Dict[str, int]] = None) -> TopicSeries:
+    """One topic in stamp order; late deliveries counted into ``reordered``."""
+    stamp, values, n_late = order_by_stamp(path, topic, decoded.stamp_ns[topic],
+                                           decoded.values[topic])
+    if n_late and reordered is not None:
+        reordered[topic] = n_late
+    return TopicSeries(topic, stamp, values, tuple(channels))
 
 
 def read_recording(path, topics=None, require_wft: bool = True,
-                   expected_fs_hz: Optional[float] = None, *, bulk: bool = True) -> Recording:
+                   expected_fs_hz: Optional[float] = None, *, bulk: bool = True,
+                   travel: bool = False) -> Recording:
     """
     Read a recording and align its topics on ``header.stamp``.
 
@@ -335,6 +174,10 @@ def read_recording(path, topics=None, require_wft: bool = True,
     bulk : bool
         Use the bulk decoder where possible (False forces rosbags' per-message path; both
         give identical results).
+    travel : bool
+        Also read the suspension travel topic (``topics.travel_topic``) when the bag carries
+        it: ``Segment.travel_m`` is set, and samples without finite travel are dropped from
+        every channel and counted.  False (fit, predict, evaluate) leaves it unread.
 
     Returns
     -------
@@ -357,31 +200,79 @@ def read_recording(path, topics=None, require_wft: bool = True,
     required = {t: IMU_TYPE for t in topics.imu_topics}
     if require_wft:
         required.update({t: WRENCH_TYPE for t in topics.wft_topics})
-    decoded = _read_topics(path, required, {topics.event_topic: STRING_TYPE}, bulk=bulk,
-                           stacked=(topics.imu_topics, topics.wft_topics))
-    imu = [_series(decoded, t, INPUT_CHANNELS[3 * i:3 * i + 3])
+    optional = {topics.event_topic: STRING_TYPE}
+    if travel:
+        optional[topics.travel_topic] = travel_io.TRAVEL_TYPE
+    decoded = read_topics(path, required, optional, bulk=bulk,
+                          stacked=(topics.imu_topics, topics.wft_topics))
+    reordered: Dict[str, int] = {}
+    imu = [_series(path, decoded, t, INPUT_CHANNELS[3 * i:3 * i + 3], reordered)
            for i, t in enumerate(topics.imu_topics)]
-    wft = ([_series(decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3])
+    wft = ([_series(path, decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3], reordered)
             for i, t in enumerate(topics.wft_topics)] if require_wft else None)
+    on_clock = None
+    dropped = (0, 0)
+    if travel and topics.travel_topic in decoded.stamp_ns:
+        imu, wft, on_clock, dropped = _with_travel(path, topics.travel_topic, decoded, imu,
+                                                   wft, reordered)
     result = align(path, imu, wft, expected_fs_hz)
     if not result.segments:
         raise BagError(f'{path}: no segment of at least 2 samples between gaps '
                        f'({len(result.gaps)} gaps in {imu[0].stamp_ns.size} samples)')
+    segments = result.segments
+    if on_clock is not None:
+        clock, travel_m = on_clock
+        segments = tuple(replace(seg, travel_m=np.ascontiguousarray(
+            travel_m[:, np.searchsorted(clock, seg.stamp_ns)])) for seg in segments)
     events = tuple((int(s), str(name)) for s, name in
                    decoded.strings.get(topics.event_topic, ()))
+    n_read = {t: int(decoded.stamp_ns[t].size) for t in required}
+    if on_clock is not None:
+        n_read[topics.travel_topic] = int(decoded.stamp_ns[topics.travel_topic].size)
     return Recording(
         path=path,
         fs_hz=result.fs_hz,
-        segments=result.segments,
+        segments=segments,
         events=events,
-        n_read={t: int(decoded.stamp_ns[t].size) for t in required},
+        n_read=n_read,
         n_used=sum(s.n_samples for s in result.segments),
         gaps=result.gaps,
         short_segments=result.short_segments,
         step_range_ns=result.step_range_ns,
         n_bulk=decoded.n_bulk,
         n_messages=decoded.n_messages,
+        n_reordered=reordered,
+        skipped_topics=decoded.skipped,
+        travel_topic=topics.travel_topic if on_clock is not None else None,
+        travel_dropped=dropped,
     )
+
+
+def _with_travel(path, topic: str, decoded: Decoded, imu, wft, reordered):
+    """
+    Put the travel topic on the Imu clock; drop samples without finite travel everywhere.
+
+    Returns the (filtered) series, ``(clock, travel_m (4, n))`` and ``(missing, not finite)``.
+    """
+    stamp, values, n_late = order_by_stamp(path, topic, decoded.stamp_ns[topic],
+                                           decoded.values[topic])
+    if n_late:
+        reordered[topic] = n_late
+    clock = imu[0].stamp_ns
+    travel_m, missing, bad = travel_io.on_clock(path, topic, clock, stamp, values,
+                                                RATE_TOLERANCE)
+    keep = travel_io.usable(travel_m)
+    if not keep.all():
+        # the same samples leave every topic (a gap where any is missing: nothing filled)
+        drop = clock[~keep]
+
+        def cut(series):
+            mask = ~np.isin(series.stamp_ns, drop)
+            return replace(series, stamp_ns=series.stamp_ns[mask], values=series.values[mask])
+        imu = [cut(s) for s in imu]
+        wft = None if wft is None else [cut(s) for s in wft]
+        clock, travel_m = clock[keep], travel_m[:, keep]
+    return imu, wft, (clock, travel_m), (missing, bad)
 
 
 def read_imu_topic(path, topic: str, *, bulk: bool = True):
@@ -413,8 +304,8 @@ def read_imu_topic(path, topic: str, *, bulk: bool = True):
 
     """
     path = _check_path(path)
-    decoded = _read_topics(path, {topic: IMU_TYPE}, {}, bulk=bulk)
-    series = _series(decoded, topic, ('ax', 'ay', 'az'))
+    decoded = read_topics(path, {topic: IMU_TYPE}, {}, bulk=bulk)
+    series = _series(path, decoded, topic, ('ax', 'ay', 'az'))
     check_series(path, series)
     return series.stamp_ns, np.ascontiguousarray(series.values.T)
 
@@ -455,8 +346,8 @@ def read_wrench_topics(path, topics, *, bulk: bool = True):
     if len(topics) != 4:
         raise ConfigError(f'read_wrench_topics needs 4 topics (lf, rf, lr, rr), got {topics}')
     path = _check_path(path)
-    decoded = _read_topics(path, dict.fromkeys(topics, WRENCH_TYPE), {}, bulk=bulk)
-    series = [_series(decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3])
+    decoded = read_topics(path, dict.fromkeys(topics, WRENCH_TYPE), {}, bulk=bulk)
+    series = [_series(path, decoded, t, OUTPUT_CHANNELS[3 * i:3 * i + 3])
               for i, t in enumerate(topics)]
     for s in series:
         check_series(path, s)
@@ -476,7 +367,7 @@ def read_string_topic(path, topic: str, *, bulk: bool = True) -> Tuple[Tuple[int
 
     """
     path = _check_path(path)
-    decoded = _read_topics(path, {topic: STRING_TYPE}, {}, bulk=bulk)
+    decoded = read_topics(path, {topic: STRING_TYPE}, {}, bulk=bulk)
     return tuple((int(s), str(t)) for s, t in decoded.strings[topic])
 
 

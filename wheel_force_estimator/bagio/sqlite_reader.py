@@ -14,6 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
+from wheel_force_estimator.bagio.mcap_records import topic_type
 from wheel_force_estimator.core.errors import BagError
 
 # Rows per sqlite3 query: bounds memory and stays far below SQLITE_MAX_LENGTH (1e9 bytes)
@@ -30,7 +31,8 @@ def read_sqlite(file: Path, topics: Sequence[str], collectors):
     except sqlite3.Error as err:
         raise BagError(f'{file}: cannot open sqlite3 storage: {err}') from err
     try:
-        rows = con.execute('SELECT id, name, type FROM topics').fetchall()
+        rows = [(tid, name, topic_type(typ, fmt)) for tid, name, typ, fmt in con.execute(
+            'SELECT id, name, type, serialization_format FROM topics').fetchall()]
         present = {}
         for _, name, typ in rows:
             if present.setdefault(name, typ) != typ:

@@ -13,17 +13,23 @@ collector here, or a decoder (:class:`.fastcdr.TopicDecoder`) that reads only th
 needs in place.
 
 Topics are matched by name (and type), as ``ros2 bag`` does; QoS profiles are not compared.
-Whatever this module cannot do in bulk (file/message compression, an mcap file without
-summary or message indexes) raises :class:`FastPathUnavailable` and the caller uses the
-generic rosbags reader instead.  Structural damage raises :class:`BagError` naming the file.
+Only the requested topics are ever decoded: other topics, whatever their type or encoding,
+are listed and skipped.  Compressed bags are read too: message compression by decompressing
+each requested payload before its sink sees it, file compression by decompressing the
+storage files into a temporary directory first.  An mcap file whose indexes miss messages
+raises :class:`FastPathUnavailable` and the caller reads it again record by record
+(``scan=True``).  Structural damage raises :class:`BagError` naming the file.
 """
+import contextlib
 from dataclasses import dataclass
 from pathlib import Path
 from pathlib import PurePath
+import tempfile
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator.bagio.compression import DECOMPRESS
 from wheel_force_estimator.bagio.fastcdr import gather_bytes
 from wheel_force_estimator.bagio.fastpath import FastPathUnavailable
 from wheel_force_estimator.bagio.mcap_reader import McapFile
@@ -75,6 +81,8 @@ class BagLayout:
     files: Tuple[Path, ...]
     topic_types: Dict[str, str]
     topic_counts: Dict[str, int]
+    compression_mode: str = ''
+    compression_format: str = ''
 
 
 def bag_layout(path: Path) -> BagLayout:
@@ -84,9 +92,10 @@ def bag_layout(path: Path) -> BagLayout:
     Raises
     ------
     FastPathUnavailable
-        Not a rosbag2 recording this module reads in bulk (ROS 1 bag, compressed bag).
+        Not a rosbag2 recording (ROS 1 bag) or a storage plugin other than mcap / sqlite3.
     BagError
-        metadata.yaml is unreadable or lists files that are missing.
+        metadata.yaml is unreadable or lists files that are missing, or an unknown
+        compression.
 
     """
     if path.is_file():
@@ -101,6 +110,9 @@ def bag_layout(path: Path) -> BagLayout:
         storage = info['storage_identifier']
         files = tuple(path / PurePath(p).name for p in info['relative_file_paths'])
         mode = str(info.get('compression_mode') or '').lower()
+        if mode == 'none':
+            mode = ''
+        fmt = str(info.get('compression_format') or '').lower()
         types, counts = {}, {}
         for entry in info.get('topics_with_message_count') or ():
             meta = entry['topic_metadata']
@@ -108,14 +120,67 @@ def bag_layout(path: Path) -> BagLayout:
             counts[meta['name']] = counts.get(meta['name'], 0) + int(entry['message_count'])
     except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError) as err:
         raise BagError(f'{path}: cannot read rosbag2 metadata.yaml: {err!r}') from err
-    if mode not in ('', 'none'):
-        raise FastPathUnavailable(f'{path}: compression mode {mode!r}')
+    if mode not in ('', 'file', 'message'):
+        raise BagError(f'{path}: unknown compression_mode {mode!r} in metadata.yaml '
+                       "(rosbag2 writes 'none', 'file' or 'message')")
+    if mode and fmt not in DECOMPRESS:
+        raise BagError(f'{path}: cannot read compression_format {fmt!r} (readable: '
+                       f'{", ".join(sorted(DECOMPRESS))})')
     if storage not in ('mcap', 'sqlite3'):
         raise FastPathUnavailable(f'{path}: storage {storage!r}')
     missing = [str(f) for f in files if not f.is_file()]
     if missing:
         raise BagError(f'{path}: storage files listed in metadata.yaml are missing: {missing}')
-    return BagLayout(storage, files, types, counts)
+    return BagLayout(storage, files, types, counts, mode, fmt)
+
+
+@contextlib.contextmanager
+def _storage_files(layout: BagLayout):
+    """Yield the storage files, decompressed into a temporary directory in file mode."""
+    if layout.compression_mode != 'file':
+        yield layout.files
+        return
+    decompress = DECOMPRESS[layout.compression_format]
+    with tempfile.TemporaryDirectory(prefix='wheel_force_bag_') as tmp:
+        files = []
+        for file in layout.files:
+            name = file.name
+            suffix = '.' + layout.compression_format
+            out = Path(tmp) / (name[:-len(suffix)] if name.endswith(suffix) else name)
+            try:
+                out.write_bytes(decompress(file.read_bytes()))
+            except (ValueError, RuntimeError, OSError) as err:
+                raise BagError(f'{file}: compressed storage file does not decompress '
+                               f'({layout.compression_format}): {err}') from err
+            files.append(out)
+        yield tuple(files)
+
+
+class _Decompressing:
+    """Sink wrapper for message-compressed bags: each payload is decompressed on arrival."""
+
+    def __init__(self, sink, fmt: str, where: str):
+        self.sink = sink
+        self.fmt = fmt
+        self.where = where
+        self._decompress = DECOMPRESS[fmt]
+
+    def add(self, log_time, lengths, buf, starts, head=None):
+        del head  # of the compressed payload: meaningless
+        payloads = []
+        for k, (start, length) in enumerate(zip(starts.tolist(), lengths.tolist())):
+            try:
+                payloads.append(self._decompress(buf[start:start + length].tobytes()))
+            except (ValueError, RuntimeError, OSError) as err:
+                raise BagError(f'{self.where}: message {k} of a batch does not decompress '
+                               f'({self.fmt}): {err}') from err
+        sizes = np.fromiter((len(p) for p in payloads), np.int64, len(payloads))
+        data = np.frombuffer(b''.join(payloads), np.uint8)
+        offsets = np.concatenate(([0], np.cumsum(sizes)[:-1])).astype(np.int64)
+        self.sink.add(log_time, sizes, data, offsets)
+
+    def finish(self):
+        return self.sink.finish()
 
 
 class _Collector:
@@ -155,10 +220,13 @@ class _Collector:
 class _Sinks(dict):
     """Topic -> sink, created on first use (raw collector unless ``make_sink`` says else)."""
 
-    def __init__(self, make_sink, expected_counts: Optional[Dict[str, int]] = None):
+    def __init__(self, make_sink, expected_counts: Optional[Dict[str, int]] = None,
+                 compression: str = '', where: str = ''):
         super().__init__()
         self.make_sink = make_sink
         self.expected_counts = expected_counts or {}
+        self.compression = compression
+        self.where = where
 
     def sink(self, topic: str, msgtype: str):
         if topic not in self:
@@ -166,11 +234,14 @@ class _Sinks(dict):
             if made is not None and hasattr(made, 'reserve') and (
                     self.expected_counts.get(topic, 0) > 0):
                 made.reserve(self.expected_counts[topic])
-            self[topic] = made if made is not None else _Collector(msgtype)
+            made = made if made is not None else _Collector(msgtype)
+            if self.compression:
+                made = _Decompressing(made, self.compression, f'{self.where}: {topic}')
+            self[topic] = made
         return self[topic]
 
 
-def read_raw_topics(path: Path, topics: Sequence[str], make_sink=None):
+def read_raw_topics(path: Path, topics: Sequence[str], make_sink=None, scan: bool = False):
     """
     Read every payload of the given topics of a rosbag2 recording in bulk.
 
@@ -186,11 +257,13 @@ def read_raw_topics(path: Path, topics: Sequence[str], make_sink=None):
         ``buf[starts[i]:starts[i] + lengths[i]]``, valid only during the call, optionally its
         first 16 bytes already gathered in ``head`` (k, 16), and
         ``finish()``; e.g. a decoder), or None to keep the raw payloads.
+    scan : bool
+        Read mcap files record by record, ignoring their indexes (the fallback path).
 
     Returns
     -------
     present : dict
-        Every topic in the storage: name to message type.
+        Every topic in the storage: name to message type (with its encoding if not CDR).
     raw : dict
         Requested topic name to :class:`RawTopic` (or the sink's ``finish()`` result).
 
@@ -204,17 +277,19 @@ def read_raw_topics(path: Path, topics: Sequence[str], make_sink=None):
 
     """
     layout = bag_layout(path)
-    collectors = _Sinks(make_sink, layout.topic_counts)
+    compression = layout.compression_format if layout.compression_mode == 'message' else ''
+    collectors = _Sinks(make_sink, layout.topic_counts, compression, str(path))
     present: Dict[str, str] = {}
-    for file in layout.files:
-        if layout.storage == 'sqlite3':
-            found = read_sqlite(file, topics, collectors)
-        else:
-            found = McapFile(file).read(topics, collectors)
-        for name, msgtype in found.items():
-            if present.setdefault(name, msgtype) != msgtype:
-                raise BagError(f'{path}: topic {name} recorded with two types '
-                               f'{present[name]} and {msgtype}')
+    with _storage_files(layout) as files:
+        for file in files:
+            if layout.storage == 'sqlite3':
+                found = read_sqlite(file, topics, collectors)
+            else:
+                found = McapFile(file, scan=scan).read(topics, collectors)
+            for name, msgtype in found.items():
+                if present.setdefault(name, msgtype) != msgtype:
+                    raise BagError(f'{path}: topic {name} recorded with two types '
+                                   f'{present[name]} and {msgtype}')
     raw = {name: col.finish() for name, col in collectors.items()}
     for name in topics:
         if name in layout.topic_counts:

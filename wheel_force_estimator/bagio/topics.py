@@ -73,6 +73,8 @@ class TopicConfig:
         diagnostic_msgs/DiagnosticArray pseudo damage topic.
     event_topic : str
         std_msgs/String proving-ground event topic (optional in a recording).
+    travel_topic : str
+        sensor_msgs/JointState suspension travel topic (optional in a recording).
     frame_ids : tuple of str
         ``header.frame_id`` of the output wrenches, one per corner.
 
@@ -83,6 +85,7 @@ class TopicConfig:
     output_topics: Tuple[str, ...] = tuple(f'/virtual_wft/{c}/wrench' for c in CORNERS)
     damage_topic: str = '/virtual_wft/damage'
     event_topic: str = '/proving_ground/event'
+    travel_topic: str = '/suspension/joint_states'
     frame_ids: Tuple[str, ...] = tuple(f'{c}_wheel' for c in CORNERS)
 
     def __post_init__(self):
@@ -96,8 +99,9 @@ class TopicConfig:
                                               _validate_frame))
         _validate_topic(self.damage_topic, 'damage_topic', where)
         _validate_topic(self.event_topic, 'event_topic', where)
+        _validate_topic(self.travel_topic, 'travel_topic', where)
         names = (self.imu_topics + self.wft_topics + self.output_topics
-                 + (self.damage_topic, self.event_topic))
+                 + (self.damage_topic, self.event_topic, self.travel_topic))
         seen = set()
         for name in names:
             if name in seen:
@@ -106,7 +110,7 @@ class TopicConfig:
 
 
 _TOPIC_LIST_KEYS = ('imu_topics', 'wft_topics', 'output_topics')
-_TOPIC_KEYS = ('damage_topic', 'event_topic')
+_TOPIC_KEYS = ('damage_topic', 'event_topic', 'travel_topic')
 
 
 def load_topic_config(path=None) -> TopicConfig:

@@ -39,6 +39,9 @@ from wheel_force_estimator.bagio.mcap_writer import write_mcap
 from wheel_force_estimator.bagio.reader import jazzy_typestore
 from wheel_force_estimator.bagio.sqlite_writer import write_sqlite
 from wheel_force_estimator.bagio.topics import default_topic_config
+from wheel_force_estimator.bagio.travel import JOINT_NAMES
+from wheel_force_estimator.bagio.travel import TRAVEL_CHANNELS
+from wheel_force_estimator.bagio.travel import TRAVEL_TYPE
 from wheel_force_estimator.core.errors import BagError
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.validation import as_signals
@@ -216,6 +219,36 @@ def _make_wrench(store, frame_id: str):
     return make
 
 
+def _travel_topic(stamp_fields, travel: np.ndarray) -> DenseTopic:
+    """Describe JointState ``{corner}_suspension`` positions as a dense topic (rosbags-checked)."""
+    store = jazzy_typestore()
+    types = store.types
+    time_t = types['builtin_interfaces/msg/Time']
+    header_t = types['std_msgs/msg/Header']
+
+    def serialize(stamp_ns, values):
+        msg = types[TRAVEL_TYPE](
+            header=header_t(stamp=time_t(sec=int(stamp_ns // _NS_PER_S),
+                                         nanosec=int(stamp_ns % _NS_PER_S)), frame_id=''),
+            name=list(JOINT_NAMES), position=np.asarray(values, np.float64),
+            velocity=np.zeros(0), effort=np.zeros(0))
+        return np.frombuffer(bytes(store.serialize_cdr(msg, TRAVEL_TYPE)), np.uint8)
+
+    marker = np.array([1.0000000000000002, -3.0e-300, 7.5e200, -12345.678901234567])
+    probe = serialize(0, marker)
+    pattern = np.frombuffer(marker.tobytes(), np.uint8)
+    at = next(i for i in range(4, probe.size, 4)
+              if np.array_equal(probe[i:i + pattern.size], pattern))
+    sec, nanosec = stamp_fields
+    topic = DenseTopic(serialize(0, np.zeros(4)), (
+        (4, np.dtype('<i4'), sec), (8, np.dtype('<u4'), nanosec), (at, np.dtype('<f8'), travel)))
+    for i in sorted({0, len(travel) - 1}) if len(travel) else ():
+        stamp_ns = int(sec[i]) * _NS_PER_S + int(nanosec[i])
+        if not np.array_equal(serialize(stamp_ns, travel[i]), topic.payloads(i, i + 1)[0]):
+            raise BagError(f'{TRAVEL_TYPE}: bulk CDR encoding differs from rosbags at sample {i}')
+    return topic
+
+
 @functools.lru_cache(maxsize=None)
 def _connection_type(msgtype: str) -> Tuple[str, str]:
     """Return rosbags' ``(msgdef, rihs01)`` for a Jazzy type (what its Writer stores)."""
@@ -287,7 +320,8 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
                     events: Sequence = (), storage: str = 'mcap',
                     imu_frame_ids: Optional[Sequence[str]] = None,
                     wrench_frame_ids: Optional[Sequence[str]] = None,
-                    output: bool = False, compression: str = '') -> Path:
+                    output: bool = False, compression: str = '',
+                    travel_m=None) -> Path:
     """
     Write accelerations / forces on one sample clock as a new rosbag2.
 
@@ -318,6 +352,9 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
     compression : {'', 'zstd'}
         mcap chunk compression ('' = none, as ``ros2 bag record`` writes by default; zstd
         is read by ros2 bag's mcap plugin, rosbags and this package).  Ignored for sqlite3.
+    travel_m : array_like, shape (4, n), optional
+        Suspension compression per corner [m], positive in bump; written as
+        sensor_msgs/JointState (``{corner}_suspension``) on ``topics.travel_topic``.
 
     Returns
     -------
@@ -379,6 +416,11 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
             connections.append(_connection(topic, WRENCH.msgtype))
             dense.append(_dense_topic(WRENCH, _make_wrench(store, frames[i]), stamp_fields,
                                       force[i]))
+    if travel_m is not None:
+        travel = as_signals(travel_m, f'{path}: travel_m', TRAVEL_CHANNELS)
+        _check_length(path, 'travel_m', travel, stamp)
+        connections.append(_connection(topics.travel_topic, TRAVEL_TYPE))
+        dense.append(_travel_topic(stamp_fields, np.ascontiguousarray(travel.T)))
     event_list = _check_events(path, events)
     sparse = []
     if event_list:

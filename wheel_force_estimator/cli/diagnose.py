@@ -31,6 +31,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     p.add_argument('--config', metavar='YAML', help='params file (topic names, fit settings)')
     add_generic_arguments(p)
+    p.add_argument('--no-travel', action='store_true',
+                   help='ignore the suspension travel topic: diagnose spindle acceleration -> '
+                        'force even when every bag carries travel')
     p.add_argument('--highpass-hz', type=float, metavar='HZ',
                    help='corner of the band-limited integration of the features (default 0.2)')
     p.add_argument('--linear', choices=('auto', 'frf', 'regression'), default='auto',
@@ -52,16 +55,40 @@ def _bags(args):
     from wheel_force_estimator import INPUT_CHANNELS
     from wheel_force_estimator import OUTPUT_CHANNELS
     from wheel_force_estimator.bagio import load_topic_config
-    from wheel_force_estimator.cli.common import read_recordings
+    from wheel_force_estimator.bagio import read_recording
+    from wheel_force_estimator.bagio.travel import TRAVEL_CHANNELS
+    from wheel_force_estimator.cli.common import progress
     from wheel_force_estimator.diagnosis.recording import from_bag_recording
     topics = load_topic_config(args.config)
 
-    def load(paths):
+    def read_all(paths):  # the travel topic too, unless --no-travel
+        return [read_recording(p, topics, require_wft=True, travel=not args.no_travel)
+                for p in progress(paths, 'reading', total=len(paths))]
+    read = {name: read_all(paths) if paths else None
+            for name, paths in (('real', args.real), ('sim', args.sim),
+                                ('holdout', args.holdout))}
+    bags = [r for recs in read.values() for r in recs or ()]
+    # Suspension travel in every bag (and a simulation to compare with): diagnose it as the
+    # generic path does a string-potentiometer export, travel in, vertical forces out.
+    travel = bool(args.sim) and not args.no_travel and all(r.travel_topic for r in bags)
+    if travel:
+        print(f'suspension travel ({topics.travel_topic}) in every bag: diagnosing travel -> '
+              'vertical force (--no-travel for the spindle accelerations)')
+    elif any(r.travel_topic for r in bags) and not args.no_travel:
+        without = [str(r.path) for r in bags if not r.travel_topic]
+        print(f'suspension travel not used: {"no --sim reference" if not args.sim else ""}'
+              f'{"; " if not args.sim and without else ""}'
+              f'{"not in " + ", ".join(without) if without else ""}')
+    channels = ((TRAVEL_CHANNELS, tuple(c for c in OUTPUT_CHANNELS if c.endswith('fz')))
+                if travel else (INPUT_CHANNELS, OUTPUT_CHANNELS))
+
+    def load(recs):
         out = []
-        for rec in read_recordings(paths, topics, require_wft=True):
-            out.extend(from_bag_recording(rec, INPUT_CHANNELS, OUTPUT_CHANNELS))
+        for rec in recs:
+            out.extend(from_bag_recording(rec, *channels, travel=travel))
         return out
-    return load(args.real), (load(args.sim) if args.sim else None), load(args.holdout)
+    return (load(read['real']), load(read['sim']) if args.sim else None,
+            load(read['holdout'] or ()))
 
 
 def command(args: argparse.Namespace) -> int:
@@ -81,6 +108,10 @@ def command(args: argparse.Namespace) -> int:
     from wheel_force_estimator.diagnosis.run import DiagnosisConfig
 
     real, sim, holdout = _bags(args) if request is None else _generic(request, args)
+    if args.out_model and real and real[0].input_quantity == 'displacement' and (
+            request is None):
+        raise UsageError('--out-model: the travel diagnosis fits travel -> vertical force, '
+                         'which predict cannot apply to spindle accelerations; add --no-travel')
     reference = load_model(args.model) if args.model else sim
     features = FeatureConfig() if args.highpass_hz is None else FeatureConfig(args.highpass_hz)
     fit = None

@@ -36,6 +36,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--effect-params', metavar='YAML',
                    help='effect parameter overrides {effect: {param: value}}')
     p.add_argument('--config', metavar='YAML', help='params file (topic names)')
+    p.add_argument('--travel', action='store_true',
+                   help='also write the suspension compression (m, + in bump) as '
+                        'sensor_msgs/JointState on suspension/joint_states (travel_topic), '
+                        'as string potentiometers would record it')
     return p
 
 
@@ -62,7 +66,7 @@ def command(args: argparse.Namespace) -> int:
         paths = simulate_pair(args.out, effects.names, args.seed, args.holdout_seed,
                               args.duration_scale, args.storage, course=args.course,
                               vehicle=vehicle, effect_params=effect_params, fs_hz=args.fs_hz,
-                              topics=topics, progress=True)
+                              topics=topics, progress=True, travel=args.travel)
         print(f'course: {args.course}   physics of real/ and holdout/: {physics}')
         for name in ('sim', 'real', 'holdout', 'truth'):
             print(f'  {name:8s} {paths[name]}')
@@ -72,7 +76,7 @@ def command(args: argparse.Namespace) -> int:
         raise BagError(f'{out}: exists already, not overwriting')
     result = simulate(args.course, effects.names, args.seed, args.duration_scale, args.fs_hz,
                       vehicle, effect_params, progress=True)
-    write_result(out, result, args.storage, topics)
+    write_result(out, result, args.storage, topics, travel=args.travel)
     print(f'wrote {out} ({args.storage}): {result.stamp_ns.size} samples, '
           f'{result.duration_s:.1f} s at {result.fs_hz:g} Hz, {len(result.events)} events')
     print(f'course: {args.course}   seed: {args.seed}   physics: {physics}')

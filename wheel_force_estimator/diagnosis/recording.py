@@ -84,17 +84,24 @@ def check_compatible(recordings: Sequence[MotionRecording], what: str) -> None:
                                      f'{ref.name} has {getattr(ref, attr)}')
 
 
-def from_bag_recording(recording, input_channels,
-                       output_channels) -> Tuple[MotionRecording, ...]:
+def from_bag_recording(recording, input_channels, output_channels,
+                       travel: bool = False) -> Tuple[MotionRecording, ...]:
     """
     Convert a ``bagio`` recording (with WFT) into one MotionRecording per segment.
+
+    With ``travel`` the inputs are the recorded suspension travel (displacement,
+    ``input_channels`` names its four rows) and the outputs the vertical forces named in
+    ``output_channels`` (``*_fz``): what the generic path sees of a DAQ export with string
+    potentiometers.
 
     Raises
     ------
     DiagnosisError
-        When a segment carries no force (a bag without the WFT topics).
+        When a segment carries no force (a bag without the WFT topics), or no travel.
 
     """
+    from wheel_force_estimator import OUTPUT_CHANNELS
+    rows = [OUTPUT_CHANNELS.index(c) for c in output_channels] if travel else None
     out = []
     t0 = None
     for i, seg in enumerate(recording.segments):
@@ -107,8 +114,13 @@ def from_bag_recording(recording, input_channels,
         end_ns = stamps[-1]
         events = tuple(((s - t0) * 1e-9, name) for s, name in recording.events
                        if stamps[0] <= s <= end_ns)
+        if travel and seg.travel_m is None:
+            raise DiagnosisError(f'{recording.path}: segment {i} has no suspension travel')
         out.append(MotionRecording(
-            name=f'{recording.path}#{i}', fs_hz=recording.fs_hz, inputs=seg.accel_mps2,
-            outputs=seg.force_n, input_channels=tuple(input_channels),
-            output_channels=tuple(output_channels), start_s=float(start_s), events=events))
+            name=f'{recording.path}#{i}', fs_hz=recording.fs_hz,
+            inputs=seg.travel_m if travel else seg.accel_mps2,
+            outputs=seg.force_n[rows] if travel else seg.force_n,
+            input_channels=tuple(input_channels), output_channels=tuple(output_channels),
+            input_quantity='displacement' if travel else 'acceleration',
+            start_s=float(start_s), events=events))
     return tuple(out)

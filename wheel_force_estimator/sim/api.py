@@ -236,24 +236,34 @@ def simulate(course='proving_ground', physics=(), seed: int = 0, duration_scale:
                      effect_params=MappingProxyType(effects.to_dict()), vehicle=car)
 
 
-def write_result(path, result: SimResult, storage: str = 'mcap', topics=None) -> Path:
-    """Write a :class:`SimResult` as a rosbag2 (accelerations, WFT forces, events)."""
+def write_result(path, result: SimResult, storage: str = 'mcap', topics=None,
+                 travel: bool = False) -> Path:
+    """
+    Write a :class:`SimResult` as a rosbag2 (accelerations, WFT forces, events).
+
+    With ``travel`` the suspension compression (``states['suspension_compression_m']``,
+    positive in bump) is written too, as the ``suspension/joint_states`` topic.
+    """
     from wheel_force_estimator.bagio import write_recording
+    travel_m = result.states['suspension_compression_m'] if travel else None
     return write_recording(path, result.stamp_ns, result.accel_mps2, result.force_n,
-                           topics=topics, events=result.events, storage=storage)
+                           topics=topics, events=result.events, storage=storage,
+                           travel_m=travel_m)
 
 
 def simulate_pair(outdir, physics, seed: int = 0, holdout_seed: Optional[int] = None,
                   duration_scale: float = 1.0, storage: str = 'mcap', *,
                   course='proving_ground', vehicle: Optional[VehicleParams] = None,
                   effect_params: Optional[Mapping] = None, fs_hz: float = 512.0,
-                  topics=None, progress: bool = False) -> Dict[str, Path]:
+                  topics=None, progress: bool = False,
+                  travel: bool = False) -> Dict[str, Path]:
     """
     Write ``sim/`` (nominal car), ``real/`` (car with the effects) and ``holdout/`` bags.
 
     ``sim`` and ``real`` share the seed (same roads, manoeuvres and noise samples); ``holdout``
     is the real car on ``holdout_seed`` (default ``seed + 1``).  ``simulation.json`` beside
-    them records what was simulated (the ground truth of a diagnosis benchmark).
+    them records what was simulated (the ground truth of a diagnosis benchmark).  With
+    ``travel`` every bag also carries the suspension travel topic.
 
     Returns
     -------
@@ -284,7 +294,7 @@ def simulate_pair(outdir, physics, seed: int = 0, holdout_seed: Optional[int] = 
     for name, phys, run_seed in runs:
         result = simulate(course, phys, run_seed, duration_scale, fs_hz, vehicle, effect_params,
                           progress=progress)
-        paths[name] = write_result(outdir / name, result, storage, topics)
+        paths[name] = write_result(outdir / name, result, storage, topics, travel)
         truth[name] = {'seed': run_seed, 'physics': list(result.physics),
                        'effect_params': {k: dict(v) for k, v in result.effect_params.items()},
                        'duration_s': result.duration_s,
