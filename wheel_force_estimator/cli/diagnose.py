@@ -4,6 +4,8 @@
 import argparse
 
 from wheel_force_estimator.cli.common import add_generic_arguments
+from wheel_force_estimator.cli.common import add_namespace_argument
+from wheel_force_estimator.cli.common import topic_config
 from wheel_force_estimator.cli.common import UsageError
 
 
@@ -30,6 +32,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help='write the augmented model (reference FRF + fitted physics terms)')
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     p.add_argument('--config', metavar='YAML', help='params file (topic names, fit settings)')
+    add_namespace_argument(p)
     add_generic_arguments(p)
     p.add_argument('--highpass-hz', type=float, metavar='HZ',
                    help='corner of the band-limited integration of the features (default 0.2)')
@@ -51,10 +54,9 @@ def _generic(request, args):
 def _bags(args):
     from wheel_force_estimator import INPUT_CHANNELS
     from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator.bagio import load_topic_config
     from wheel_force_estimator.cli.common import read_recordings
     from wheel_force_estimator.diagnosis.recording import from_bag_recording
-    topics = load_topic_config(args.config)
+    topics = topic_config(args)
 
     def load(paths):
         out = []

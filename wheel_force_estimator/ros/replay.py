@@ -77,7 +77,7 @@ class ReplaySettings:
     """
 
     rate: float = 1.0
-    topics: TopicConfig = TopicConfig()
+    topics: TopicConfig = TopicConfig().resolved()
     imu_frame_ids: Tuple[str, ...] = tuple(f'{c}_spindle' for c in CORNERS)
     record: bool = False
     wait_subscribers_s: float = 5.0
@@ -319,19 +319,20 @@ def _wait_for_outputs(collector: _Collector, n_expected: int, settle_s: float):
         if time.monotonic() - collector.last_rx_s > settle_s:
             break
         time.sleep(0.02)
-    # The damage message following the last output carries the final totals.
+    # The damage message made when the input stopped covers every output.
     n_out = min(len(r) for r in collector.raw)
     deadline = time.monotonic() + settle_s
     while time.monotonic() < deadline:
         damage = collector.damage
-        if damage is not None and damage.status and _published(damage) >= n_out:
+        if damage is not None and damage.status and _covered(damage) >= n_out:
             break
         time.sleep(0.02)
 
 
-def _published(damage: DiagnosticArray) -> int:
+def _covered(damage: DiagnosticArray) -> int:
+    """Return how many estimates a damage message covers (its ``samples`` value)."""
     for kv in damage.status[0].values:
-        if kv.key == 'published':
+        if kv.key == 'samples':
             return int(kv.value)
     return -1
 

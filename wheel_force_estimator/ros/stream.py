@@ -93,6 +93,8 @@ class DamageReport:
         Accumulated pseudo damage per output channel [N^k].
     rate_per_s : numpy.ndarray, shape (n_outputs,)
         Damage increase since the previous report per second of data time [N^k/s].
+    n_samples : int
+        Number of estimates the damage covers.
     final : bool
         Made at an end of stream (stall, shutdown, jump), not at a period boundary.
 
@@ -101,6 +103,7 @@ class DamageReport:
     stamp_ns: int
     damage: np.ndarray
     rate_per_s: np.ndarray
+    n_samples: int
     final: bool = False
 
 
@@ -198,6 +201,7 @@ class ForceStream:
         self._next_report_ns: Optional[int] = None        # next data-time boundary
         self._last_report = None                          # (stamp_ns, damage)
         self._last_out_ns: Optional[int] = None
+        self._n_damaged = 0                               # estimates in the damage
 
     def _reset_filter(self):
         self._predictor.reset()
@@ -289,7 +293,7 @@ class ForceStream:
         rate = (damage - before) / span_s if span_s > 0 else np.zeros_like(damage)
         if not final:
             self._last_report = (stamp_ns, damage)
-        return DamageReport(int(stamp_ns), damage, rate, final)
+        return DamageReport(int(stamp_ns), damage, rate, self._n_damaged, final)
 
     def flush(self) -> None:
         """Complete the estimates in flight (stall / end of stream); the filter restarts."""
@@ -375,6 +379,7 @@ class ForceStream:
             if cut >= stamps.size:
                 break
             self._damage.update(force[:, lo:cut])
+            self._n_damaged += cut - lo
             # After a long gap several boundaries may lie before the next stamp: one report,
             # at the last of them.
             k = (int(stamps[cut]) - self._next_report_ns) // self._report_ns
@@ -383,6 +388,7 @@ class ForceStream:
             self._next_report_ns = boundary + self._report_ns
             lo = cut
         self._damage.update(force[:, lo:])
+        self._n_damaged += stamps.size - lo
         self._last_out_ns = int(stamps[-1])
 
     def _flush(self):
