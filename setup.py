@@ -17,6 +17,7 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
         ('share/' + package_name + '/config/vehicles', glob('config/vehicles/*.yaml')),
+        ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
     ],
     package_data={package_name: ['py.typed']},
     install_requires=[
@@ -29,8 +30,12 @@ setup(
         'numba>=0.58',
         'rosbags>=0.11',
     ],
-    # faster mcap chunk CRCs (bagio/checksum.py; the stdlib zlib fallback gives equal values)
-    extras_require={'fast': ['isal>=1.0']},
+    extras_require={
+        # faster mcap chunk CRCs (bagio/checksum.py; the stdlib zlib fallback gives equal values)
+        'fast': ['isal>=1.0'],
+        # what `colcon test` (python -m pytest on test/) needs besides the ament linters
+        'test': ['pytest', 'pytest-timeout', 'lxml', 'catkin_pkg', 'mcap'],
+    },
     zip_safe=True,
     maintainer='wheel_force_estimator maintainers',
     maintainer_email='wheel-force@example.com',

@@ -97,9 +97,9 @@ def isolated_ros_env(base: Optional[Mapping[str, str]] = None) -> Dict[str, str]
 
 
 def node_command(model_path, params: Mapping[str, object] = (),
-                 params_file: Optional[Path] = None) -> list:
+                 params_file: Optional[Path] = None, ros_args: Sequence[str] = ()) -> list:
     """Return the command line running ``wheel_force_node`` with parameter overrides."""
-    cmd = [sys.executable, '-m', 'wheel_force_estimator.ros.node', '--ros-args']
+    cmd = [sys.executable, '-m', 'wheel_force_estimator.ros.node', '--ros-args', *ros_args]
     if params_file is not None:
         cmd += ['--params-file', str(params_file)]
     cmd += ['-p', f'model_path:={model_path}']
@@ -109,17 +109,20 @@ def node_command(model_path, params: Mapping[str, object] = (),
                                     for v in value) + ']'
         elif isinstance(value, float):
             value = repr(value)
+        elif isinstance(value, bool):
+            value = str(value).lower()
         cmd += ['-p', f'{key}:={value}']
     return cmd
 
 
 def start_node(model_path, env: Mapping[str, str], params: Mapping[str, object] = (),
-               log_path: Optional[Path] = None) -> subprocess.Popen:
+               log_path: Optional[Path] = None, params_file: Optional[Path] = None,
+               ros_args: Sequence[str] = ()) -> subprocess.Popen:
     """Start the node as a subprocess (stdout/stderr to ``log_path`` or discarded)."""
     out = open(log_path, 'w') if log_path is not None else subprocess.DEVNULL
     try:
-        return subprocess.Popen(node_command(model_path, params), env=dict(env), stdout=out,
-                                stderr=subprocess.STDOUT)
+        return subprocess.Popen(node_command(model_path, params, params_file, ros_args),
+                                env=dict(env), stdout=out, stderr=subprocess.STDOUT)
     finally:
         if log_path is not None:
             out.close()
