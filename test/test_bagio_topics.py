@@ -20,10 +20,11 @@ def _yaml(tmp_path, body):
 
 
 def test_defaults_are_design_names():
-    raw = TopicConfig()
-    assert raw.imu_topics[0] == 'spindle/lf/imu' and raw.damage_topic == 'virtual_wft/damage'
+    from wheel_force_estimator.bagio import topics
+    assert topics.DEFAULT_IMU_TOPICS[0] == 'spindle/lf/imu'      # relative: moves with __ns
+    assert topics.DEFAULT_DAMAGE_TOPIC == 'virtual_wft/damage'
     cfg = load_topic_config(None)
-    assert cfg == TopicConfig().resolved('/')
+    assert cfg == TopicConfig()
     assert cfg.imu_topics == ('/spindle/lf/imu', '/spindle/rf/imu', '/spindle/lr/imu',
                               '/spindle/rr/imu')
     assert cfg.wft_topics[3] == '/wft/rr/wrench'
@@ -35,7 +36,7 @@ def test_defaults_are_design_names():
 
 
 def test_repo_config_file_loads():
-    assert load_topic_config(REPO_CONFIG) == TopicConfig().resolved()
+    assert load_topic_config(REPO_CONFIG) == TopicConfig()
     assert load_topic_config(REPO_CONFIG, '/car2').imu_topics[3] == '/car2/spindle/rr/imu'
 
 
@@ -70,7 +71,7 @@ def test_remapped_topics(tmp_path):
                            '    event_topic: "/events"\n    block_size: 64\n')
     cfg = load_topic_config(path)
     assert cfg.imu_topics == ('/a/imu', '/b/imu', '/c/imu', '/d/imu')
-    assert cfg.event_topic == '/events' and cfg.wft_topics == TopicConfig().resolved().wft_topics
+    assert cfg.event_topic == '/events' and cfg.wft_topics == TopicConfig().wft_topics
 
 
 def test_wildcard_section(tmp_path):
@@ -120,4 +121,4 @@ def test_every_node_parameter_is_accepted(tmp_path):
     params = pytest.importorskip('wheel_force_estimator.ros.params',
                                  reason='rclpy (ROS 2 Jazzy wheels) not importable')
     lines = ''.join(f'    {spec.name}: {spec.default!r}\n' for spec in params.PARAMETERS)
-    assert load_topic_config(_yaml(tmp_path, lines.replace("'", '"'))) == TopicConfig().resolved()
+    assert load_topic_config(_yaml(tmp_path, lines.replace("'", '"'))) == TopicConfig()

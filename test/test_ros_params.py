@@ -55,11 +55,10 @@ def test_shipped_params_file_is_the_code_defaults():
 
 
 def test_topic_defaults_are_relative_and_shared_with_the_offline_commands():
-    from wheel_force_estimator.bagio.topics import TopicConfig
+    from wheel_force_estimator.bagio import topics
     defaults = {s.name: s.default for s in PARAMETERS}
-    topics = TopicConfig()
-    assert defaults['imu_topics'] == list(topics.imu_topics)
-    assert defaults['output_topics'] == list(topics.output_topics)
+    assert defaults['imu_topics'] == list(topics.DEFAULT_IMU_TOPICS)
+    assert defaults['output_topics'] == list(topics.DEFAULT_OUTPUT_TOPICS)
     assert defaults['frame_ids'] == [f'{c}_wheel_center' for c in ('lf', 'rf', 'lr', 'rr')]
     names = (defaults['imu_topics'] + defaults['wft_topics'] + defaults['output_topics']
              + [defaults['damage_topic'], defaults['event_topic'], defaults['travel_topic']])

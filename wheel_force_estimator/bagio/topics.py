@@ -8,10 +8,10 @@ remapped topic is remapped everywhere.  Only the topic/frame keys are interprete
 other node parameters are recognised (so a typo is still reported) and left to the node.
 
 Names are relative by default (DESIGN.md), so a node started in a namespace moves with it.
-Bags record resolved (absolute) names: the offline commands resolve relative names against a
-namespace (``--namespace``, default ``/``) with :func:`resolve_name`, ROS 2's rule.
-:class:`TopicConfig`'s defaults are the one home of the default names; the node declares its
-parameters with them.
+Bags record resolved (absolute) names, so a :class:`TopicConfig` holds resolved names: it
+resolves what it is given against its ``namespace`` (``--namespace``, default ``/``) with
+:func:`resolve_name`, ROS 2's rule.  The ``DEFAULT_*`` constants here are the one home of the
+default names; the node declares its parameters with them.
 """
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,6 +25,8 @@ import yaml
 
 NODE_SECTION = 'wheel_force_node'
 WILDCARD_SECTION = '/**'
+#: The fit settings' section (read by cli/common.py); a file with only it is a valid config.
+FIT_SECTION = 'wheel_force_fit'
 # ROS 2 params files may address the node by the wildcard, plain or absolute name; like rcl,
 # a section naming the node overrides the wildcard's values.
 _SECTION_NAMES = (WILDCARD_SECTION, NODE_SECTION, '/' + NODE_SECTION)
@@ -38,6 +40,14 @@ NODE_ONLY_KEYS = frozenset({
     'input_reliability', 'output_qos_depth', 'flush_timeout_s', 'sample_rate_hz',
     'unknown_torque', 'travel_topic', 'use_sim_time',
 })
+
+DEFAULT_IMU_TOPICS = tuple(f'spindle/{c}/imu' for c in CORNERS)
+DEFAULT_WFT_TOPICS = tuple(f'wft/{c}/wrench' for c in CORNERS)
+DEFAULT_OUTPUT_TOPICS = tuple(f'virtual_wft/{c}/wrench' for c in CORNERS)
+DEFAULT_DAMAGE_TOPIC = 'virtual_wft/damage'
+DEFAULT_EVENT_TOPIC = 'proving_ground/event'
+#: Non-rotating frames at the wheel centres, axes vehicle-aligned (x forward, y left, z up).
+DEFAULT_FRAME_IDS = tuple(f'{c}_wheel_center' for c in CORNERS)
 
 _TOPIC_RE = re.compile(r'^[~/]?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$')
 _NAMESPACE_RE = re.compile(r'^/([A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*)?$')
@@ -108,7 +118,10 @@ def _validate_frame(value, key: str, where: str) -> str:
 @dataclass(frozen=True)
 class TopicConfig:
     """
-    Topic names (one per corner, order lf, rf, lr, rr) and output frame ids.
+    Resolved topic names (one per corner, order lf, rf, lr, rr) and output frame ids.
+
+    Names given relative (``spindle/lf/imu``) are resolved against ``namespace`` when the
+    config is made, so every name it holds is absolute, as a bag records it.
 
     Attributes
     ----------
@@ -124,27 +137,38 @@ class TopicConfig:
         std_msgs/String proving-ground event topic (optional in a recording).
     frame_ids : tuple of str
         ``header.frame_id`` of the output wrenches, one per corner.
+    namespace : str
+        Namespace relative names were resolved against (``/`` by default).
+
+    Raises
+    ------
+    ConfigError
+        An invalid name or namespace, or a topic used for two purposes.
 
     """
 
-    imu_topics: Tuple[str, ...] = tuple(f'spindle/{c}/imu' for c in CORNERS)
-    wft_topics: Tuple[str, ...] = tuple(f'wft/{c}/wrench' for c in CORNERS)
-    output_topics: Tuple[str, ...] = tuple(f'virtual_wft/{c}/wrench' for c in CORNERS)
-    damage_topic: str = 'virtual_wft/damage'
-    event_topic: str = 'proving_ground/event'
-    frame_ids: Tuple[str, ...] = tuple(f'{c}_wheel_center' for c in CORNERS)
+    imu_topics: Tuple[str, ...] = DEFAULT_IMU_TOPICS
+    wft_topics: Tuple[str, ...] = DEFAULT_WFT_TOPICS
+    output_topics: Tuple[str, ...] = DEFAULT_OUTPUT_TOPICS
+    damage_topic: str = DEFAULT_DAMAGE_TOPIC
+    event_topic: str = DEFAULT_EVENT_TOPIC
+    frame_ids: Tuple[str, ...] = DEFAULT_FRAME_IDS
+    namespace: str = '/'
 
     def __post_init__(self):
-        """Validate names and reject a topic used for two purposes."""
+        """Validate and resolve the names; reject a topic used for two purposes."""
         where = 'TopicConfig'
+        ns = validate_namespace(self.namespace)
+        object.__setattr__(self, 'namespace', ns)
         for key in ('imu_topics', 'wft_topics', 'output_topics'):
-            object.__setattr__(
-                self, key, _validate_list(getattr(self, key), key, where, _validate_topic))
+            names = _validate_list(getattr(self, key), key, where, _validate_topic)
+            object.__setattr__(self, key, tuple(resolve_name(n, ns) for n in names))
         object.__setattr__(
             self, 'frame_ids', _validate_list(self.frame_ids, 'frame_ids', where,
                                               _validate_frame))
-        _validate_topic(self.damage_topic, 'damage_topic', where)
-        _validate_topic(self.event_topic, 'event_topic', where)
+        for key in ('damage_topic', 'event_topic'):
+            name = _validate_topic(getattr(self, key), key, where)
+            object.__setattr__(self, key, resolve_name(name, ns))
         names = (self.imu_topics + self.wft_topics + self.output_topics
                  + (self.damage_topic, self.event_topic))
         seen = set()
@@ -152,16 +176,6 @@ class TopicConfig:
             if name in seen:
                 raise ConfigError(f'{where}: topic {name!r} is used for two purposes')
             seen.add(name)
-
-    def resolved(self, namespace: str = '/') -> 'TopicConfig':
-        """Return the config with every topic name resolved against ``namespace``."""
-        def res(name):
-            return resolve_name(name, namespace)
-        return TopicConfig(imu_topics=tuple(map(res, self.imu_topics)),
-                           wft_topics=tuple(map(res, self.wft_topics)),
-                           output_topics=tuple(map(res, self.output_topics)),
-                           damage_topic=res(self.damage_topic),
-                           event_topic=res(self.event_topic), frame_ids=self.frame_ids)
 
 
 _TOPIC_LIST_KEYS = ('imu_topics', 'wft_topics', 'output_topics')
@@ -194,7 +208,7 @@ def load_topic_config(path=None, namespace: str = '/') -> TopicConfig:
 
     """
     if path is None:
-        return TopicConfig().resolved(namespace)
+        return TopicConfig(namespace=namespace)
     path = Path(path)
     try:
         text = path.read_text(encoding='utf-8')
@@ -207,6 +221,8 @@ def load_topic_config(path=None, namespace: str = '/') -> TopicConfig:
     if not isinstance(doc, dict):
         raise ConfigError(f'{path}: expected a mapping with a {NODE_SECTION!r} section')
     sections = [n for n in _SECTION_NAMES if n in doc]
+    if not sections and FIT_SECTION in doc:
+        return TopicConfig(namespace=namespace)     # fit settings only: default topics
     if not sections:
         raise ConfigError(f'{path}: no {WILDCARD_SECTION!r} or {NODE_SECTION!r} section '
                           f'(keys: {sorted(doc)})')
@@ -236,20 +252,15 @@ def load_topic_config(path=None, namespace: str = '/') -> TopicConfig:
         values['frame_ids'] = _validate_list(params['frame_ids'], 'frame_ids', where,
                                              _validate_frame)
     try:
-        return TopicConfig(**values).resolved(namespace)
+        return TopicConfig(**values, namespace=namespace)
     except ConfigError as err:
         raise ConfigError(f'{path}: {err}') from err
 
 
 def default_topic_config(topics: Optional[TopicConfig]) -> TopicConfig:
-    """
-    Return ``topics`` or the defaults, resolved against ``/``.
-
-    Relative names in a config built in code resolve as in the root namespace; configs from
-    :func:`load_topic_config` are absolute already.  Anything but a TopicConfig is refused.
-    """
+    """Return ``topics`` or the defaults; reject anything that is not a TopicConfig."""
     if topics is None:
-        return TopicConfig().resolved()
+        return TopicConfig()
     if not isinstance(topics, TopicConfig):
         raise ConfigError(f'topics must be a TopicConfig, got {type(topics).__name__}')
-    return topics.resolved()
+    return topics

@@ -16,10 +16,9 @@ from pathlib import Path
 import sys
 from typing import Iterable, Optional, Sequence, Tuple
 
+from wheel_force_estimator.bagio.topics import FIT_SECTION
 from wheel_force_estimator.core.errors import ConfigError
 import yaml
-
-FIT_SECTION = 'wheel_force_fit'
 _FIT_KEYS = {
     'segment_length': int, 'overlap': float, 'window': str, 'detrend': str,
     'estimator': str, 'regularisation': float, 'f_min_hz': float, 'f_max_hz': float,

@@ -10,8 +10,8 @@ running: it affects the diagnostics level, nothing else).  All values are then c
 in :class:`NodeParams`; any problem raises :class:`ConfigError` naming the parameter, and the
 node refuses to start with that one message.
 
-Defaults have one home each: topic names and frame ids are :class:`TopicConfig`'s (shared with
-the offline commands), everything else is in :data:`PARAMETERS`; the shipped params file is
+Defaults have one home each: topic names and frame ids are :mod:`..bagio.topics`'s (shared
+with the offline commands), everything else is in :data:`PARAMETERS`; the shipped params file is
 checked against both by a test.  Topic names are relative (DESIGN.md), so the node moves
 with its namespace.
 """
@@ -24,6 +24,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import ParameterException
 
 from wheel_force_estimator import CORNERS
+from wheel_force_estimator.bagio import topics as topic_defaults
 from wheel_force_estimator.bagio.topics import TopicConfig
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ModelFileError
@@ -34,7 +35,6 @@ RELIABILITIES = ('best_effort', 'reliable')
 #: What the wrench torque holds when the model has no moments.
 UNKNOWN_TORQUES = ('zero', 'nan')
 _MAX_FLOAT = 1.0e300
-_TOPICS = TopicConfig()
 
 
 @dataclass(frozen=True)
@@ -63,22 +63,22 @@ _FOUR = 'list of 4, corners lf, rf, lr, rr'
 PARAMETERS = (
     _Spec('model_path', '', 'model file (.npz) written by `wheel-force fit` [path]',
           constraints='required; channels and sample rate must match the node'),
-    _Spec('imu_topics', list(_TOPICS.imu_topics),
+    _Spec('imu_topics', list(topic_defaults.DEFAULT_IMU_TOPICS),
           'sensor_msgs/Imu input topics, relative to the node namespace [topic names]',
           constraints=_FOUR),
-    _Spec('wft_topics', list(_TOPICS.wft_topics),
+    _Spec('wft_topics', list(topic_defaults.DEFAULT_WFT_TOPICS),
           'measured wheel force topics (offline commands; not used live) [topic names]',
           constraints=_FOUR),
     _Spec('travel_topic', 'suspension/joint_states',
           'sensor_msgs/JointState suspension travel (offline commands; not used live) '
           '[topic name]'),
-    _Spec('output_topics', list(_TOPICS.output_topics),
+    _Spec('output_topics', list(topic_defaults.DEFAULT_OUTPUT_TOPICS),
           'geometry_msgs/WrenchStamped output topics [topic names]', constraints=_FOUR),
-    _Spec('damage_topic', _TOPICS.damage_topic,
+    _Spec('damage_topic', topic_defaults.DEFAULT_DAMAGE_TOPIC,
           'diagnostic_msgs/DiagnosticArray running pseudo damage topic [topic name]'),
-    _Spec('event_topic', _TOPICS.event_topic,
+    _Spec('event_topic', topic_defaults.DEFAULT_EVENT_TOPIC,
           'std_msgs/String proving-ground event topic (shown in diagnostics) [topic name]'),
-    _Spec('frame_ids', list(_TOPICS.frame_ids),
+    _Spec('frame_ids', list(topic_defaults.DEFAULT_FRAME_IDS),
           'header.frame_id of the output wrenches: non-rotating, vehicle-aligned frames at '
           'the wheel centres [frame ids]', constraints=_FOUR),
     _Spec('imu_frame_ids', [''],

@@ -77,7 +77,7 @@ class ReplaySettings:
     """
 
     rate: float = 1.0
-    topics: TopicConfig = TopicConfig().resolved()
+    topics: TopicConfig = TopicConfig()
     imu_frame_ids: Tuple[str, ...] = tuple(f'{c}_spindle' for c in CORNERS)
     record: bool = False
     wait_subscribers_s: float = 5.0
