@@ -19,7 +19,8 @@ Wiring (all in ``WheelForceNode.__init__``; callbacks stay tiny):
   rate: every input message earns a quarter of an output sample (four corners), so the
   estimates leave at the rhythm the samples came in, spread over the next block.  The wait
   this adds is at most about one block, and is measured and reported (``/diagnostics``,
-  shutdown summary).  Without input (end of a replay), the rest leaves at the model's rate.
+  shutdown summary).  Without input (end of a replay), the rest leaves one sample per sample
+  period of the model.
 * the running pseudo damage on ``damage_topic`` every ``damage_publish_period_s`` of **data
   time** (sample stamps, :mod:`.stream`), so a replay at any rate or under sim time gives the
   same messages; a last one when the input stops and at shutdown.
@@ -66,6 +67,7 @@ from wheel_force_estimator.core.predict import Predictor
 from wheel_force_estimator.ros.aligner import AlignedSamples
 from wheel_force_estimator.ros.aligner import CornerAligner
 from wheel_force_estimator.ros.conversions import decode_imu
+from wheel_force_estimator.ros.conversions import encode_imu
 from wheel_force_estimator.ros.conversions import encode_wrench
 from wheel_force_estimator.ros.diagnostics import build_damage_array
 from wheel_force_estimator.ros.diagnostics import build_health_array
@@ -127,6 +129,7 @@ class WheelForceNode(Node):
         except WheelForceError:
             self.destroy_node()
             raise
+        _warm_up(model, layout, params)
         for name in unknown_parameters(self):
             self.get_logger().warning(
                 f'parameter {name!r} (params file or -p) is not a parameter of this node: '
@@ -150,7 +153,6 @@ class WheelForceNode(Node):
         self._dropped = {reason: np.zeros(n, dtype=np.int64) for reason in _DROP_REASONS}
         self._last_rx_s = [None] * n
         self._last_input_s = None
-        self._last_tick_s = time.monotonic()
         self._input_since_tick = False
         self._final_sent_for = None       # samples_out at the last end-of-stream report
         self._damage_messages = 0
@@ -181,6 +183,9 @@ class WheelForceNode(Node):
                                                clock=self._steady)
         self._health_timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_health,
                                                clock=self._steady)
+        # Paces what waits when no input arrives (a tail): one sample per sample period.
+        self._idle_timer = self.create_timer(1.0 / model.fs_hz, self._on_idle_tick,
+                                             clock=self._steady, autostart=False)
         self._imu_names = [sub.topic_name for sub in self._subs]
         delay = self._stream.delay_samples
         self.get_logger().info(
@@ -216,7 +221,6 @@ class WheelForceNode(Node):
 
     def _on_housekeeping(self):
         now = time.monotonic()
-        dt, self._last_tick_s = now - self._last_tick_s, now
         had_input, self._input_since_tick = self._input_since_tick, False
         if any(self._raw):
             self._process(now)
@@ -224,10 +228,15 @@ class WheelForceNode(Node):
                 and now - self._last_input_s > self._params.flush_timeout_s):
             self._end_of_stream('no input for '
                                 f'{now - self._last_input_s:.2f} s (flush_timeout_s)')
-        if self._n_unpublished and not had_input:
+        if self._n_unpublished and not had_input and self._idle_timer.is_canceled():
             # No input to pace by (end of a replay, a stall): the model's sample rate.
-            self._credit += dt * self._fs_hz
-            self._pace()
+            self._idle_timer.reset()
+
+    def _on_idle_tick(self):
+        if self._n_unpublished and not self._input_since_tick:
+            self._pump(1)
+        else:
+            self._idle_timer.cancel()
 
     # -- processing --------------------------------------------------------------------------
 
@@ -514,6 +523,31 @@ class WheelForceNode(Node):
         p50, p99, worst = self.pacing_latency_ms()
         return (f'counters per corner (lf, rf, lr, rr): {text}; pacing latency p50 '
                 f'{p50:.1f} ms, p99 {p99:.1f} ms, max {worst:.1f} ms')
+
+
+def _warm_up(model, layout, params):
+    """
+    Run the whole processing chain once on made-up samples, on throwaway objects.
+
+    The first call of the filter, the damage counter (numba) and the codecs compiles and plans
+    (~0.2 s measured, more on a loaded machine); done while the first messages arrive, it
+    stalls the executor long enough to overflow the input queues.
+    """
+    n = 2 * params.block_size + layout.causal_delay_samples
+    period_ns = int(round(1e9 / model.fs_hz))
+    stamps = np.arange(1, n + 1, dtype=np.int64) * period_ns
+    accel = np.repeat(np.asarray(model.static_accel_mps2, float)[:, None], n, axis=1)
+    blobs = [raw for c in range(len(CORNERS))
+             for raw in encode_imu(stamps, accel[3 * c:3 * c + 3], 'warm_up')]
+    decode_imu(blobs)
+    stream = ForceStream(Predictor(model, causal_delay_samples=layout.causal_delay_samples),
+                         params.block_size, params.sn_slope,
+                         damage_period_s=params.damage_publish_period_s)
+    stream.feed(stamps, accel)
+    stream.flush()
+    out_stamps, force = stream.take()
+    encode_wrench(out_stamps, force[list(layout.force_rows[0])], 'warm_up')
+    stream.final_damage_report()
 
 
 def _slice(decoded, lo: int, hi: int):
