@@ -43,7 +43,7 @@ TEST_KEYS = {
     'pytest': 'python3-pytest', 'pytest_timeout': 'python3-pytest-timeout',
     'catkin_pkg': 'python3-catkin-pkg', 'lxml': 'etree', 'mcap': None,
     'ament_copyright': 'ament_copyright', 'ament_flake8': 'ament_flake8',
-    'ament_pep257': 'ament_pep257',
+    'ament_pep257': 'ament_pep257', 'rosgraph_msgs': 'rosgraph_msgs',
 }
 
 

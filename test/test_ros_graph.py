@@ -19,10 +19,10 @@ from rclpy.qos import ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
+from wheel_force_estimator.bagio.cdr import decode_wrench
+from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.predict import predict_forces
-from wheel_force_estimator.ros.conversions import decode_wrench
-from wheel_force_estimator.ros.conversions import encode_imu
 from wheel_force_estimator.ros.diagnostics import status_values
 from wheel_force_estimator.ros.testing import isolated_ros_env
 from wheel_force_estimator.ros.testing import sample_stamps

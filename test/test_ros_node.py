@@ -14,10 +14,10 @@ from sensor_msgs.msg import Imu
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import TopicConfig
 from wheel_force_estimator.bagio import write_recording
+from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.core.fatigue import pseudo_damage
 from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.predict import predict_forces
-from wheel_force_estimator.ros.conversions import encode_imu
 from wheel_force_estimator.ros.diagnostics import status_values
 from wheel_force_estimator.ros.replay import replay_bag
 from wheel_force_estimator.ros.replay import ReplaySettings

@@ -10,6 +10,7 @@ Batches go to the per-topic sinks of :mod:`.storage`.
 """
 from concurrent.futures import ThreadPoolExecutor
 import mmap
+import os
 from pathlib import Path
 import struct
 import sys
@@ -33,8 +34,21 @@ _RECORD_DTYPE = np.dtype({'names': ['opcode', 'length', 'channel'],
 _BATCH_BYTES = 64 << 20
 # Bytes of unwanted records between two wanted chunks still read rather than skipped.
 _MAX_SKIP = 1 << 20
-# Threads decoding the channels of a batch side by side (the machine has 2 cores).
-_DECODE_THREADS = 2
+
+
+def decode_threads(n_channels: int) -> int:
+    """
+    Return how many threads decode the channels of a batch side by side.
+
+    One per CPU this process may run on (its affinity mask, e.g. a container's cpuset; else
+    ``os.cpu_count()``), never more than there are channels: numpy's gathers, comparisons
+    and copies release the GIL, so each thread keeps one CPU busy.
+    """
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:      # not on Linux
+        cpus = os.cpu_count() or 1
+    return max(1, min(cpus, n_channels))
 
 
 def _zstd_decompress(data: bytes) -> bytes:
@@ -170,7 +184,7 @@ class McapFile:
         # comparisons and copies release the GIL); every sink exists before that starts.
         for topic, msgtype in wanted.values():
             collectors.sink(topic, msgtype)
-        self._decoders = ThreadPoolExecutor(max_workers=_DECODE_THREADS)
+        self._decoders = ThreadPoolExecutor(max_workers=decode_threads(len(wanted)))
         try:
             upcoming = self._submit_crcs(mm, batches[0], pool)
             for k, (batch, lo, hi) in enumerate(batches):

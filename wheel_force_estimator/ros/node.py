@@ -61,14 +61,14 @@ from sensor_msgs.msg import Imu
 from std_msgs.msg import String
 
 from wheel_force_estimator import CORNERS
+from wheel_force_estimator.bagio.cdr import decode_imu
+from wheel_force_estimator.bagio.cdr import encode_imu
+from wheel_force_estimator.bagio.cdr import encode_wrench
 from wheel_force_estimator.core.errors import WheelForceError
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.core.predict import Predictor
 from wheel_force_estimator.ros.aligner import AlignedSamples
 from wheel_force_estimator.ros.aligner import CornerAligner
-from wheel_force_estimator.ros.conversions import decode_imu
-from wheel_force_estimator.ros.conversions import encode_imu
-from wheel_force_estimator.ros.conversions import encode_wrench
 from wheel_force_estimator.ros.diagnostics import build_damage_array
 from wheel_force_estimator.ros.diagnostics import build_health_array
 from wheel_force_estimator.ros.diagnostics import CornerReport

@@ -32,11 +32,11 @@ from sensor_msgs.msg import Imu
 from std_msgs.msg import String
 
 from wheel_force_estimator import CORNERS
+from wheel_force_estimator.bagio.cdr import decode_wrench
+from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.bagio.topics import TopicConfig
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
-from wheel_force_estimator.ros.conversions import decode_wrench
-from wheel_force_estimator.ros.conversions import encode_imu
 
 # Samples encoded per chunk: bounds memory for long recordings.
 _ENCODE_CHUNK = 4096
