@@ -313,9 +313,9 @@ def settle(consumer, target, expect_received, timeout_s=5.0):
     return consumer.snapshot(target)
 
 
-def throughput(target, env, consumer, model_path, rates, trial_s, stamp0):
+def throughput(target, env, consumer, model_path, rates, trial_s, stamp0, block=16):
     """Return (highest lossless rate, table of trials)."""
-    proc = start_target(target, env, model_path)
+    proc = start_target(target, env, model_path, block)
     pub = Publisher(env)
     rows, best = [], 0.0
     try:
@@ -346,7 +346,7 @@ def throughput(target, env, consumer, model_path, rates, trial_s, stamp0):
             achieved = n / FS_HZ / res['wall_s']
             ok = got_in == 4 * n and got_pub == 4 * n and got_out == n
             rows.append((rate, achieved, got_in, got_pub, got_out, 4 * n, cpu, ok))
-            print(f'  {target:5s} asked {rate:5.1f}x achieved {achieved:5.1f}x: in '
+            print(f'  {target:5s} block {block:3d} asked {rate:5.1f}x achieved {achieved:5.1f}x: in '
                   f'{got_in}/{4 * n}, published {got_pub}/{4 * n}, lf received '
                   f'{got_out}/{n}, CPU {100 * cpu:5.1f} % -> {"ok" if ok else "LOSS"}',
                   flush=True)
@@ -448,6 +448,10 @@ def main():
     parser.add_argument('--relay', action='store_true', help=argparse.SUPPRESS)
     parser.add_argument('--publisher', action='store_true', help=argparse.SUPPRESS)
     parser.add_argument('--trial-s', type=float, default=None, help='wall seconds per trial')
+    parser.add_argument('--blocks', type=lambda t: [int(v) for v in t.split(',')],
+                        default=[16, 128], help='node block sizes of the throughput trials')
+    parser.add_argument('--no-delay-cost', action='store_true',
+                        help='skip the causal-delay RMSE table (fits a model: slow)')
     args = parser.parse_args()
     if args.relay:
         return run_relay()
@@ -470,15 +474,16 @@ def main():
     delay_ms = 1e3 * round(0.05 * FS_HZ) / FS_HZ
     consumer = Consumer()
     try:
-        print(f'== throughput (trials of {trial_s:g} s wall; 1024-tap model, block 16)')
+        print(f'== throughput (trials of {trial_s:g} s wall; 1024-tap model)')
         stamp0 = 1_700_000_000 * 10**9
         relay_best, _, stamp0 = throughput('relay', env, consumer, None, rates, trial_s, stamp0)
-        node_best, _, stamp0 = throughput('node', env, consumer, model_path, rates, trial_s,
-                                          stamp0)
-        ratio = node_best / relay_best if relay_best else float('nan')
-        print(f'sustained lossless rate: node {node_best:.1f}x real time, bare relay '
-              f'{relay_best:.1f}x -> node = {100 * ratio:.0f} % of relay '
-              f'(goals: >= 80 %, >= 5x)')
+        for block in args.blocks:
+            node_best, _, stamp0 = throughput('node', env, consumer, model_path, rates,
+                                              trial_s, stamp0, block)
+            ratio = node_best / relay_best if relay_best else float('nan')
+            print(f'sustained lossless rate, block {block}: node {node_best:.1f}x real time, '
+                  f'bare relay {relay_best:.1f}x -> node = {100 * ratio:.0f} % of relay '
+                  f'(goals: >= 80 %, >= 5x)', flush=True)
 
         seconds = 6.0 if args.quick else 12.0
         print(f'== latency and CPU at 1x real time ({seconds:g} s live stream each)')
@@ -498,6 +503,8 @@ def main():
         consumer.close()
         tmpdir.cleanup()
 
+    if args.no_delay_cost:
+        return 0
     print('== causal delay cost: RMSE % of the live (truncated look-ahead) prediction vs the '
           'non-causal offline one, and vs the measured force')
     rows, model, source = causal_delay_cost([0, 16, 32, 64, 128, 256, 512])
