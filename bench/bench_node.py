@@ -347,8 +347,8 @@ def throughput(target, env, consumer, model_path, rates, trial_s, stamp0, block=
             ok = got_in == 4 * n and got_pub == 4 * n and got_out == n
             rows.append((rate, achieved, got_in, got_pub, got_out, 4 * n, cpu, ok))
             print(f'  {target:5s} block {block:3d} asked {rate:5.1f}x achieved '
-                  f'{achieved:5.1f}x: in {got_in}/{4 * n}, published {got_pub}/{4 * n}, lf received '
-                  f'{got_out}/{n}, CPU {100 * cpu:5.1f} % -> {"ok" if ok else "LOSS"}',
+                  f'{achieved:5.1f}x: in {got_in}/{4 * n}, published {got_pub}/{4 * n}, '
+                  f'lf received {got_out}/{n}, CPU {100 * cpu:5.1f} % -> {"ok" if ok else "LOSS"}',
                   flush=True)
             if ok:
                 best = max(best, achieved)
