@@ -81,6 +81,12 @@ class Peer(SpinningParticipant):
                                                        self.health.append, 100))
         self.subs.append(self.node.create_subscription(
             DiagnosticArray, f'{namespaces[0]}/virtual_wft/damage', self.damage.append, 100))
+        self.damage_by_ns = {}
+        for ns in namespaces:
+            self.damage_by_ns[ns] = []
+            self.subs.append(self.node.create_subscription(
+                DiagnosticArray, f'{ns}/virtual_wft/damage', self.damage_by_ns[ns].append,
+                100))
         self.clock_pub = self.node.create_publisher(Clock, '/clock', 10) if clock else None
         self.start()
 
@@ -118,10 +124,17 @@ def by_name(msg):
 
 def test_two_cars_in_one_graph_with_one_params_file(ros_env, model_and_file, tmp_path):
     model, path = model_and_file
+    # The shipped file with two values changed: it must apply to both instances, also to
+    # car2's node renamed with __node:= (that is what /** is for).
+    params = tmp_path / 'params.yaml'
+    text = CONFIG.read_text()
+    assert 'damage_publish_period_s: 1.0 ' in text and 'unknown_torque: "zero"' in text
+    text = text.replace('damage_publish_period_s: 1.0 ', 'damage_publish_period_s: 0.5 ')
+    params.write_text(text.replace('unknown_torque: "zero"', 'unknown_torque: "nan"'))
     procs = [start_node(path, ros_env, {'input_reliability': 'reliable'},
-                        log_path=tmp_path / f'{car}.log', params_file=CONFIG,
-                        ros_args=['-r', f'__ns:=/{car}'])
-             for car in ('car1', 'car2')]
+                        log_path=tmp_path / f'{car}.log', params_file=params,
+                        ros_args=['-r', f'__ns:=/{car}'] + extra)
+             for car, extra in (('car1', []), ('car2', ['-r', '__node:=rear_axle_wft']))]
     n = 1024
     stamps = sample_stamps(n)
     data = {'/car1': synthetic_accel(n, FS_HZ, seed=41),
@@ -145,9 +158,16 @@ def test_two_cars_in_one_graph_with_one_params_file(ros_env, model_and_file, tmp
                 np.testing.assert_allclose(wrench[:3], expected[3 * c:3 * c + 3], rtol=0,
                                            atol=RTOL * scale)
                 assert np.abs(wrench[:3] - other[3 * c:3 * c + 3]).max() > 1.0  # own inputs
+                assert np.isnan(wrench[3:]).all()         # unknown torque: "nan" applied
+            # damage every 0.5 s of data (the file's value), then the end-of-stream one
+            assert wait_until(lambda: len(peer.damage_by_ns[ns]) >= 3, 5.0)
+            first = peer.damage_by_ns[ns][0].header.stamp
+            assert first.sec * 10**9 + first.nanosec == int(stamps[0]) + 500_000_000
         # each instance reports health under its own fully qualified name
         ids = {s.hardware_id for m in peer.health for s in m.status}
-        assert ids == {'/car1/wheel_force_node', '/car2/wheel_force_node'}
+        assert ids == {'/car1/wheel_force_node', '/car2/rear_axle_wft'}
+        names = {s.name for m in peer.health for s in m.status}
+        assert {'wheel_force_node: lf', 'rear_axle_wft: rr', 'rear_axle_wft'} <= names
     finally:
         peer.close()
         codes = [stop_node(p) for p in procs]
