@@ -291,3 +291,39 @@ def test_input_topic_of_the_wrong_type_is_named_once(ros_env, model_and_file, tm
     lines = [ln for ln in log.read_text().splitlines() if 'publisher(s) of type' in ln]
     assert len(lines) == 1, lines
     assert '/wft/rf/wrench' in lines[0] and 'geometry_msgs/msg/WrenchStamped' in lines[0]
+
+
+def test_sigterm_flushes_the_look_ahead_and_publishes_everything(
+        ros_env, model_and_file, tmp_path):
+    model, path = model_and_file
+    log = tmp_path / 'node.log'
+    # a stall flush would come only after 60 s: what arrives below is the shutdown's doing
+    proc = start_node(path, ros_env, {'input_reliability': 'reliable', 'flush_timeout_s': 60.0},
+                      log_path=log)
+    n = 1000                                  # not a multiple of the block: a partial block
+    stamps = sample_stamps(n)
+    accel = synthetic_accel(n, FS_HZ, seed=46)
+    peer = Peer('sigterm')
+    try:
+        assert peer.wait_for_node()
+        time.sleep(0.5)
+        peer.publish('', stamps, accel, rate=4.0)
+        # everything but the look-ahead and the partial block is published while running
+        assert wait_until(lambda: min(len(r) for r in peer.raw.values()) >= n - LOOK_AHEAD - 16,
+                          10.0)
+        time.sleep(0.5)
+        assert max(len(r) for r in peer.raw.values()) < n     # the tail waits for more input
+        proc.send_signal(15)
+        assert proc.wait(20) == 0
+        assert wait_until(lambda: all(len(r) == n for r in peer.raw.values()), 5.0), \
+            [len(r) for r in peer.raw.values()]
+        assert wait_until(lambda: peer.damage and status_values(
+            peer.damage[-1].status[0])['samples'] == str(n), 5.0)
+    finally:
+        peer.close()
+    got_stamps, wrench = peer.forces('/virtual_wft/rr/wrench')
+    np.testing.assert_array_equal(got_stamps, stamps)
+    expected = predict_forces(model, accel, LOOK_AHEAD)
+    np.testing.assert_allclose(wrench[:3], expected[9:12], rtol=0,
+                               atol=RTOL * np.abs(expected).max())
+    assert 'counters per corner' in log.read_text()
