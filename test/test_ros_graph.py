@@ -222,35 +222,36 @@ def test_sim_time_with_a_paused_clock_and_input_that_stops(ros_env, model_and_fi
 
 def test_reliable_and_best_effort_depth_5_subscribers_get_everything_at_1x(
         ros_env, model_and_file, tmp_path):
+    """Each subscriber in a process of its own, as ``ros2 topic echo`` would be."""
+    import json
+    import subprocess
+    import sys
     _, path = model_and_file
     proc = start_node(path, ros_env, {'input_reliability': 'reliable'},
                       log_path=tmp_path / 'node.log')
     n = 1536                                  # 3 s at 1x
     stamps = sample_stamps(n)
     accel = synthetic_accel(n, FS_HZ, seed=44)
-    reliable = Peer('keep_last_5', out_qos=QoSProfile(
-        history=HistoryPolicy.KEEP_LAST, depth=5, reliability=ReliabilityPolicy.RELIABLE))
-    best_effort = SpinningParticipant('best_effort_5')
-    be_raw = {c: [] for c in CORNERS}
-    for c in CORNERS:
-        best_effort.node.create_subscription(
-            WrenchStamped, f'/virtual_wft/{c}/wrench', be_raw[c].append,
-            QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
-                       reliability=ReliabilityPolicy.BEST_EFFORT), raw=True)
-    best_effort.start()
+    topics = [f'/virtual_wft/{c}/wrench' for c in CORNERS]
+    counters = [subprocess.Popen(
+        [sys.executable, '-m', 'wheel_force_estimator.ros.testing', reliability, '5', str(n),
+         '20', *topics], env=ros_env, stdout=subprocess.PIPE, text=True)
+        for reliability in ('reliable', 'best_effort')]
+    peer = Peer('qos_feeder')
     try:
-        assert reliable.wait_for_node()
-        assert wait_until(lambda: all(best_effort.node.count_publishers(
-            f'/virtual_wft/{c}/wrench') for c in CORNERS), 30.0)
-        time.sleep(1.0)
-        reliable.publish('', stamps, accel, rate=1.0, burst=1)
-        complete = wait_until(lambda: all(len(r) == n for r in reliable.raw.values())
-                              and all(len(r) == n for r in be_raw.values()), 10.0)
-        counts = ([len(r) for r in reliable.raw.values()], [len(r) for r in be_raw.values()])
-        assert complete, counts
+        assert peer.wait_for_node()
+        for counter in counters:
+            assert counter.stdout.readline().strip() == 'ready'
+        time.sleep(1.0)                       # the writers' side of the matches
+        peer.publish('', stamps, accel, rate=1.0, burst=1)
+        counts = [json.loads(counter.stdout.readline()) for counter in counters]
     finally:
-        reliable.close()
-        best_effort.close()
+        peer.close()
+        for counter in counters:
+            if counter.poll() is None:
+                counter.kill()
+            counter.wait()
+    assert counts == [[n] * 4, [n] * 4], counts
     assert stop_node(proc) == 0
 
 

@@ -122,10 +122,7 @@ class WheelForceNode(Node):
             self._params = params = declare_node_parameters(self)
             model = load_model(params.model_path)
             self._layout = layout = model_layout(model, params)
-            # The node's one Predictor: the live (causal) estimator for this look-ahead.
-            predictor = Predictor(model, causal_delay_samples=layout.causal_delay_samples)
-            self._stream = ForceStream(predictor, params.block_size, params.sn_slope,
-                                       damage_period_s=params.damage_publish_period_s)
+            self._stream = _make_stream(model, layout, params)
         except WheelForceError:
             self.destroy_node()
             raise
@@ -525,6 +522,14 @@ class WheelForceNode(Node):
                 f'{p50:.1f} ms, p99 {p99:.1f} ms, max {worst:.1f} ms')
 
 
+def _make_stream(model, layout, params) -> ForceStream:
+    """Return the node's estimation stream: the one place its Predictor is made."""
+    # The live (causal) estimator for this look-ahead (the model's, else the cut FIR).
+    predictor = Predictor(model, causal_delay_samples=layout.causal_delay_samples)
+    return ForceStream(predictor, params.block_size, params.sn_slope,
+                       damage_period_s=params.damage_publish_period_s)
+
+
 def _warm_up(model, layout, params):
     """
     Run the whole processing chain once on made-up samples, on throwaway objects.
@@ -540,9 +545,7 @@ def _warm_up(model, layout, params):
     blobs = [raw for c in range(len(CORNERS))
              for raw in encode_imu(stamps, accel[3 * c:3 * c + 3], 'warm_up')]
     decode_imu(blobs)
-    stream = ForceStream(Predictor(model, causal_delay_samples=layout.causal_delay_samples),
-                         params.block_size, params.sn_slope,
-                         damage_period_s=params.damage_publish_period_s)
+    stream = _make_stream(model, layout, params)     # a throwaway twin of the node's
     stream.feed(stamps, accel)
     stream.flush()
     out_stamps, force = stream.take()

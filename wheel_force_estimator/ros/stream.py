@@ -198,6 +198,7 @@ class ForceStream:
         return self._damage.damage()
 
     def _reset_reports(self):
+        self._first_out_ns: Optional[int] = None          # first estimate after (re)start
         self._next_report_ns: Optional[int] = None        # next data-time boundary
         self._last_report = None                          # (stamp_ns, damage)
         self._last_out_ns: Optional[int] = None

@@ -194,3 +194,63 @@ class SpinningParticipant:
             self.executor.shutdown()
         self.node.destroy_node()
         self._rclpy.try_shutdown(context=self.context)
+
+
+def count_messages_main(argv: Sequence[str]) -> int:
+    """
+    Count raw messages on topics in a process of its own, like ``ros2 topic echo``.
+
+    ``python -m wheel_force_estimator.ros.testing RELIABILITY DEPTH EXPECTED TIMEOUT_S TOPIC...``
+    subscribes every TOPIC (``geometry_msgs/WrenchStamped``, KEEP_LAST ``DEPTH``), prints
+    ``ready`` once each has a publisher, then a JSON list of counts when every topic reached
+    ``EXPECTED`` messages or ``TIMEOUT_S`` passed after the first message.
+    """
+    import json
+
+    from geometry_msgs.msg import WrenchStamped
+    import rclpy
+    from rclpy.experimental import EventsExecutor
+    from rclpy.qos import HistoryPolicy
+    from rclpy.qos import QoSProfile
+    from rclpy.qos import ReliabilityPolicy
+
+    reliability, depth, expected, timeout_s, *topics = argv
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth),
+                     reliability=(ReliabilityPolicy.RELIABLE if reliability == 'reliable'
+                                  else ReliabilityPolicy.BEST_EFFORT))
+    rclpy.init()
+    node = rclpy.create_node('message_counter')
+    counts = [0] * len(topics)
+    first = []
+
+    def counter(k):
+        def on_msg(_raw):
+            if not first:
+                first.append(time.monotonic())
+            counts[k] += 1
+        return on_msg
+
+    subs = [node.create_subscription(WrenchStamped, t, counter(k), qos, raw=True)
+            for k, t in enumerate(topics)]
+    executor = EventsExecutor()
+    executor.add_node(node)
+    ready = False
+    try:
+        while True:
+            executor.spin_once(timeout_sec=0.01)
+            if not ready and all(node.count_publishers(t) for t in topics):
+                ready = True
+                print('ready', flush=True)
+            if min(counts) >= int(expected) or (
+                    first and time.monotonic() - first[0] > float(timeout_s)):
+                break
+    finally:
+        print(json.dumps(counts), flush=True)
+        del subs
+        executor.shutdown()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(count_messages_main(sys.argv[1:]))
