@@ -17,6 +17,7 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
         ('share/' + package_name + '/config/vehicles', glob('config/vehicles/*.yaml')),
+        ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
     ],
     package_data={package_name: ['py.typed']},
     install_requires=[
@@ -32,9 +33,13 @@ setup(
         'dask>=2024.1',
         'distributed>=2024.1',
     ],
-    # faster mcap chunk CRCs (bagio/checksum.py; the stdlib zlib fallback gives equal values)
-    # and zstd chunks (bagio/compression.py; backports.zstd from rosbags gives equal bytes)
-    extras_require={'fast': ['isal>=1.0', 'zstandard>=0.21']},
+    extras_require={
+        # faster mcap chunk CRCs (bagio/checksum.py; the stdlib zlib fallback gives equal values)
+        # and zstd chunks (bagio/compression.py; backports.zstd from rosbags gives equal bytes)
+        'fast': ['isal>=1.0', 'zstandard>=0.21'],
+        # what `colcon test` (python -m pytest on test/) needs besides the ament linters
+        'test': ['pytest', 'pytest-timeout', 'lxml', 'catkin_pkg', 'mcap'],
+    },
     zip_safe=True,
     maintainer='wheel_force_estimator maintainers',
     maintainer_email='wheel-force@example.com',

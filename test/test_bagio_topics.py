@@ -7,6 +7,7 @@ import pytest
 
 from wheel_force_estimator.bagio import load_topic_config
 from wheel_force_estimator.bagio import TopicConfig
+from wheel_force_estimator.bagio.topics import resolve_name
 from wheel_force_estimator.core.errors import ConfigError
 
 REPO_CONFIG = Path(__file__).resolve().parents[1] / 'config' / 'wheel_force.yaml'
@@ -19,6 +20,9 @@ def _yaml(tmp_path, body):
 
 
 def test_defaults_are_design_names():
+    from wheel_force_estimator.bagio import topics
+    assert topics.DEFAULT_IMU_TOPICS[0] == 'spindle/lf/imu'      # relative: moves with __ns
+    assert topics.DEFAULT_DAMAGE_TOPIC == 'virtual_wft/damage'
     cfg = load_topic_config(None)
     assert cfg == TopicConfig()
     assert cfg.imu_topics == ('/spindle/lf/imu', '/spindle/rf/imu', '/spindle/lr/imu',
@@ -27,11 +31,39 @@ def test_defaults_are_design_names():
     assert cfg.output_topics[1] == '/virtual_wft/rf/wrench'
     assert cfg.damage_topic == '/virtual_wft/damage'
     assert cfg.event_topic == '/proving_ground/event'
-    assert cfg.frame_ids == ('lf_wheel', 'rf_wheel', 'lr_wheel', 'rr_wheel')
+    assert cfg.frame_ids == ('lf_wheel_center', 'rf_wheel_center', 'lr_wheel_center',
+                             'rr_wheel_center')
 
 
 def test_repo_config_file_loads():
     assert load_topic_config(REPO_CONFIG) == TopicConfig()
+    assert load_topic_config(REPO_CONFIG, '/car2').imu_topics[3] == '/car2/spindle/rr/imu'
+
+
+@pytest.mark.parametrize('name, namespace, expected', [
+    ('spindle/lf/imu', '/', '/spindle/lf/imu'),
+    ('spindle/lf/imu', '/car2', '/car2/spindle/lf/imu'),
+    ('spindle/lf/imu', 'car2/', '/car2/spindle/lf/imu'),
+    ('spindle/lf/imu', '/fleet/car2', '/fleet/car2/spindle/lf/imu'),
+    ('/diagnostics', '/car2', '/diagnostics'),
+    ('~/debug', '/car2', '/car2/wheel_force_node/debug'),
+    ('~/debug', '/', '/wheel_force_node/debug'),
+])
+def test_names_resolve_like_ros(name, namespace, expected):
+    assert resolve_name(name, namespace) == expected
+
+
+def test_bad_namespace_is_refused():
+    with pytest.raises(ConfigError, match="namespace 'car 2' is not a valid ROS namespace"):
+        resolve_name('a', 'car 2')
+
+
+def test_node_section_overrides_the_wildcard(tmp_path):
+    path = tmp_path / 'p.yaml'
+    path.write_text('/**:\n  ros__parameters:\n    damage_topic: dmg\n    event_topic: ev\n'
+                    'wheel_force_node:\n  ros__parameters:\n    event_topic: /events\n')
+    cfg = load_topic_config(path, namespace='/car1')
+    assert (cfg.damage_topic, cfg.event_topic) == ('/car1/dmg', '/events')
 
 
 def test_remapped_topics(tmp_path):
@@ -71,7 +103,7 @@ def test_bad_files(tmp_path):
         load_topic_config(bad)
     other = tmp_path / 'other.yaml'
     other.write_text('some_node:\n  ros__parameters: {}\n')
-    with pytest.raises(ConfigError, match=r"other\.yaml: no 'wheel_force_node' section"):
+    with pytest.raises(ConfigError, match=r"other\.yaml: no '/\*\*' or 'wheel_force_node' sec"):
         load_topic_config(other)
     empty = tmp_path / 'empty.yaml'
     empty.write_text('wheel_force_node: {}\n')

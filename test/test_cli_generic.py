@@ -78,8 +78,13 @@ def files(tmp_path_factory):
 @pytest.fixture(scope='module')
 def model_path(files):
     path = files['train.csv'].parent / 'model.npz'
+    # The error bounds below are derived for a long-estimate regularisation of 0.01 (the
+    # default is 0.05): a params file sets it, as a user would.
+    config = path.parent / 'fit.yaml'
+    config.write_text('wheel_force_fit:\n  ros__parameters:\n    long_regularisation: 0.01\n')
     rc = main(['fit', str(files['train.csv']), str(files['train.npz']), str(files['train.mat']),
-               '-o', str(path), '--report', str(path.parent / 'fit_report')] + ROLES)
+               '-o', str(path), '--config', str(config),
+               '--report', str(path.parent / 'fit_report')] + ROLES)
     assert rc == 0
     return path
 
@@ -281,7 +286,7 @@ def test_evaluate_refuses_a_model_that_does_not_match(roles, match, model_path, 
 
 def test_generic_model_is_refused_for_bags(model_path, tmp_path, capsys):
     assert main(['evaluate', str(model_path), str(tmp_path / 'some_bag')]) == 1
-    assert 'are not the bag channels lf_ax ... rr_az' in capsys.readouterr().err
+    assert 'are not the spindle accelerations lf_ax ... rr_az' in capsys.readouterr().err
 
 
 def test_errors_have_no_traceback(model_path, files, tmp_path):

@@ -60,8 +60,13 @@ def bags(tmp_path_factory):
 @pytest.fixture(scope='module')
 def model_path(bags):
     out = bags / 'model.npz'
+    # The accuracy bounds below hold for a long-estimate regularisation of 0.01; the default
+    # 0.05 (what bench_accuracy's figures use) biases this known linear system to a held-out
+    # RMSE of 3.0-4.8 % (measured).  The params file sets 0.01, as a user would.
+    config = bags / 'fit.yaml'
+    config.write_text('wheel_force_fit:\n  ros__parameters:\n    long_regularisation: 0.01\n')
     assert main(['fit', str(bags / 'train_a'), str(bags / 'train_b'), '-o', str(out),
-                 '--report', str(bags / 'fit_report')]) == 0
+                 '--config', str(config), '--report', str(bags / 'fit_report')]) == 0
     return out
 
 
@@ -152,7 +157,7 @@ def test_two_bags_fit_equals_per_segment_average(model_path, bags):
     from wheel_force_estimator.core.pipeline import TrainingSegment
     from wheel_force_estimator import INPUT_CHANNELS
     from wheel_force_estimator import OUTPUT_CHANNELS
-    cfg = load_fit_config(None)
+    cfg = load_fit_config(bags / 'fit.yaml')   # the settings model_path was fitted with
     segs = [read_recording(bags / b).segments[0] for b in ('train_a', 'train_b')]
     per_segment = fit_model([TrainingSegment(s.accel_mps2, s.force_n, 'x') for s in segs],
                             FS_HZ, cfg, INPUT_CHANNELS, OUTPUT_CHANNELS)

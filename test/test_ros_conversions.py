@@ -11,11 +11,11 @@ from rclpy.serialization import deserialize_message
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import Imu
 
+from wheel_force_estimator.bagio.cdr import decode_imu
+from wheel_force_estimator.bagio.cdr import decode_wrench
+from wheel_force_estimator.bagio.cdr import encode_imu
+from wheel_force_estimator.bagio.cdr import encode_wrench
 from wheel_force_estimator.core.errors import ShapeError
-from wheel_force_estimator.ros.conversions import decode_imu
-from wheel_force_estimator.ros.conversions import decode_wrench
-from wheel_force_estimator.ros.conversions import encode_imu
-from wheel_force_estimator.ros.conversions import encode_wrench
 from wheel_force_estimator.ros.diagnostics import build_damage_array
 from wheel_force_estimator.ros.diagnostics import corner_level
 from wheel_force_estimator.ros.diagnostics import CornerReport

@@ -14,10 +14,10 @@ from sensor_msgs.msg import Imu
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import TopicConfig
 from wheel_force_estimator.bagio import write_recording
+from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.core.fatigue import pseudo_damage
 from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.predict import predict_forces
-from wheel_force_estimator.ros.conversions import encode_imu
 from wheel_force_estimator.ros.diagnostics import status_values
 from wheel_force_estimator.ros.replay import replay_bag
 from wheel_force_estimator.ros.replay import ReplaySettings
@@ -41,9 +41,9 @@ CORNERS = ('lf', 'rf', 'lr', 'rr')
 RTOL = 1e-9
 # Reliable inputs: this test checks exact counts, which best-effort delivery on a loaded
 # 2-core machine cannot promise; the QoS itself is not what is under test.
-NODE_PARAMS = {'causal_delay_s': DELAY / FS_HZ, 'damage_publish_period_s': 0.2,
+NODE_PARAMS = {'live_look_ahead_s': DELAY / FS_HZ, 'damage_publish_period_s': 0.2,
                'input_reliability': 'reliable', 'input_qos_depth': 5000,
-               'flush_timeout_s': 1.0, 'block_size': 128}
+               'flush_timeout_s': 1.0}
 
 
 @pytest.fixture
@@ -72,6 +72,26 @@ def damage_by_corner(msg):
     return {s.name.split('/')[-1]: (s, status_values(s)) for s in msg.status}
 
 
+def health_by_name(msg, node='wheel_force_node'):
+    """Map a /diagnostics message to {corner or 'node': (status, values)}."""
+    out = {}
+    for s in msg.status:
+        key = 'node' if s.name == node else s.name.split(': ')[-1]
+        out[key] = (s, status_values(s))
+    return out
+
+
+class HealthListener(SpinningParticipant):
+    """Collects /diagnostics in its own context."""
+
+    def __init__(self):
+        super().__init__('health_listener')
+        self.messages = []
+        self.sub = self.node.create_subscription(DiagnosticArray, '/diagnostics',
+                                                 self.messages.append, 50)
+        self.start()
+
+
 def validation_recording():
     """Return (stamps, accel, events): the simulator's proving ground, else synthetic data."""
     try:
@@ -95,7 +115,14 @@ def test_replay_through_node_equals_offline_prediction(node, model_and_file, tmp
     out_bag = tmp_path / 'recorded'
 
     settings = ReplaySettings(rate=4.0, wait_subscribers_s=30.0, settle_s=3.0)
-    recording, result = replay_bag(bag, settings, record_path=out_bag)
+    health = HealthListener()
+    try:
+        recording, result = replay_bag(bag, settings, record_path=out_bag)
+        assert wait_until(lambda: health.messages and health_by_name(
+            health.messages[-1])['lf'][1]['published'] == str(stamps.size), 5.0)
+        last_health = health_by_name(health.messages[-1])
+    finally:
+        health.close()
 
     assert len(recording.segments) == 2
     assert result.n_samples == stamps.size
@@ -116,10 +143,22 @@ def test_replay_through_node_equals_offline_prediction(node, model_and_file, tmp
         st, values = status[corner]
         got = [float(values[k]) for k in ('fx', 'fy', 'fz')]
         np.testing.assert_allclose(got, offline[3 * c:3 * c + 3], rtol=1e-9)
-        assert values['received'] == values['published'] == str(stamps.size)
-        assert (values['dropped'], values['gaps'], values['resets']) == ('0', '1', '0')
-        assert values['event'] == events[-1][1]
-        assert st.hardware_id == 'wheel_force_node'
+        assert values['samples'] == str(stamps.size)
+        assert st.hardware_id == '/wheel_force_node'
+        hst, hv = last_health[corner]
+        assert hst.name == f'wheel_force_node: {corner}'
+        assert hst.hardware_id == '/wheel_force_node'
+        assert hv['received'] == hv['published'] == str(stamps.size)
+        assert (hv['dropped'], hv['gaps'], hv['resets'], hv['missing_samples']) == (
+            '0', '1', '0', '5')
+        assert hv['topic'] == f'/spindle/{corner}/imu'
+    node_values = last_health['node'][1]
+    assert node_values['event'] == events[-1][1]
+    # Pacing holds an estimate at most ~2 blocks of input (more waiting is sent at once):
+    # 2 * 16 samples at the 4x replay rate = 16 ms, plus 50 ms for scheduling on a loaded
+    # 2-core machine.  A burst-per-block publisher would show 0 here, a stuck queue seconds.
+    p99 = float(node_values['pacing_latency_p99_ms'])
+    assert 0.0 < p99 < 1e3 * 2 * 16 / (4 * FS_HZ) + 50, node_values
 
     # The recording holds the inputs and the node's outputs on the virtual WFT topics.
     default = TopicConfig()
@@ -134,7 +173,12 @@ def test_replay_through_node_equals_offline_prediction(node, model_and_file, tmp
 
     assert proc.poll() is None
     assert stop_node(proc) == 0
-    assert 'counters per corner' in log.read_text()
+    text = log.read_text()
+    assert 'counters per corner' in text and 'pacing latency' in text
+    # the gap is logged once, with its size and the stamps either side
+    gap_lines = [ln for ln in text.splitlines() if 'input gap' in ln]
+    assert len(gap_lines) == 1 and '5 sample(s) missing' in gap_lines[0]
+    assert f'{stamps[n1 - 1]} ns and {stamps[n1]} ns' in gap_lines[0]
 
 
 class Injector(SpinningParticipant):
@@ -146,7 +190,7 @@ class Injector(SpinningParticipant):
                          reliability=ReliabilityPolicy.RELIABLE)
         self.pubs = [self.node.create_publisher(Imu, f'/spindle/{c}/imu', qos) for c in CORNERS]
         self.damage = []
-        self.sub = self.node.create_subscription(DiagnosticArray, '/virtual_wft/damage',
+        self.sub = self.node.create_subscription(DiagnosticArray, '/diagnostics',
                                                  self.damage.append, 50)
         self.start()
 
@@ -178,7 +222,7 @@ def test_faults_are_counted_and_the_node_keeps_running(node, ros_env):
         # lf silent for 2 s (published at real time) while the others keep sending.
         n_before = len(peer.damage)
         peer.publish(stamps[part[1]], accel[:, part[1]], rng, rate=1.0, corners=(1, 2, 3))
-        during_silence = [damage_by_corner(m) for m in peer.damage[n_before:]]
+        during_silence = [health_by_name(m) for m in peer.damage[n_before:]]
         peer.publish(stamps[part[2]], accel[:, part[2]], rng, rate=4.0)
         # The recording loops: stamps jump back to its start.
         peer.publish(stamps[part[0]], np.nan_to_num(accel[:, part[0]], nan=1.0), rng, rate=4.0)
@@ -188,14 +232,14 @@ def test_faults_are_counted_and_the_node_keeps_running(node, ros_env):
         def final():
             if not peer.damage:
                 return False
-            values = damage_by_corner(peer.damage[-1])['lf'][1]
+            values = health_by_name(peer.damage[-1])['lf'][1]
             return values['published'] == str(expected_published) and values['in_flight'] == '0'
 
         assert wait_until(final, 20.0), peer.damage[-1] if peer.damage else 'no diagnostics'
         assert any(d['lf'][1]['stale'] == 'true' and d['lf'][0].level == b'\x01'
                    and d['rf'][1]['stale'] == 'false' and d['rf'][0].level == b'\x00'
                    for d in during_silence)
-        last = damage_by_corner(peer.damage[-1])
+        last = health_by_name(peer.damage[-1])
     finally:
         peer.close()
 

@@ -5,6 +5,7 @@ import dataclasses
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 import rclpy
 from rclpy.context import Context
@@ -33,26 +34,44 @@ def values(**changes):
     return base
 
 
-def test_every_config_key_is_declared_with_a_unit():
+def test_shipped_params_file_is_the_code_defaults():
+    """One source of defaults: the YAML must say exactly what the code declares."""
     import yaml
+    from wheel_force_estimator.cli.common import CLI_FIT_DEFAULTS
     from wheel_force_estimator.cli.common import default_config_path
+    from wheel_force_estimator.core.pipeline import FitConfig
     doc = yaml.safe_load(default_config_path().read_text())
-    keys = set(doc['wheel_force_node']['ros__parameters'])
-    declared = {s.name for s in PARAMETERS}
-    assert keys <= declared
+    assert set(doc) == {'/**', 'wheel_force_fit'}   # applies whatever the node is called
+    node = doc['/**']['ros__parameters']
+    assert set(node) == {s.name for s in PARAMETERS}
     for spec in PARAMETERS:
         assert '[' in spec.description and spec.description.endswith(']'), spec.name
-    # The defaults are the shipped file's values.
-    for key in keys:
-        default = next(s.default for s in PARAMETERS if s.name == key)
-        assert doc['wheel_force_node']['ros__parameters'][key] == default, key
+        assert node[spec.name] == spec.default, spec.name
+    fit = doc['wheel_force_fit']['ros__parameters']
+    defaults = dataclasses.asdict(FitConfig())
+    defaults.update(CLI_FIT_DEFAULTS)
+    defaults['f_max_hz'] = defaults['f_max_hz'] or 0.0      # the file writes None as 0
+    assert fit == defaults
+
+
+def test_topic_defaults_are_relative_and_shared_with_the_offline_commands():
+    from wheel_force_estimator.bagio import topics
+    defaults = {s.name: s.default for s in PARAMETERS}
+    assert defaults['imu_topics'] == list(topics.DEFAULT_IMU_TOPICS)
+    assert defaults['output_topics'] == list(topics.DEFAULT_OUTPUT_TOPICS)
+    assert defaults['frame_ids'] == [f'{c}_wheel_center' for c in ('lf', 'rf', 'lr', 'rr')]
+    names = (defaults['imu_topics'] + defaults['wft_topics'] + defaults['output_topics']
+             + [defaults['damage_topic'], defaults['event_topic'], defaults['travel_topic']])
+    assert not any(name.startswith('/') for name in names)
+    assert (defaults['block_size'], defaults['live_look_ahead_s']) == (16, 0.05)
 
 
 @pytest.mark.parametrize('changes, match', [
     ({'model_path': ''}, 'model_path is empty'),
     ({'imu_topics': ('/a', '/b', '/c')}, 'imu_topics must be a list of 4'),
     ({'output_topics': ('/a', '/b', '/c', 'not a topic')}, 'output_topics\\[3\\]'),
-    ({'output_topics': ('/spindle/lf/imu', '/b', '/c', '/d')}, 'two purposes'),
+    ({'output_topics': ('spindle/lf/imu', '/b', '/c', '/d')}, 'two purposes'),
+    ({'unknown_torque': 'none'}, 'unknown_torque must be one of zero, nan'),
     ({'imu_frame_ids': ('a', 'b')}, 'imu_frame_ids must be'),
     ({'input_reliability': 'sometimes'}, 'input_reliability must be one of'),
     ({'block_size': 512, 'output_qos_depth': 1024}, 'output_qos_depth = 1024 must hold'),
@@ -71,11 +90,8 @@ def test_node_params_normalise_imu_frame_ids():
 
 
 def test_model_layout_maps_channels_and_checks_rate_and_delay():
-    params = NodeParams(**values(causal_delay_s=0.05))
-    shuffled = tuple(reversed(INPUT_CHANNELS))
-    model = synthetic_model(delay_samples=48, input_channels=shuffled)
-    layout = model_layout(model, params)
-    assert layout.input_order == tuple(INPUT_CHANNELS.index(c) for c in shuffled)
+    params = NodeParams(**values(live_look_ahead_s=0.05))
+    layout = model_layout(synthetic_model(delay_samples=48), params)
     assert layout.force_rows[1] == (3, 4, 5) and layout.torque_rows is None
     assert layout.causal_delay_samples == round(0.05 * 512)
     with_moments = synthetic_model(output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS)
@@ -83,15 +99,44 @@ def test_model_layout_maps_channels_and_checks_rate_and_delay():
 
 
 @pytest.mark.parametrize('kwargs, changes, match', [
-    ({'input_channels': INPUT_CHANNELS[:11] + ('rr_gz',)}, {}, 'input channels'),
-    ({'output_channels': OUTPUT_CHANNELS[:11] + ('rr_mx',)}, {}, "missing \\['rr_fz'\\]"),
-    ({'output_channels': OUTPUT_CHANNELS + ('lf_mx',)}, {}, 'not all of'),
+    ({'input_channels': INPUT_CHANNELS[:11] + ('rr_gz',)}, {}, 'model inputs'),
+    ({'input_channels': tuple(reversed(INPUT_CHANNELS))}, {}, 'in that order'),
+    ({'output_channels': OUTPUT_CHANNELS[:11] + ('rr_mx',)}, {}, 'model outputs'),
+    ({'output_channels': OUTPUT_CHANNELS + ('lf_mx',)}, {}, 'all of'),
     ({'fs_hz': 1000.0}, {'sample_rate_hz': 512.0}, 'sample rate 1000 Hz differs'),
-    ({'delay_samples': 10}, {'causal_delay_s': 0.25}, "exceeds the model's look-ahead"),
+    ({'delay_samples': 10}, {'live_look_ahead_s': 0.25}, "exceeds the model's look-ahead"),
 ])
 def test_model_layout_refuses_models_that_do_not_fit(kwargs, changes, match):
     with pytest.raises(ModelFileError, match=match):
         model_layout(synthetic_model(**kwargs), NodeParams(**values(**changes)))
+
+
+def test_cli_and_node_apply_one_compatibility_rule(tmp_path):
+    """check_bag_model (predict/evaluate) and model_layout (node) accept/refuse alike."""
+    from wheel_force_estimator.cli.common import check_bag_model
+    params = NodeParams(**values(live_look_ahead_s=0.0))
+    candidates = {
+        'canonical': synthetic_model(),
+        'moments': synthetic_model(output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS),
+        'reordered': synthetic_model(input_channels=tuple(reversed(INPUT_CHANNELS))),
+        'some moments': synthetic_model(output_channels=OUTPUT_CHANNELS + ('lf_mx',)),
+        'generic': synthetic_model(input_channels=tuple(f'x{i}' for i in range(12))),
+        'displacement': dataclasses.replace(synthetic_model(),
+                                            units={'input': 'm', 'output': 'N'}),
+    }
+    verdicts = {}
+    for name, model in candidates.items():
+        outcomes = []
+        for check in (lambda m: check_bag_model(m, 'm.npz'), lambda m: model_layout(m, params)):
+            try:
+                check(model)
+                outcomes.append(True)
+            except ModelFileError:
+                outcomes.append(False)
+        assert outcomes[0] == outcomes[1], name
+        verdicts[name] = outcomes[0]
+    assert verdicts == {'canonical': True, 'moments': True, 'reordered': False,
+                        'some moments': False, 'generic': False, 'displacement': False}
 
 
 @pytest.fixture
@@ -113,7 +158,7 @@ def model_file(tmp_path_factory):
 def make_node(context, model_path, **params):
     from wheel_force_estimator.ros.node import WheelForceNode
     overrides = [Parameter('model_path', value=str(model_path)),
-                 Parameter('causal_delay_s', value=48 / 512)]
+                 Parameter('live_look_ahead_s', value=48 / 512)]
     overrides += [Parameter(k, value=v) for k, v in params.items()]
     return WheelForceNode(context=context, parameter_overrides=overrides)
 
@@ -124,12 +169,12 @@ def test_node_declares_descriptors_and_only_budget_is_live(ros_context, model_fi
         desc = node.describe_parameter('block_size')
         assert desc.read_only and '[samples]' in desc.description
         assert (desc.integer_range[0].from_value, desc.integer_range[0].to_value) == (1, 8192)
-        assert '[s]' in node.describe_parameter('causal_delay_s').description
+        assert '[s]' in node.describe_parameter('live_look_ahead_s').description
         assert node.set_parameters([Parameter('damage_budget', value=1e15)])[0].successful
         assert node.get_parameter('damage_budget').value == 1e15
         result = node.set_parameters([Parameter('block_size', value=64)])[0]
         assert not result.successful and 'read-only' in result.reason
-        assert node.get_parameter('block_size').value == 128
+        assert node.get_parameter('block_size').value == 16
     finally:
         node.destroy_node()
 
@@ -148,7 +193,7 @@ def test_node_refuses_bad_parameters(ros_context, model_file, params, error, mat
 def test_node_refuses_model_with_other_channels_or_missing(ros_context, tmp_path):
     other = save_model(synthetic_model(input_channels=tuple(f'ch{i}' for i in range(12))),
                        tmp_path / 'other.npz')
-    with pytest.raises(ModelFileError, match='input channels'):
+    with pytest.raises(ModelFileError, match='model inputs'):
         make_node(ros_context, other)
     with pytest.raises(ModelFileError, match='not found'):
         make_node(ros_context, tmp_path / 'missing.npz')
@@ -187,10 +232,27 @@ def test_dataclass_is_frozen():
 
 
 def test_model_layout_refuses_a_model_fitted_on_other_input_units():
-    import dataclasses
     model = synthetic_model()
-    params = NodeParams(**values(causal_delay_s=0.05))
-    assert model_layout(model, params).input_order == tuple(range(12))
+    params = NodeParams(**values(live_look_ahead_s=0.05))
+    assert model_layout(model, params).force_rows[0] == (0, 1, 2)
     displacement = dataclasses.replace(model, units={'input': 'm', 'output': 'N'})
-    with pytest.raises(ModelFileError, match="units .*'input': 'm'.* needs a model with units"):
+    with pytest.raises(ModelFileError, match="units .*'input': 'm'.* is needed"):
         model_layout(displacement, params)
+
+
+def test_random_bytes_model_file_is_a_model_file_error(tmp_path):
+    from wheel_force_estimator.core.model import load_model
+    junk = tmp_path / 'junk.npz'
+    junk.write_bytes(np.random.default_rng(0).bytes(4096))
+    with pytest.raises(ModelFileError, match=r'junk\.npz: not a \.npz model file') as info:
+        load_model(junk)
+    assert 'pickle' not in str(info.value)
+
+
+def test_unknown_parameters_are_named(ros_context, model_file):
+    from wheel_force_estimator.ros.params import unknown_parameters
+    node = make_node(ros_context, model_file, **{'blok_size': 3})
+    try:
+        assert unknown_parameters(node) == ('blok_size',)
+    finally:
+        node.destroy_node()

@@ -56,8 +56,8 @@ def test_any_chunking_equals_offline_prediction(model, block_size):
     s, y = run(stream, stamps, x, rng)
     np.testing.assert_array_equal(s, stamps)        # every sample estimated exactly once
     assert_close(y, predict_forces(model, x))
-    assert stream.counts == {'samples_in': n, 'samples_out': n, 'gaps': 0, 'flushes': 1,
-                             'jumps': 0}
+    assert stream.counts == {'samples_in': n, 'samples_out': n, 'gaps': 0, 'short_steps': 0,
+                             'missing_samples': 0, 'flushes': 1, 'jumps': 0}
     # The running damage is that of exactly the emitted signal.
     np.testing.assert_allclose(stream.damage(), pseudo_damage(y, 5.0), rtol=1e-12)
 
@@ -93,15 +93,76 @@ def test_gap_flushes_and_each_segment_equals_its_offline_prediction(model):
 def test_clock_jitter_is_not_a_gap_but_another_rate_is(model):
     x = synthetic_accel(400, seed=6)
     period = 1e9 / model.fs_hz
-    # ±10 % per stamp: steps within ±20 %, inside the ±25 % tolerance.
-    jitter = np.random.default_rng(1).uniform(-0.1, 0.1, 400) * period
+    # ±20 % per stamp: steps within ±40 %, inside the [0.5, 1.5] period rule.
+    jitter = np.random.default_rng(1).uniform(-0.2, 0.2, 400) * period
     stamps = (10**12 + np.arange(400) * period + jitter).astype(np.int64)
     stream = ForceStream(Predictor(model), 64, 5.0)
     stream.feed(stamps, x)
-    assert stream.counts['gaps'] == 0
-    fast = (10**13 + np.arange(400) * (1e9 / 1000.0)).astype(np.int64)   # 1 kHz input
+    assert stream.counts['gaps'] == 0 and stream.counts['short_steps'] == 0
+    fast = (10**13 + np.arange(400) * (1e9 / 1200.0)).astype(np.int64)   # 1.2 kHz input
     stream.feed(fast, x)
-    assert stream.counts['gaps'] == 400
+    # the jump forward to 1e13 is one gap, then every step is too short for 512 Hz
+    assert stream.counts['gaps'] == 1 and stream.counts['short_steps'] == 399
+    breaks = stream.take_breaks()
+    assert [b.kind for b in breaks] == ['gap'] + ['short_step'] * 399
+    assert breaks[0].before_ns == int(stamps[-1]) and breaks[0].after_ns == int(fast[0])
+
+
+@pytest.mark.parametrize('step_periods, is_gap', [(1.35, False), (1.5, False), (2.0, True)])
+def test_gap_rule_is_the_offline_one(model, tmp_path, step_periods, is_gap):
+    """Each gap-free stretch the stream sees equals a segment of the offline reader."""
+    from wheel_force_estimator.bagio import read_recording
+    from wheel_force_estimator.bagio import write_recording
+    n = 900
+    period = 1e9 / model.fs_hz
+    x = synthetic_accel(n, seed=11)
+    offsets = np.arange(n) * period
+    offsets[450:] += (step_periods - 1.0) * period      # one long step after sample 449
+    stamps = (10**12 + np.round(offsets)).astype(np.int64)
+    write_recording(tmp_path / 'bag', stamps, accel_mps2=x)
+    recording = read_recording(tmp_path / 'bag', None, require_wft=False)
+    assert len(recording.segments) == (2 if is_gap else 1)
+    stream = ForceStream(Predictor(model), 16, 5.0)
+    s, y = run(stream, stamps, x, np.random.default_rng(3))
+    np.testing.assert_array_equal(s, stamps)
+    expected = np.concatenate([predict_forces(model, seg.accel_mps2)
+                               for seg in recording.segments], axis=1)
+    assert_close(y, expected)
+    assert stream.counts['gaps'] == int(is_gap)
+    if is_gap:
+        (gap,) = stream.take_breaks()
+        assert (gap.before_ns, gap.after_ns, gap.missing_samples) == (
+            int(stamps[449]), int(stamps[450]), 1)
+        assert '1 sample(s) missing' in str(gap)
+
+
+def test_damage_reports_are_in_data_time_and_independent_of_chunking(model):
+    n = 3000
+    x = synthetic_accel(n, seed=12)
+    stamps = sample_stamps(n)                        # 512 Hz: 1 s = 512 samples
+    results = []
+    for seed, block in ((0, 16), (1, 128), (2, 7)):
+        stream = ForceStream(Predictor(model), block, 5.0, damage_period_s=1.0)
+        s, y = run(stream, stamps, x, np.random.default_rng(seed))
+        reports = stream.take_damage_reports()
+        results.append(reports)
+        assert [r.stamp_ns for r in reports] == [int(stamps[0]) + k * 10**9
+                                                 for k in range(1, 6)]
+        for r in reports:
+            # the damage of exactly the estimates stamped before the boundary
+            before = s < r.stamp_ns
+            np.testing.assert_allclose(r.damage, pseudo_damage(y[:, before], 5.0),
+                                       rtol=1e-9)
+        final = stream.final_damage_report()
+        assert final.final and final.stamp_ns == int(stamps[-1]) + round(1e9 / 512)
+        np.testing.assert_allclose(final.damage, pseudo_damage(y, 5.0), rtol=1e-9)
+    for other in results[1:]:
+        for a, b in zip(results[0], other):
+            np.testing.assert_allclose(a.damage, b.damage, rtol=1e-12)
+            np.testing.assert_allclose(a.rate_per_s, b.rate_per_s, rtol=1e-9)
+    # rate = increase over the period per second of data
+    r0, r1 = results[0][0], results[0][1]
+    np.testing.assert_allclose(r1.rate_per_s, r1.damage - r0.damage, rtol=1e-12)
 
 
 def test_restart_after_stamp_jump_resets_filter_and_damage(model):

@@ -19,11 +19,10 @@ from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.core.errors import BagError
 from wheel_force_estimator.core.errors import NonFiniteError
 from wheel_force_estimator.core.errors import ShapeError
+from wheel_force_estimator.core.gaps import classify_steps
+from wheel_force_estimator.core.gaps import MIN_STEP_FACTOR
+from wheel_force_estimator.core.gaps import missing_samples
 
-# A step longer than this many nominal periods means missing samples: split there.
-GAP_FACTOR = 1.5
-# A step shorter than this many nominal periods cannot come from one sample clock.
-MIN_STEP_FACTOR = 0.5
 # Corner-to-corner / expected sample rate tolerance (relative).
 RATE_TOLERANCE = 1e-3
 _NS_PER_S = 1_000_000_000
@@ -243,16 +242,17 @@ def align(path, imu: Sequence[TopicSeries], wft: Optional[Sequence[TopicSeries]]
 
     stamp = ref.stamp_ns
     step = np.diff(stamp)
-    short = np.flatnonzero(step < MIN_STEP_FACTOR * ref_period)
+    is_gap, too_short = classify_steps(step, ref_period)
+    short = np.flatnonzero(too_short)
     if short.size:
         i = int(short[0])
         raise BagError(
             f'{path}: {ref.topic}: irregular sample clock: step of {int(step[i])} ns at '
             f'{stamp_text(stamp[i + 1])} is under {MIN_STEP_FACTOR} x the nominal period '
             f'{ref_period:.0f} ns')
-    cut = np.flatnonzero(step > GAP_FACTOR * ref_period) + 1
+    cut = np.flatnonzero(is_gap) + 1
     gaps = tuple(Gap(int(stamp[i - 1]), int(stamp[i]),
-                     int(round((stamp[i] - stamp[i - 1]) / ref_period)) - 1) for i in cut)
+                     missing_samples(int(stamp[i] - stamp[i - 1]), ref_period)) for i in cut)
     inside = np.delete(step, cut - 1)
     step_range = (int(inside.min()), int(inside.max())) if inside.size else (0, 0)
 

@@ -1,7 +1,10 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Bulk numpy decoding/encoding of the fixed-layout CDR messages we record.
+Bulk decoding/encoding of recorded messages, checked against the rosbags (de)serialiser.
+
+The layouts and byte offsets are :mod:`.cdr`'s (the one codec, which the live node uses
+too); this module adds what reading and writing *bags* needs on top.
 
 sensor_msgs/Imu and geometry_msgs/WrenchStamped are a Header (int32 sec, uint32 nanosec,
 string frame_id) followed by float64 fields only.  Once the frame_id length is known, every
@@ -19,11 +22,16 @@ from typing import Callable, List, Optional, Tuple
 
 import numpy as np
 
+from wheel_force_estimator.bagio.cdr import body_offset
+from wheel_force_estimator.bagio.cdr import IMU  # noqa: F401 (the bag readers' names)
+from wheel_force_estimator.bagio.cdr import IMU_TYPE  # noqa: F401
+from wheel_force_estimator.bagio.cdr import Layout
+from wheel_force_estimator.bagio.cdr import LAYOUTS  # noqa: F401
+from wheel_force_estimator.bagio.cdr import payload_length
+from wheel_force_estimator.bagio.cdr import STRING_TYPE  # noqa: F401
+from wheel_force_estimator.bagio.cdr import WRENCH  # noqa: F401
+from wheel_force_estimator.bagio.cdr import WRENCH_TYPE  # noqa: F401
 from wheel_force_estimator.core.errors import BagError
-
-IMU_TYPE = 'sensor_msgs/msg/Imu'
-WRENCH_TYPE = 'geometry_msgs/msg/WrenchStamped'
-STRING_TYPE = 'std_msgs/msg/String'
 
 # Messages per layout group compared field by field with the generic deserialiser.
 N_VALIDATE = 3
@@ -33,52 +41,6 @@ _CDR_LE = 0x0001  # encapsulation id, read big-endian from bytes 0..1
 _HEAD_DTYPE = np.dtype({'names': ['enc', 'sec', 'nsec', 'strlen'],
                         'formats': ['>u2', '<i4', '<u4', '<u4'],
                         'offsets': [0, 4, 8, 12], 'itemsize': 16})
-
-
-@dataclass(frozen=True)
-class Layout:
-    """
-    Where the three float64 values we need sit in a fixed-layout stamped message.
-
-    Attributes
-    ----------
-    msgtype : str
-        ROS 2 message type name.
-    tail_bytes : int
-        Bytes after the (8-aligned) header: all float64 fields.
-    value_offset : int
-        Offset of the x, y, z values from the start of the tail.
-    vector_path : tuple of str
-        Attribute path to the Vector3 in a deserialised message (for the generic path).
-
-    """
-
-    msgtype: str
-    tail_bytes: int
-    value_offset: int
-    vector_path: Tuple[str, ...]
-
-
-# Imu tail: orientation(4) + cov(9) + angular_velocity(3) + cov(9) + linear_acceleration(3)
-# + cov(9) float64; linear_acceleration starts after 25 doubles.
-IMU = Layout(IMU_TYPE, 37 * 8, 25 * 8, ('linear_acceleration',))
-# WrenchStamped tail: force(3) + torque(3) float64.
-WRENCH = Layout(WRENCH_TYPE, 6 * 8, 0, ('wrench', 'force'))
-LAYOUTS = {IMU_TYPE: IMU, WRENCH_TYPE: WRENCH}
-
-
-def body_offset(strlen: int) -> int:
-    """
-    Byte offset of the first float64 after a header whose frame_id has ``strlen`` bytes.
-
-    ``strlen`` counts the terminating NUL, as CDR does.
-    """
-    return 4 + (12 + strlen + 7) // 8 * 8
-
-
-def payload_length(layout: Layout, strlen: int) -> int:
-    """Return the serialised length for a frame_id of ``strlen`` bytes (NUL included)."""
-    return body_offset(strlen) + layout.tail_bytes
 
 
 def _record_dtype(layout: Layout, strlen: int) -> np.dtype:

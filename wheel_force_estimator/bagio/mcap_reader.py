@@ -18,6 +18,7 @@ ahead.  Batches go to the per-topic sinks of :mod:`.storage`.
 """
 from concurrent.futures import ThreadPoolExecutor
 import mmap
+import os
 from pathlib import Path
 import struct
 from typing import Dict, List, Optional, Sequence
@@ -50,8 +51,21 @@ _FOOTER_LEN = 1 + 8 + 20 + 8  # opcode, length, footer fields, magic
 _BATCH_BYTES = 64 << 20
 # Bytes of unwanted records between two wanted chunks still read rather than skipped.
 _MAX_SKIP = 1 << 20
-# Threads decoding the channels of a batch side by side (the machine has 2 cores).
-_DECODE_THREADS = 2
+
+
+def decode_threads(n_channels: int) -> int:
+    """
+    Return how many threads decode the channels of a batch side by side.
+
+    One per CPU this process may run on (its affinity mask, e.g. a container's cpuset; else
+    ``os.cpu_count()``), never more than there are channels: numpy's gathers, comparisons
+    and copies release the GIL, so each thread keeps one CPU busy.
+    """
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:      # not on Linux
+        cpus = os.cpu_count() or 1
+    return max(1, min(cpus, n_channels))
 
 
 class McapFile:
@@ -69,7 +83,7 @@ class McapFile:
         """Deliver the payloads of ``topics`` to ``collectors``; return ``{topic: type}``."""
         try:
             with self.file.open('rb') as fh:
-                self._decoders = ThreadPoolExecutor(max_workers=_DECODE_THREADS)
+                self._decoders = ThreadPoolExecutor(max_workers=decode_threads(len(topics)))
                 try:
                     return self._read(fh, topics, collectors)
                 finally:

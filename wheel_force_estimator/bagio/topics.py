@@ -3,10 +3,15 @@
 """
 Topic names and frame ids of a recording, read from the ROS 2 params file.
 
-The offline commands read the same ``wheel_force_node: ros__parameters:`` section as the live
-node, so a remapped topic is remapped everywhere.  Only the topic/frame keys are interpreted
-here; the other node parameters are recognised (so a typo is still reported) and left to the
-node.
+The offline commands read the same ``/**: ros__parameters:`` section as the live node, so a
+remapped topic is remapped everywhere.  Only the topic/frame keys are interpreted here; the
+other node parameters are recognised (so a typo is still reported) and left to the node.
+
+Names are relative by default (DESIGN.md), so a node started in a namespace moves with it.
+Bags record resolved (absolute) names, so a :class:`TopicConfig` holds resolved names: it
+resolves what it is given against its ``namespace`` (``--namespace``, default ``/``) with
+:func:`resolve_name`, ROS 2's rule.  The ``DEFAULT_*`` constants here are the one home of the
+default names; the node declares its parameters with them.
 """
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,20 +24,75 @@ from wheel_force_estimator.core.errors import ConfigError
 import yaml
 
 NODE_SECTION = 'wheel_force_node'
-# ROS 2 params files may address the node by plain name, absolute name or the wildcard.
-_SECTION_NAMES = (NODE_SECTION, '/' + NODE_SECTION, '/**')
+WILDCARD_SECTION = '/**'
+#: The fit settings' section (read by cli/common.py); a file with only it is a valid config.
+FIT_SECTION = 'wheel_force_fit'
+# ROS 2 params files may address the node by the wildcard, plain or absolute name; like rcl,
+# a section naming the node overrides the wildcard's values.
+_SECTION_NAMES = (WILDCARD_SECTION, NODE_SECTION, '/' + NODE_SECTION)
 
 # Node parameters that are valid in the section but not used by bagio.  Keep in sync with
 # the node's declarations (ros/params.py PARAMETERS; test_bagio_topics checks it when rclpy is
 # importable): an unknown key is reported as a typo.
 NODE_ONLY_KEYS = frozenset({
-    'model_path', 'imu_frame_ids', 'block_size', 'causal_delay_s', 'sn_slope',
+    'model_path', 'imu_frame_ids', 'block_size', 'live_look_ahead_s', 'sn_slope',
     'damage_publish_period_s', 'damage_budget', 'stale_timeout_samples', 'input_qos_depth',
     'input_reliability', 'output_qos_depth', 'flush_timeout_s', 'sample_rate_hz',
-    'use_sim_time',
+    'unknown_torque', 'use_sim_time',
 })
 
+DEFAULT_IMU_TOPICS = tuple(f'spindle/{c}/imu' for c in CORNERS)
+DEFAULT_WFT_TOPICS = tuple(f'wft/{c}/wrench' for c in CORNERS)
+DEFAULT_OUTPUT_TOPICS = tuple(f'virtual_wft/{c}/wrench' for c in CORNERS)
+DEFAULT_DAMAGE_TOPIC = 'virtual_wft/damage'
+DEFAULT_EVENT_TOPIC = 'proving_ground/event'
+DEFAULT_TRAVEL_TOPIC = 'suspension/joint_states'
+#: Non-rotating frames at the wheel centres, axes vehicle-aligned (x forward, y left, z up).
+DEFAULT_FRAME_IDS = tuple(f'{c}_wheel_center' for c in CORNERS)
+
 _TOPIC_RE = re.compile(r'^[~/]?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$')
+_NAMESPACE_RE = re.compile(r'^/([A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*)?$')
+
+
+def validate_namespace(namespace: str) -> str:
+    """
+    Return ``namespace`` as an absolute ROS namespace (``car2`` -> ``/car2``).
+
+    Raises
+    ------
+    ConfigError
+        Not a valid namespace (tokens of letters, digits and ``_``, separated by ``/``).
+
+    """
+    ns = namespace if namespace.startswith('/') else '/' + namespace
+    ns = ns.rstrip('/') or '/'
+    if not _NAMESPACE_RE.match(ns):
+        raise ConfigError(f'namespace {namespace!r} is not a valid ROS namespace (e.g. /car2)')
+    return ns
+
+
+def resolve_name(name: str, namespace: str = '/', node_name: str = NODE_SECTION) -> str:
+    """
+    Resolve a topic name as ROS 2 does for a node ``node_name`` in ``namespace``.
+
+    Absolute names (``/x``) stay; ``~/x`` is private to the node (``/ns/node/x``); any other
+    name is relative to the namespace (``/ns/x``).
+
+    Raises
+    ------
+    ConfigError
+        An invalid namespace.
+
+    """
+    ns = validate_namespace(namespace)
+    base = '' if ns == '/' else ns
+    if name.startswith('/'):
+        return name
+    if name.startswith('~'):
+        return f'{base}/{node_name}{name[1:]}'
+    return f'{base}/{name}'
+
+
 _FRAME_RE = re.compile(r'^[A-Za-z0-9_/.-]+$')
 
 
@@ -59,7 +119,10 @@ def _validate_frame(value, key: str, where: str) -> str:
 @dataclass(frozen=True)
 class TopicConfig:
     """
-    Topic names (one per corner, order lf, rf, lr, rr) and output frame ids.
+    Resolved topic names (one per corner, order lf, rf, lr, rr) and output frame ids.
+
+    Names given relative (``spindle/lf/imu``) are resolved against ``namespace`` when the
+    config is made, so every name it holds is absolute, as a bag records it.
 
     Attributes
     ----------
@@ -77,29 +140,39 @@ class TopicConfig:
         sensor_msgs/JointState suspension travel topic (optional in a recording).
     frame_ids : tuple of str
         ``header.frame_id`` of the output wrenches, one per corner.
+    namespace : str
+        Namespace relative names were resolved against (``/`` by default).
+
+    Raises
+    ------
+    ConfigError
+        An invalid name or namespace, or a topic used for two purposes.
 
     """
 
-    imu_topics: Tuple[str, ...] = tuple(f'/spindle/{c}/imu' for c in CORNERS)
-    wft_topics: Tuple[str, ...] = tuple(f'/wft/{c}/wrench' for c in CORNERS)
-    output_topics: Tuple[str, ...] = tuple(f'/virtual_wft/{c}/wrench' for c in CORNERS)
-    damage_topic: str = '/virtual_wft/damage'
-    event_topic: str = '/proving_ground/event'
-    travel_topic: str = '/suspension/joint_states'
-    frame_ids: Tuple[str, ...] = tuple(f'{c}_wheel' for c in CORNERS)
+    imu_topics: Tuple[str, ...] = DEFAULT_IMU_TOPICS
+    wft_topics: Tuple[str, ...] = DEFAULT_WFT_TOPICS
+    output_topics: Tuple[str, ...] = DEFAULT_OUTPUT_TOPICS
+    damage_topic: str = DEFAULT_DAMAGE_TOPIC
+    event_topic: str = DEFAULT_EVENT_TOPIC
+    travel_topic: str = DEFAULT_TRAVEL_TOPIC
+    frame_ids: Tuple[str, ...] = DEFAULT_FRAME_IDS
+    namespace: str = '/'
 
     def __post_init__(self):
-        """Validate names and reject a topic used for two purposes."""
+        """Validate and resolve the names; reject a topic used for two purposes."""
         where = 'TopicConfig'
+        ns = validate_namespace(self.namespace)
+        object.__setattr__(self, 'namespace', ns)
         for key in ('imu_topics', 'wft_topics', 'output_topics'):
-            object.__setattr__(
-                self, key, _validate_list(getattr(self, key), key, where, _validate_topic))
+            names = _validate_list(getattr(self, key), key, where, _validate_topic)
+            object.__setattr__(self, key, tuple(resolve_name(n, ns) for n in names))
         object.__setattr__(
             self, 'frame_ids', _validate_list(self.frame_ids, 'frame_ids', where,
                                               _validate_frame))
-        _validate_topic(self.damage_topic, 'damage_topic', where)
-        _validate_topic(self.event_topic, 'event_topic', where)
-        _validate_topic(self.travel_topic, 'travel_topic', where)
+        for key in ('damage_topic', 'event_topic', 'travel_topic'):
+            name = _validate_topic(getattr(self, key), key, where)
+            object.__setattr__(self, key, resolve_name(name, ns))
         names = (self.imu_topics + self.wft_topics + self.output_topics
                  + (self.damage_topic, self.event_topic, self.travel_topic))
         seen = set()
@@ -113,29 +186,33 @@ _TOPIC_LIST_KEYS = ('imu_topics', 'wft_topics', 'output_topics')
 _TOPIC_KEYS = ('damage_topic', 'event_topic', 'travel_topic')
 
 
-def load_topic_config(path=None) -> TopicConfig:
+def load_topic_config(path=None, namespace: str = '/') -> TopicConfig:
     """
-    Read the topic names of the ``wheel_force_node`` section of a ROS 2 params file.
+    Read the topic names of the node's section of a ROS 2 params file, resolved.
 
     Parameters
     ----------
     path : str or pathlib.Path, optional
         Params YAML (``config/wheel_force.yaml`` layout).  ``None`` returns the DESIGN.md
         defaults.  Keys missing from the file keep their defaults.
+    namespace : str
+        Namespace relative names are resolved against (``--namespace``), default ``/``.
 
     Returns
     -------
     TopicConfig
+        With absolute topic names (what a bag records).
 
     Raises
     ------
     ConfigError
-        The file cannot be read or parsed, has no ``wheel_force_node: ros__parameters:``
-        section, or a key is unknown or has an invalid value (file and key named).
+        The file cannot be read or parsed, has no ``/**`` (or ``wheel_force_node``) section,
+        a key is unknown or has an invalid value (file and key named), or the namespace is
+        invalid.
 
     """
     if path is None:
-        return TopicConfig()
+        return TopicConfig(namespace=namespace)
     path = Path(path)
     try:
         text = path.read_text(encoding='utf-8')
@@ -147,13 +224,20 @@ def load_topic_config(path=None) -> TopicConfig:
         raise ConfigError(f'{path}: invalid YAML: {err}') from err
     if not isinstance(doc, dict):
         raise ConfigError(f'{path}: expected a mapping with a {NODE_SECTION!r} section')
-    section_name = next((n for n in _SECTION_NAMES if n in doc), None)
-    if section_name is None:
-        raise ConfigError(f'{path}: no {NODE_SECTION!r} section (keys: {sorted(doc)})')
-    section = doc[section_name]
-    params = section.get('ros__parameters') if isinstance(section, dict) else None
-    if not isinstance(params, dict):
-        raise ConfigError(f'{path}: {section_name}: missing ros__parameters mapping')
+    sections = [n for n in _SECTION_NAMES if n in doc]
+    if not sections and FIT_SECTION in doc:
+        return TopicConfig(namespace=namespace)     # fit settings only: default topics
+    if not sections:
+        raise ConfigError(f'{path}: no {WILDCARD_SECTION!r} or {NODE_SECTION!r} section '
+                          f'(keys: {sorted(doc)})')
+    params = {}
+    for section_name in sections:
+        section = doc[section_name]
+        values = section.get('ros__parameters') if isinstance(section, dict) else None
+        if not isinstance(values, dict):
+            raise ConfigError(f'{path}: {section_name}: missing ros__parameters mapping')
+        params.update(values)
+    section_name = ' + '.join(sections)
     known = set(_TOPIC_LIST_KEYS) | set(_TOPIC_KEYS) | {'frame_ids'} | NODE_ONLY_KEYS
     for key in params:
         if key not in known:
@@ -172,7 +256,7 @@ def load_topic_config(path=None) -> TopicConfig:
         values['frame_ids'] = _validate_list(params['frame_ids'], 'frame_ids', where,
                                              _validate_frame)
     try:
-        return TopicConfig(**values)
+        return TopicConfig(**values, namespace=namespace)
     except ConfigError as err:
         raise ConfigError(f'{path}: {err}') from err
 

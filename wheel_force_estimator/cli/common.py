@@ -16,10 +16,9 @@ from pathlib import Path
 import sys
 from typing import Iterable, Optional, Sequence, Tuple
 
+from wheel_force_estimator.bagio.topics import FIT_SECTION
 from wheel_force_estimator.core.errors import ConfigError
 import yaml
-
-FIT_SECTION = 'wheel_force_fit'
 _FIT_KEYS = {
     'segment_length': int, 'overlap': float, 'window': str, 'detrend': str,
     'estimator': str, 'regularisation': float, 'f_min_hz': float, 'f_max_hz': float,
@@ -29,9 +28,31 @@ _FIT_KEYS = {
 # What `wheel-force fit` uses when neither the params file nor the command line says
 # otherwise (the library's FitConfig() keeps the single-resolution paper method): the
 # two-resolution fit measured better on held-out simulated data on every Fz and most Fx/Fy
-# channels (bench/bench_accuracy.py, README).
-CLI_FIT_DEFAULTS = {'long_segment_length': 8192, 'crossover_hz': 2.0,
-                    'long_regularisation': 1e-2}
+# channels (bench/bench_accuracy.py, README).  Every other default (long_regularisation
+# 5e-2 included, the value those measurements used) is FitConfig's own.
+CLI_FIT_DEFAULTS = {'long_segment_length': 8192, 'crossover_hz': 2.0}
+
+
+def add_namespace_argument(parser: argparse.ArgumentParser) -> None:
+    """Register ``--namespace NS`` (how relative topic names of ``--config`` resolve)."""
+    parser.add_argument(
+        '--namespace', default='/', metavar='NS',
+        help='namespace the relative topic names (params file, defaults) resolve under, as '
+             'for a node started with __ns:=NS; default /')
+
+
+def topic_config(args: argparse.Namespace):
+    """
+    Return the resolved topic names of ``args.config`` under ``args.namespace``.
+
+    Raises
+    ------
+    ConfigError
+        Unreadable or invalid params file, or an invalid namespace.
+
+    """
+    from wheel_force_estimator.bagio import load_topic_config
+    return load_topic_config(args.config, args.namespace)
 
 
 def default_config_path() -> Optional[Path]:
@@ -122,9 +143,12 @@ def progress(iterable: Iterable, desc: str, total: Optional[int] = None):
     return tqdm(iterable, desc=desc, total=total, unit='file', leave=False)
 
 
-def read_recordings(paths, topics, require_wft: bool, expected_fs_hz: Optional[float] = None):
+def read_recordings(paths, topics, require_wft: bool, expected_fs_hz: Optional[float] = None,
+                    travel: bool = False):
     """
     Read every recording (with a progress bar); return a list of ``Recording``.
+
+    ``travel`` also reads the optional suspension travel topic (``bagio.read_recording``).
 
     Raises
     ------
@@ -138,7 +162,7 @@ def read_recordings(paths, topics, require_wft: bool, expected_fs_hz: Optional[f
     recordings = []
     for path in progress(paths, 'reading', total=len(paths)):
         recordings.append(read_recording(path, topics, require_wft=require_wft,
-                                         expected_fs_hz=expected_fs_hz))
+                                         expected_fs_hz=expected_fs_hz, travel=travel))
     rates = [r.fs_hz for r in recordings]
     if rates and max(rates) > min(rates) * (1 + 1e-3):
         detail = ', '.join(f'{r.path}: {r.fs_hz:g} Hz' for r in recordings)
@@ -299,28 +323,23 @@ def _is_bag(path) -> bool:
     return p.is_dir() or p.suffix.lower() in _BAG_SUFFIXES
 
 
-def check_bag_model(model, model_path) -> None:
+def check_bag_model(model, model_path):
     """
     Refuse a model that cannot be applied to the spindle accelerations of a bag.
+
+    The rule is :func:`wheel_force_estimator.core.spindle.spindle_layout`, the one the live
+    node applies.
+
+    Returns
+    -------
+    SpindleLayout
+        Where the forces (and moments, if any) are in the model's output.
 
     Raises
     ------
     ModelFileError
-        The model's inputs are not the twelve spindle accelerations (in m/s^2) or its
-        outputs not the twelve wheel forces, e.g. a model fitted on generic recordings.
+        The model's channels or units do not fit (e.g. a model fitted on generic recordings).
 
     """
-    from wheel_force_estimator import INPUT_CHANNELS
-    from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator.core.errors import ModelFileError
-    unit = model.units.get('input', 'm/s^2')
-    for what, got, want in (('inputs', model.input_channels, INPUT_CHANNELS),
-                            ('outputs', model.output_channels, OUTPUT_CHANNELS)):
-        if tuple(got) != tuple(want):
-            raise ModelFileError(
-                f'{model_path}: model {what} {list(got)} are not the bag channels '
-                f'{want[0]} ... {want[-1]}; a model fitted on generic recordings is applied to '
-                f'them with --input, --output and --fs')
-    if unit not in ('m/s^2', 'm/s2'):
-        raise ModelFileError(f'{model_path}: model inputs are in {unit}, bags hold spindle '
-                             f'accelerations in m/s^2')
+    from wheel_force_estimator.core.spindle import spindle_layout
+    return spindle_layout(model, str(model_path))

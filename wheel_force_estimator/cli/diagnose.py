@@ -4,6 +4,8 @@
 import argparse
 
 from wheel_force_estimator.cli.common import add_generic_arguments
+from wheel_force_estimator.cli.common import add_namespace_argument
+from wheel_force_estimator.cli.common import topic_config
 from wheel_force_estimator.cli.common import UsageError
 
 
@@ -30,6 +32,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help='write the augmented model (reference FRF + fitted physics terms)')
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     p.add_argument('--config', metavar='YAML', help='params file (topic names, fit settings)')
+    add_namespace_argument(p)
     add_generic_arguments(p)
     p.add_argument('--no-travel', action='store_true',
                    help='ignore the suspension travel topic: diagnose spindle acceleration -> '
@@ -54,16 +57,13 @@ def _generic(request, args):
 def _bags(args):
     from wheel_force_estimator import INPUT_CHANNELS
     from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator.bagio import load_topic_config
-    from wheel_force_estimator.bagio import read_recording
     from wheel_force_estimator.bagio.travel import TRAVEL_CHANNELS
-    from wheel_force_estimator.cli.common import progress
+    from wheel_force_estimator.cli.common import read_recordings
     from wheel_force_estimator.diagnosis.recording import from_bag_recording
-    topics = load_topic_config(args.config)
+    topics = topic_config(args)
 
     def read_all(paths):  # the travel topic too, unless --no-travel
-        return [read_recording(p, topics, require_wft=True, travel=not args.no_travel)
-                for p in progress(paths, 'reading', total=len(paths))]
+        return read_recordings(paths, topics, require_wft=True, travel=not args.no_travel)
     read = {name: read_all(paths) if paths else None
             for name, paths in (('real', args.real), ('sim', args.sim),
                                 ('holdout', args.holdout))}

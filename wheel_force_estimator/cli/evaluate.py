@@ -13,6 +13,8 @@ import json
 from pathlib import Path
 
 from wheel_force_estimator.cli.common import add_generic_arguments
+from wheel_force_estimator.cli.common import add_namespace_argument
+from wheel_force_estimator.cli.common import topic_config
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -31,6 +33,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--json', metavar='FILE', help='write the figures as JSON')
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     p.add_argument('--config', metavar='YAML', help='params file (topic names, sn_slope)')
+    add_namespace_argument(p)
     p.add_argument('--sn-slope', type=float, default=5.0, help='Basquin exponent k')
     p.add_argument('--causal-delay-samples', type=int, metavar='N',
                    help='evaluate the live filter with this look-ahead instead of the full one')
@@ -40,6 +43,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None):
     """Predict and evaluate bag recordings; return ``(Evaluation, segments)``."""
+    from wheel_force_estimator import OUTPUT_CHANNELS
     from wheel_force_estimator.cli.predict import predict_recording
     from wheel_force_estimator.core.evaluation import EvalSegment
     from wheel_force_estimator.core.evaluation import evaluate_segments
@@ -51,8 +55,8 @@ def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None):
             segments.append(EvalSegment(seg.force_n, pred, stamps, f'{rec.path}#{i}'))
         events.extend(rec.events)
     events.sort()
-    evaluation = evaluate_segments(segments, model.fs_hz, model.output_channels, sn_slope,
-                                   events=events)
+    forces = model.output_channels[:len(OUTPUT_CHANNELS)]   # moments, if any, follow
+    evaluation = evaluate_segments(segments, model.fs_hz, forces, sn_slope, events=events)
     return evaluation, segments
 
 
@@ -111,11 +115,10 @@ def command(args: argparse.Namespace) -> int:
     request = generic_request(args, args.recordings)
     model = load_model(args.model)
     if request is None:
-        from wheel_force_estimator.bagio import load_topic_config
         from wheel_force_estimator.cli.common import check_bag_model
         from wheel_force_estimator.cli.common import read_recordings
         check_bag_model(model, args.model)
-        recordings = read_recordings(args.recordings, load_topic_config(args.config),
+        recordings = read_recordings(args.recordings, topic_config(args),
                                      require_wft=True, expected_fs_hz=model.fs_hz)
         evaluation, segments = evaluate_recordings(model, recordings, args.sn_slope,
                                                    args.causal_delay_samples)

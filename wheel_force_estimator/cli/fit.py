@@ -22,11 +22,13 @@ from pathlib import Path
 from typing import List, Optional, Tuple
 
 from wheel_force_estimator.cli.common import add_generic_arguments
+from wheel_force_estimator.cli.common import add_namespace_argument
 from wheel_force_estimator.cli.common import explicit_fit_keys
 from wheel_force_estimator.cli.common import generic_request
 from wheel_force_estimator.cli.common import load_fit_config
 from wheel_force_estimator.cli.common import nominal_fs_hz
 from wheel_force_estimator.cli.common import read_recordings
+from wheel_force_estimator.cli.common import topic_config
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -43,6 +45,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('-o', '--out-model', dest='out_model', required=True, metavar='MODEL',
                    help='model file (.npz)')
     p.add_argument('--config', metavar='YAML', help='params file (topics, fit settings)')
+    add_namespace_argument(p)
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     p.add_argument('--estimator', choices=('h1', 'h1_tikhonov', 'h1_tsvd'))
     p.add_argument('--segment-length', type=int, metavar='N', help='Welch segment [samples]')
@@ -80,10 +83,9 @@ def _too_short(source: str, n: int, segment_length: int) -> Optional[str]:
 def _bag_data(args, config) -> _TrainingData:
     from wheel_force_estimator import INPUT_CHANNELS
     from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator.bagio import load_topic_config
     from wheel_force_estimator.core.pipeline import TrainingSegment
 
-    recordings = read_recordings(args.recordings, load_topic_config(args.config),
+    recordings = read_recordings(args.recordings, topic_config(args),
                                  require_wft=True)
     segments, skipped, n_read = [], [], 0
     for rec in recordings:

@@ -4,6 +4,9 @@
 import argparse
 from pathlib import Path
 
+from wheel_force_estimator.cli.common import add_namespace_argument
+from wheel_force_estimator.cli.common import topic_config
+
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``predict``."""
@@ -15,6 +18,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('bag', metavar='BAG', help='recording with the four spindle Imu topics')
     p.add_argument('-o', '--output', required=True, metavar='OUT_BAG', help='new rosbag2 dir')
     p.add_argument('--config', metavar='YAML', help='params file (topic names)')
+    add_namespace_argument(p)
     p.add_argument('--storage', choices=('mcap', 'sqlite3'),
                    help='storage of OUT_BAG (default: same as BAG; mcap for ROS 1 input)')
     p.add_argument('--compression', choices=('zstd', 'none'), default='zstd',
@@ -35,8 +39,11 @@ def input_storage(path) -> str:
 
 def predict_recording(model, recording, causal_delay_samples=None):
     """Predict every segment of ``recording``; return a list of ``(stamp_ns, force_n)``."""
+    from wheel_force_estimator import OUTPUT_CHANNELS
     from wheel_force_estimator.core.predict import predict_forces
-    return [(seg.stamp_ns, predict_forces(model, seg.accel_mps2, causal_delay_samples))
+    # the forces come first; moments, if the model has them, follow (core.spindle)
+    n = len(OUTPUT_CHANNELS)
+    return [(seg.stamp_ns, predict_forces(model, seg.accel_mps2, causal_delay_samples)[:n])
             for seg in recording.segments]
 
 
@@ -58,8 +65,10 @@ def stream_recording(model, recording, causal_delay_samples=None):
               else np.concatenate([seg.stamp_ns for seg in segments]))
 
     def blocks():
+        n = len(OUTPUT_CHANNELS)  # the forces; moments, if any, follow (core.spindle)
         for seg in segments:
-            yield from iter_forces(model, seg.accel_mps2, causal_delay_samples)
+            for block in iter_forces(model, seg.accel_mps2, causal_delay_samples):
+                yield block[:n]
     return stamps, SignalBlocks(OUTPUT_CHANNELS, stamps.size, prefetched(blocks()))
 
 
@@ -86,7 +95,6 @@ def prefetched(items):
 
 def command(args: argparse.Namespace) -> int:
     """Run ``predict``; return the exit code."""
-    from wheel_force_estimator.bagio import load_topic_config
     from wheel_force_estimator.bagio import write_recording
     from wheel_force_estimator.cli.common import check_bag_model
     from wheel_force_estimator.cli.common import read_recordings
@@ -94,7 +102,7 @@ def command(args: argparse.Namespace) -> int:
 
     model = load_model(args.model)
     check_bag_model(model, args.model)
-    topics = load_topic_config(args.config)
+    topics = topic_config(args)
     (recording,) = read_recordings([args.bag], topics, require_wft=False,
                                    expected_fs_hz=model.fs_hz)
     stamps, force = stream_recording(model, recording, args.causal_delay_samples)

@@ -8,6 +8,9 @@ Plays the recording's Imu topics with their original stamps at ``X`` times real 
 """
 import argparse
 
+from wheel_force_estimator.cli.common import add_namespace_argument
+from wheel_force_estimator.cli.common import topic_config
+
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``replay``."""
@@ -21,6 +24,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help='playback speed, multiple of real time (default 1)')
     p.add_argument('--record', metavar='OUT_BAG', help="new rosbag2 for the node's outputs")
     p.add_argument('--config', metavar='YAML', help='params file (topic names, frame ids)')
+    add_namespace_argument(p)
     p.add_argument('--storage', choices=('mcap', 'sqlite3'), default='mcap',
                    help='storage of OUT_BAG (default mcap)')
     p.add_argument('--wait', type=float, default=5.0, metavar='S',
@@ -32,12 +36,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def command(args: argparse.Namespace) -> int:
     """Run ``replay``; return the exit code."""
-    from wheel_force_estimator.bagio import load_topic_config
     from wheel_force_estimator.ros.replay import imu_frame_ids_from_config
     from wheel_force_estimator.ros.replay import replay_bag
     from wheel_force_estimator.ros.replay import ReplaySettings
 
-    topics = load_topic_config(args.config)
+    topics = topic_config(args)
     settings = ReplaySettings(rate=args.rate, topics=topics,
                               imu_frame_ids=imu_frame_ids_from_config(args.config),
                               record=args.record is not None, wait_subscribers_s=args.wait,
@@ -58,6 +61,6 @@ def command(args: argparse.Namespace) -> int:
                 values = {kv.key: kv.value for kv in status.values}
                 print(f'  {status.name}: {status.message}; '
                       + ', '.join(f'{k}={values[k]}' for k in
-                                  ('fx', 'fy', 'fz', 'received', 'published', 'dropped',
-                                   'gaps', 'resets') if k in values))
+                                  ('fx', 'fy', 'fz', 'damage_rate_per_s', 'samples')
+                                  if k in values))
     return 0

@@ -4,6 +4,9 @@
 import argparse
 from pathlib import Path
 
+from wheel_force_estimator.cli.common import add_namespace_argument
+from wheel_force_estimator.cli.common import topic_config
+
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``simulate``."""
@@ -40,6 +43,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help='also write the suspension compression (m, + in bump) as '
                         'sensor_msgs/JointState on suspension/joint_states (travel_topic), '
                         'as string potentiometers would record it')
+    add_namespace_argument(p)
     return p
 
 
@@ -48,7 +52,6 @@ def command(args: argparse.Namespace) -> int:
     import numpy as np
 
     from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator.bagio import load_topic_config
     from wheel_force_estimator.core.errors import BagError
     from wheel_force_estimator.sim.api import simulate
     from wheel_force_estimator.sim.api import simulate_pair
@@ -60,7 +63,7 @@ def command(args: argparse.Namespace) -> int:
     vehicle = load_vehicle(args.vehicle) if args.vehicle else None
     effect_params = load_effect_params(args.effect_params) if args.effect_params else None
     effects = resolve_effects(args.physics, effect_params)
-    topics = load_topic_config(args.config)
+    topics = topic_config(args)
     physics = ', '.join(effects.names) or 'none (nominal)'
     if args.pair:
         paths = simulate_pair(args.out, effects.names, args.seed, args.holdout_seed,

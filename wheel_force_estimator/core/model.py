@@ -244,6 +244,9 @@ def save_model(model: FrfModel, path) -> Path:
     return path
 
 
+_ZIP_MAGIC = b'PK\x03\x04'
+
+
 def load_model(path) -> FrfModel:
     """
     Read and validate a model file written by :func:`save_model`.
@@ -267,6 +270,15 @@ def load_model(path) -> FrfModel:
     path = Path(path)
     if not path.is_file():
         raise ModelFileError(f'{path}: model file not found')
+    try:
+        with open(path, 'rb') as f:
+            magic = f.read(4)
+    except OSError as err:
+        raise ModelFileError(f'{path}: cannot read model file ({err})') from err
+    if magic != _ZIP_MAGIC:
+        # np.load would try to unpickle anything that is not .npy/.npz and say "pickled data"
+        raise ModelFileError(f'{path}: not a .npz model file (no zip header; written by '
+                             f'`wheel-force fit`?)')
     try:
         with np.load(path, allow_pickle=False) as npz:
             contents = {key: npz[key] for key in npz.files}

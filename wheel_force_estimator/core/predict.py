@@ -28,6 +28,7 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.filtering import with_delay
+from wheel_force_estimator.core.lag import LeadDrop
 from wheel_force_estimator.core.model import FrfModel
 from wheel_force_estimator.core.overlap_add import OverlapAddFilter
 from wheel_force_estimator.core.validation import as_signals
@@ -240,8 +241,7 @@ def iter_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[int]
         block_size = predictor.efficient_block
     if block_size < 1:
         raise ShapeError(f'block_size must be >= 1, got {block_size}')
-    # Stream sample j estimates input sample j - delay: the first `delay` outputs are dropped.
-    skip = predictor.delay_samples
+    lead = LeadDrop(predictor.delay_samples)
 
     def stream():
         for i in range(0, x.shape[1], block_size):
@@ -249,7 +249,6 @@ def iter_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[int]
         yield predictor.flush()  # only after the last block: the look-ahead is drained
 
     for block in stream():
-        drop = min(skip, block.shape[1])
-        skip -= drop
-        if block.shape[1] > drop:
-            yield block[:, drop:]
+        block = lead(block)
+        if block.shape[1]:
+            yield block

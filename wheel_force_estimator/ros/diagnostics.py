@@ -1,13 +1,22 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-The running pseudo damage as ``diagnostic_msgs/DiagnosticArray`` (DESIGN.md).
+``diagnostic_msgs/DiagnosticArray`` messages of the node (DESIGN.md).
 
-One ``DiagnosticStatus`` per corner: ``name`` = ``virtual_wft/{corner}``, ``hardware_id`` = the
-node name, ``values`` = the accumulated pseudo damage of each output channel of the corner
-(``fx``, ``fy``, ``fz`` [, ``mx`` ...], ``repr`` of the float so it reads back exactly), then
-``damage_rate_per_s`` and the counters.  Level: ERROR when a channel exceeds the damage budget,
-WARN from :data:`BUDGET_WARN_FRACTION` of it or when the corner's input is stale, else OK.
+**Damage** (the node's damage topic, one message per ``damage_publish_period_s`` of data
+time): one ``DiagnosticStatus`` per corner, ``name`` = ``virtual_wft/{corner}``,
+``hardware_id`` = the node's fully qualified name, ``values`` = the accumulated pseudo damage
+of each output channel of the corner (``fx``, ``fy``, ``fz`` [, ``mx`` ...], ``repr`` of the
+float so it reads back exactly), then ``damage_rate_per_s``.  The header stamp is the
+data-time boundary the damage is counted up to.  Level: ERROR when a channel exceeds the
+damage budget, WARN from :data:`BUDGET_WARN_FRACTION` of it or when the corner's input is
+stale, else OK.
+
+**Health** (``/diagnostics``, what ``diagnostic_aggregator`` and ``rqt_robot_monitor`` read,
+on a steady-clock period): one status per corner, ``name`` = ``{node}: {corner}``, with the
+input topic, the counters and staleness, and one status ``{node}`` for the node itself
+(model, latency, totals).  ``hardware_id`` is the node's fully qualified name, unique per
+instance.
 """
 from dataclasses import dataclass
 from typing import Mapping, Sequence, Tuple
@@ -40,7 +49,8 @@ class CornerReport:
     stale : str
         Why the input is stale, or ``''``.
     counters : tuple of (str, int or str)
-        Further key/value pairs, in order.
+        Further key/value pairs, in order (the damage message: ``samples``, the number of
+        estimates the damage covers).
 
     """
 
@@ -98,9 +108,9 @@ def build_damage_array(reports: Sequence[CornerReport], hardware_id: str, stamp_
     reports : sequence of CornerReport
         One per corner, in corner order.
     hardware_id : str
-        The node name.
+        The node's fully qualified name.
     stamp_ns : int
-        ``header.stamp`` [ns] (the node clock at publication).
+        ``header.stamp`` [ns]: the data-time boundary of the damage.
     budget : float
         ``damage_budget`` (0 = off).
 
@@ -120,6 +130,44 @@ def build_damage_array(reports: Sequence[CornerReport], hardware_id: str, stamp_
         msg.status.append(DiagnosticStatus(
             level=_LEVEL_BYTES[level], name=f'virtual_wft/{report.corner}', message=text,
             hardware_id=hardware_id, values=values))
+    return msg
+
+
+def build_health_array(node_name: str, hardware_id: str, stamp_ns: int,
+                       corners: Sequence[Tuple[str, int, str, Sequence[Tuple[str, object]]]],
+                       node_status: Tuple[int, str, Sequence[Tuple[str, object]]]
+                       ) -> DiagnosticArray:
+    """
+    Build the ``/diagnostics`` message.
+
+    Parameters
+    ----------
+    node_name : str
+        The node's name (status names are ``{node_name}: {corner}`` and ``{node_name}``).
+    hardware_id : str
+        The node's fully qualified name.
+    stamp_ns : int
+        ``header.stamp`` [ns] (the node clock).
+    corners : sequence of (corner, level, message, values)
+        One per corner; ``level`` OK/WARN/ERROR (0/1/2), ``values`` key/value pairs.
+    node_status : (level, message, values)
+        The node's own status.
+
+    Returns
+    -------
+    diagnostic_msgs.msg.DiagnosticArray
+
+    """
+    msg = DiagnosticArray()
+    msg.header.stamp = Time(sec=int(stamp_ns // 1_000_000_000),
+                            nanosec=int(stamp_ns % 1_000_000_000))
+    entries = [(f'{node_name}: {corner}', level, text, values)
+               for corner, level, text, values in corners]
+    entries.append((node_name,) + tuple(node_status))
+    for name, level, text, values in entries:
+        msg.status.append(DiagnosticStatus(
+            level=_LEVEL_BYTES[level], name=name, message=text, hardware_id=hardware_id,
+            values=[KeyValue(key=str(k), value=str(v)) for k, v in values]))
     return msg
 
 

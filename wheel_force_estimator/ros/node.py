@@ -5,27 +5,36 @@
 
 Wiring (all in ``WheelForceNode.__init__``; callbacks stay tiny):
 
-* four ``sensor_msgs/Imu`` subscriptions, ``raw=True``: a callback only appends the serialized
-  bytes to its corner's list.  Batches are decoded with numpy (:mod:`.conversions`), checked
-  (malformed, wrong ``frame_id``, NaN/inf: dropped and counted), aligned on ``header.stamp``
-  (:mod:`.aligner`) and fed to the shared :class:`~wheel_force_estimator.core.predict.Predictor`
-  in blocks (:mod:`.stream`).  A batch is processed at once when the buffered messages could
-  complete a block (samples waiting + the fewest messages buffered by any corner >=
-  ``block_size``: nothing is published before that, so latency is unaffected), else by a
-  :data:`HOUSEKEEPING_PERIOD_S` timer, which bounds memory and detects stalls.  At real time
-  that is one batch per ~10 samples; under a fast replay one per block.
+* four ``sensor_msgs/Imu`` subscriptions, ``raw=True``, on relative topic names (they move with
+  the node's namespace): a callback only appends the serialized bytes to its corner's list.
+  Batches are decoded with numpy (:mod:`.conversions`), checked (malformed, wrong
+  ``frame_id``, NaN/inf: dropped and counted), aligned on ``header.stamp`` (:mod:`.aligner`)
+  and fed to the shared :class:`~wheel_force_estimator.core.predict.Predictor` in blocks
+  (:mod:`.stream`).  A batch is processed as soon as the buffered messages could complete a
+  block, else by the housekeeping timer.
 * four ``geometry_msgs/WrenchStamped`` publishers (RELIABLE, KEEP_LAST ``output_qos_depth``),
   one message per input sample per corner, stamped with the estimated input sample's stamp.
-  A finished block is not published in one go (512 messages take ~4 ms, during which no input
-  would be taken): :data:`PUBLISH_CHUNK_SAMPLES` samples at once, then
-  :data:`PUMP_SAMPLES_PER_INPUT` more with every input message and the rest by the timer.  The
-  samples deferred are those that waited least for their block, so the worst latency (the
-  block's first sample, published first) is unchanged.
-* a ``diagnostic_msgs/DiagnosticArray`` every ``damage_publish_period_s`` (:mod:`.diagnostics`).
+  **Steady output**: a finished block is not published in one burst (a reliable keep-last-5
+  subscriber such as ``ros2 topic echo`` would lose most of it) but paced at the input
+  rate: every input message earns a quarter of an output sample (four corners), so the
+  estimates leave at the rhythm the samples came in, spread over the next block.  The wait
+  this adds is at most about one block, and is measured and reported (``/diagnostics``,
+  shutdown summary).  Without input (end of a replay), the rest leaves one sample per sample
+  period of the model.
+* the running pseudo damage on ``damage_topic`` every ``damage_publish_period_s`` of **data
+  time** (sample stamps, :mod:`.stream`), so a replay at any rate or under sim time gives the
+  same messages; a last one when the input stops and at shutdown.
+* health on ``/diagnostics`` (:mod:`.diagnostics`) every :data:`DIAGNOSTICS_PERIOD_S`.
 
-Faults never stop the node: they are counted, shown in the diagnostics, logged with a
-throttled warning and summarised at shutdown.  Run with the ``EventsExecutor`` spun with a
-finite timeout (without one it busy-spins and runs nothing).
+Timers run on the **steady clock**, not the ROS clock: with ``use_sim_time`` and a paused or
+absent ``/clock``, stall detection, flushing and health still run.  At SIGINT/SIGTERM the
+look-ahead is flushed, every remaining estimate and a final damage message are published, and
+the node exits 0.
+
+Faults never stop the node: they are counted, shown in the diagnostics, logged (gaps one line
+each, with the stamps either side; repeated faults with a throttled warning) and summarised at
+shutdown.  Run with the ``EventsExecutor`` spun with a finite timeout (without one it
+busy-spins and runs nothing).
 """
 import collections
 import gc
@@ -37,6 +46,9 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 import numpy as np
 import rclpy
+from rclpy.clock import Clock
+from rclpy.clock import ClockType
+from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation
@@ -49,28 +61,41 @@ from sensor_msgs.msg import Imu
 from std_msgs.msg import String
 
 from wheel_force_estimator import CORNERS
+from wheel_force_estimator.bagio.cdr import decode_imu
+from wheel_force_estimator.bagio.cdr import encode_imu
+from wheel_force_estimator.bagio.cdr import encode_wrench
 from wheel_force_estimator.core.errors import WheelForceError
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.core.predict import Predictor
 from wheel_force_estimator.ros.aligner import AlignedSamples
 from wheel_force_estimator.ros.aligner import CornerAligner
-from wheel_force_estimator.ros.conversions import decode_imu
-from wheel_force_estimator.ros.conversions import encode_wrench
 from wheel_force_estimator.ros.diagnostics import build_damage_array
+from wheel_force_estimator.ros.diagnostics import build_health_array
 from wheel_force_estimator.ros.diagnostics import CornerReport
+from wheel_force_estimator.ros.diagnostics import ERROR
+from wheel_force_estimator.ros.diagnostics import OK
+from wheel_force_estimator.ros.diagnostics import WARN
 from wheel_force_estimator.ros.params import declare_node_parameters
 from wheel_force_estimator.ros.params import model_layout
+from wheel_force_estimator.ros.params import unknown_parameters
 from wheel_force_estimator.ros.stream import ForceStream
 
 NODE_NAME = 'wheel_force_node'
-#: Timer that processes buffered messages and checks for stalls [s].
+#: The ROS-wide health topic (absolute: never moves with the namespace).
+DIAGNOSTICS_TOPIC = '/diagnostics'
+IMU_TYPE = 'sensor_msgs/msg/Imu'
+#: Steady-clock timer that processes buffered messages, paces idle output, detects stalls [s].
 HOUSEKEEPING_PERIOD_S = 0.02
-#: Output samples (x4 messages) published right when a block is done.
-PUBLISH_CHUNK_SAMPLES = 16
-#: Output samples published with each input message while some are waiting.
-PUMP_SAMPLES_PER_INPUT = 2
+#: Steady-clock period of the /diagnostics health message [s].
+DIAGNOSTICS_PERIOD_S = 1.0
+#: Output samples earned per input message (one output sample per input sample of 4 corners).
+CREDIT_PER_MESSAGE = 0.25
 #: Throttle of repeated fault warnings [s].
 WARN_THROTTLE_S = 5.0
+#: Pacing latencies kept for the percentiles.
+LATENCY_WINDOW = 4096
+#: How long a shutdown waits for reliable subscribers to acknowledge the last estimates [s].
+SHUTDOWN_ACK_S = 2.0
 _DROP_REASONS = ('malformed', 'wrong_frame', 'nonfinite')
 _RCLError = rclpy_implementation.RCLError
 
@@ -97,14 +122,18 @@ class WheelForceNode(Node):
             self._params = params = declare_node_parameters(self)
             model = load_model(params.model_path)
             self._layout = layout = model_layout(model, params)
-            predictor = Predictor(model, layout.causal_delay_samples)
-            self._stream = ForceStream(predictor, params.block_size, params.sn_slope)
+            self._stream = _make_stream(model, layout, params)
         except WheelForceError:
             self.destroy_node()
             raise
+        _warm_up(model, layout, params)
+        for name in unknown_parameters(self):
+            self.get_logger().warning(
+                f'parameter {name!r} (params file or -p) is not a parameter of this node: '
+                f'ignored (typo?)')
         self._fs_hz = model.fs_hz
         self._model = model
-        self._input_order = np.asarray(layout.input_order)
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._aligner = CornerAligner(len(CORNERS), 3, max(
             params.input_qos_depth, params.stale_timeout_samples, 64))
         self._stale_s = params.stale_timeout_samples / model.fs_hz
@@ -112,15 +141,22 @@ class WheelForceNode(Node):
         n = len(CORNERS)
         self._raw = [[] for _ in range(n)]
         self._queued = 0                  # stream samples waiting for their block
-        self._out = collections.deque()   # [per-corner serialized messages, next index]
+        self._out = collections.deque()   # [per-corner serialized messages, next index, ready]
         self._n_unpublished = 0
+        self._credit = 0.0
         self._published = 0
+        self._latency_s = collections.deque(maxlen=LATENCY_WINDOW)
         self._received = np.zeros(n, dtype=np.int64)
         self._dropped = {reason: np.zeros(n, dtype=np.int64) for reason in _DROP_REASONS}
         self._last_rx_s = [None] * n
-        self._last_sample_s = None
+        self._last_input_s = None
+        self._input_since_tick = False
+        self._final_sent_for = None       # samples_out at the last end-of-stream report
+        self._damage_messages = 0
+        self._wrong_types = [''] * n
         self._event = ''
-        self._rate_ref = (self._stream.counts['samples_out'], self._stream.damage(), 0)
+        # Without moments in the model the torque is unknown: 0 (default) or NaN.
+        self._nan_torque = layout.torque_rows is None and params.unknown_torque == 'nan'
 
         in_qos = QoSProfile(
             history=HistoryPolicy.KEEP_LAST, depth=params.input_qos_depth,
@@ -135,19 +171,29 @@ class WheelForceNode(Node):
                       for topic in params.output_topics]
         self._publish_fns = [pub.publish for pub in self._pubs]
         self._damage_pub = self.create_publisher(DiagnosticArray, params.damage_topic, 10)
+        self._health_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
         # Best effort matches reliable and best-effort event publishers alike.
         self._event_sub = self.create_subscription(
             String, params.event_topic, self._on_event,
             QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
-        self._housekeeping = self.create_timer(HOUSEKEEPING_PERIOD_S, self._on_housekeeping)
-        self._damage_timer = self.create_timer(params.damage_publish_period_s,
-                                               self._publish_damage)
+        self._housekeeping = self.create_timer(HOUSEKEEPING_PERIOD_S, self._on_housekeeping,
+                                               clock=self._steady)
+        self._health_timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_health,
+                                               clock=self._steady)
+        # Paces what waits when no input arrives (a tail): one sample per sample period.
+        self._idle_timer = self.create_timer(1.0 / model.fs_hz, self._on_idle_tick,
+                                             clock=self._steady, autostart=False)
+        self._imu_names = [sub.topic_name for sub in self._subs]
+        delay = self._stream.delay_samples
         self.get_logger().info(
-            f'model {params.model_path}: {model.fs_hz:g} Hz, block {params.block_size} '
-            f'samples ({params.block_size / model.fs_hz * 1e3:.0f} ms), look-ahead '
-            f'{self._stream.delay_samples} samples '
-            f'({self._stream.delay_samples / model.fs_hz * 1e3:.0f} ms); inputs '
-            f'{", ".join(params.imu_topics)} ({params.input_reliability})')
+            f'{self.get_fully_qualified_name()}: model {params.model_path}: '
+            f'{model.fs_hz:g} Hz, block {params.block_size} samples '
+            f'({params.block_size / model.fs_hz * 1e3:.0f} ms), look-ahead {delay} samples '
+            f'({delay / model.fs_hz * 1e3:.0f} ms); inputs {", ".join(self._imu_names)} '
+            f'({params.input_reliability}); outputs '
+            f'{", ".join(pub.topic_name for pub in self._pubs)} (frames '
+            f'{", ".join(params.frame_ids)}); damage {self._damage_pub.topic_name}; '
+            f'events {self._event_sub.topic_name}; health {self._health_pub.topic_name}')
 
     # -- callbacks ---------------------------------------------------------------------------
 
@@ -158,11 +204,13 @@ class WheelForceNode(Node):
 
         def on_imu(raw: bytes):
             buf.append(raw)
-            if self._n_unpublished:
-                self._pump(PUMP_SAMPLES_PER_INPUT)
+            self._input_since_tick = True
             # A block can only complete once every corner has delivered enough messages.
             if self._queued + min(map(len, raws)) >= block:
                 self._process(time.monotonic())
+            if self._n_unpublished:
+                self._credit += CREDIT_PER_MESSAGE
+                self._pace()
         return on_imu
 
     def _on_event(self, msg: String):
@@ -170,15 +218,22 @@ class WheelForceNode(Node):
 
     def _on_housekeeping(self):
         now = time.monotonic()
+        had_input, self._input_since_tick = self._input_since_tick, False
         if any(self._raw):
             self._process(now)
-        if (self._stream.in_flight and self._last_sample_s is not None
-                and now - self._last_sample_s > self._params.flush_timeout_s):
-            self._stream.flush()
-            self._queued = self._stream.queued
-            self._publish(*self._stream.take())
-        if self._n_unpublished:
-            self._pump(self._n_unpublished)
+        if (self._stream.in_flight and self._last_input_s is not None
+                and now - self._last_input_s > self._params.flush_timeout_s):
+            self._end_of_stream('no input for '
+                                f'{now - self._last_input_s:.2f} s (flush_timeout_s)')
+        if self._n_unpublished and not had_input and self._idle_timer.is_canceled():
+            # No input to pace by (end of a replay, a stall): the model's sample rate.
+            self._idle_timer.reset()
+
+    def _on_idle_tick(self):
+        if self._n_unpublished and not self._input_since_tick:
+            self._pump(1)
+        else:
+            self._idle_timer.cancel()
 
     # -- processing --------------------------------------------------------------------------
 
@@ -210,18 +265,43 @@ class WheelForceNode(Node):
                 self._aligner.push(c, d.stamp_ns, d.accel_mps2)
         for event in self._aligner.drain():
             if isinstance(event, AlignedSamples):
-                self._stream.feed(event.stamp_ns, event.accel_mps2[self._input_order])
-                self._last_sample_s = now
+                self._stream.feed(event.stamp_ns, event.accel_mps2)
+                self._last_input_s = now
             else:
                 self.get_logger().warning(
                     f'stamps went back to {event.stamp_ns} ns (recording restarted?): '
                     f'estimates in flight completed, filter and damage restarted')
                 self._stream.restart()
         self._queued = self._stream.queued
-        self._publish(*self._stream.take())
+        self._collect(now)
+
+    def _collect(self, now: float, tail: bool = False):
+        """Queue what the stream emitted; log its breaks; publish its damage reports."""
+        for brk in self._stream.take_breaks():
+            self.get_logger().warning(
+                f'input {"gap" if brk.kind == "gap" else "clock fault"}: {brk}; estimates in '
+                f'flight completed, filter restarted')
+        self._enqueue(*self._stream.take(), now, tail)
+        for report in self._stream.take_damage_reports():
+            self._publish_damage(report)
+
+    def _end_of_stream(self, why: str = '', always: bool = False):
+        """Input stopped (or shutdown): flush the look-ahead, report damage, log counters."""
+        self._stream.flush()
+        self._queued = self._stream.queued
+        self._collect(time.monotonic(), tail=True)
+        samples_out = self._stream.counts['samples_out']
+        if always or self._final_sent_for != samples_out:
+            self._final_sent_for = samples_out
+            final = self._stream.final_damage_report()
+            if final is not None:
+                self._publish_damage(final)
+            if why:
+                self.get_logger().info(f'{why}: estimates in flight completed; '
+                                       f'{self.summary()}')
 
     def _count_drops(self, corner: int, decoded):
-        topic = self._params.imu_topics[corner]
+        topic = self._imu_names[corner]
         for reason in _DROP_REASONS:
             mask = getattr(decoded, reason)
             n = int(mask.sum())
@@ -234,38 +314,59 @@ class WheelForceNode(Node):
                     f'{int(self._dropped[reason][corner])})',
                     throttle_duration_sec=WARN_THROTTLE_S)
 
-    def _publish(self, stamp_ns: np.ndarray, force_n: np.ndarray):
+    def _enqueue(self, stamp_ns: np.ndarray, force_n: np.ndarray, ready_s: float,
+                 tail: bool):
         if stamp_ns.size == 0:
             return
         layout = self._layout
         blobs = []
         for c, frame in enumerate(self._params.frame_ids):
-            torque = None if layout.torque_rows is None else force_n[list(layout.torque_rows[c])]
+            if layout.torque_rows is not None:
+                torque = force_n[list(layout.torque_rows[c])]
+            elif self._nan_torque:
+                torque = np.full((3, stamp_ns.size), np.nan)
+            else:
+                torque = None
             blobs.append(encode_wrench(stamp_ns, force_n[list(layout.force_rows[c])], frame,
                                        torque))
-        self._out.append([blobs, 0])
+        # A tail (flushed after the input stopped) has no input to pace it: it leaves at the
+        # model's rate and is left out of the pacing latency, which measures steady running.
+        self._out.append([blobs, 0, None if tail else ready_s])
         self._n_unpublished += stamp_ns.size
-        self._pump(PUBLISH_CHUNK_SAMPLES)
 
-    def _pump(self, budget: int):
-        """Publish up to ``budget`` waiting output samples, oldest first."""
+    def _pace(self):
+        """Publish the output samples the input has paid for (see the module notes)."""
+        # More than two blocks waiting (after a flush, or inputs dropped): catch up at once.
+        excess = self._n_unpublished - 2 * self._params.block_size
+        due = max(int(self._credit), excess)
+        if due > 0:
+            self._credit -= self._pump(due)
+        if not self._n_unpublished:
+            self._credit = min(self._credit, 1.0)   # no saving up while nothing waits
+
+    def _pump(self, budget: int) -> int:
+        """Publish up to ``budget`` waiting output samples, oldest first; return the count."""
         publishers = self._publish_fns
-        while budget > 0 and self._out:
+        now = time.monotonic()
+        done = 0
+        while budget > done and self._out:
             entry = self._out[0]
-            blobs, first = entry
-            last = min(len(blobs[0]), first + budget)
+            blobs, first, ready = entry
+            last = min(len(blobs[0]), first + budget - done)
+            if ready is not None:
+                self._latency_s.append((now - ready, last - first))
             # Sample-major order: a subscriber sees the four corners of a sample together.
             for k in range(first, last):
                 for publish, corner_blobs in zip(publishers, blobs):
                     publish(corner_blobs[k])
-            n = last - first
-            budget -= n
-            self._published += n
-            self._n_unpublished -= n
+            done += last - first
             if last == len(blobs[0]):
                 self._out.popleft()
             else:
                 entry[1] = last
+        self._published += done
+        self._n_unpublished -= done
+        return done
 
     # -- diagnostics -------------------------------------------------------------------------
 
@@ -277,10 +378,12 @@ class WheelForceNode(Node):
         limit_ns = self._params.stale_timeout_samples * 1e9 / self._fs_hz
         for c in range(len(CORNERS)):
             rx = self._last_rx_s[c]
+            wrong = (f' (publisher of type {self._wrong_types[c]} on the topic)'
+                     if self._wrong_types[c] else '')
             if rx is None:
-                reasons.append('no message received yet')
+                reasons.append('no message received yet' + wrong)
             elif now - rx > self._stale_s:
-                reasons.append(f'no message for {now - rx:.2f} s')
+                reasons.append(f'no message for {now - rx:.2f} s' + wrong)
             elif (newest is not None and lasts[c] is not None and not self._aligner.in_transition
                   and newest - lasts[c] > limit_ns):
                 reasons.append(f'stamps {(newest - lasts[c]) * 1e-9:.2f} s behind the others')
@@ -299,55 +402,155 @@ class WheelForceNode(Node):
         dropped['dropped_incomplete'] = align['incomplete']
         total = sum(dropped.values())
         out = {'received': self._received, 'published': [self._published] * n,
-               'dropped': total, 'gaps': [stream['gaps']] * n, 'resets': [stream['jumps']] * n}
+               'dropped': total, 'gaps': [stream['gaps']] * n,
+               'missing_samples': [stream['missing_samples']] * n,
+               'short_steps': [stream['short_steps']] * n, 'resets': [stream['jumps']] * n}
         out.update(dropped)
         out.update({'aligned': align['aligned'], 'pending': align['pending'],
                     'in_flight': [self._stream.in_flight + self._n_unpublished] * n,
                     'flushes': [stream['flushes']] * n})
         return {key: [int(v) for v in value] for key, value in out.items()}
 
-    def _publish_damage(self):
-        if any(self._raw):
-            self._process(time.monotonic())
-        if self._n_unpublished:
-            # The damage covers what was emitted: publish it all first so the two agree.
-            self._pump(self._n_unpublished)
-        damage = self._stream.damage()
-        samples_out = self._stream.counts['samples_out']
-        jumps = self._stream.counts['jumps']
-        ref_out, ref_damage, ref_jumps = self._rate_ref
-        if jumps != ref_jumps:
-            ref_out, ref_damage = 0, np.zeros_like(damage)
-        n_new = samples_out - ref_out
-        rate = (damage - ref_damage) * self._fs_hz / n_new if n_new > 0 else damage * 0.0
-        self._rate_ref = (samples_out, damage, jumps)
+    def pacing_latency_ms(self):
+        """
+        Return (p50, p99, max) of the time estimates waited to be published [ms].
+
+        Per published sample, over the last :data:`LATENCY_WINDOW` publications, from the
+        moment the estimate was computed; end-of-stream tails are not included.
+        """
+        if not self._latency_s:
+            return (0.0, 0.0, 0.0)
+        pairs = np.asarray(self._latency_s)
+        order = np.argsort(pairs[:, 0])
+        lat, weight = pairs[order, 0] * 1e3, np.cumsum(pairs[order, 1])
+        p50, p99 = (lat[np.searchsorted(weight, q * weight[-1])] for q in (0.5, 0.99))
+        return float(p50), float(p99), float(lat[-1])
+
+    def _publish_damage(self, report):
         stale = self.stale_reasons(time.monotonic())
-        counters = self.counters()
         names = self._model.output_channels
         reports = []
         for c, corner in enumerate(CORNERS):
             rows = list(self._layout.force_rows[c])
             if self._layout.torque_rows is not None:
                 rows += list(self._layout.torque_rows[c])
-            pairs = tuple((names[r].split('_', 1)[1], float(damage[r])) for r in rows)
-            extra = tuple((key, value[c]) for key, value in counters.items())
-            extra += (('stale', 'true' if stale[c] else 'false'), ('event', self._event))
-            reports.append(CornerReport(corner, pairs, float(max(rate[rows].max(), 0.0)),
-                                        stale[c], extra))
+            pairs = tuple((names[r].split('_', 1)[1], float(report.damage[r])) for r in rows)
+            reports.append(CornerReport(corner, pairs,
+                                        float(max(report.rate_per_s[rows].max(), 0.0)),
+                                        stale[c], (('samples', report.n_samples),)))
+        budget = float(self.get_parameter('damage_budget').value)
+        self._damage_pub.publish(build_damage_array(
+            reports, self.get_fully_qualified_name(), report.stamp_ns, budget))
+        self._damage_messages += 1
+
+    def _check_input_types(self):
+        """Log once per topic and type when a publisher of another type uses an input topic."""
+        for c, topic in enumerate(self._imu_names):
+            try:
+                infos = self.get_publishers_info_by_topic(topic)
+            except _RCLError:
+                continue
+            types = sorted({i.topic_type for i in infos} - {IMU_TYPE})
+            found = ', '.join(types)
+            if found and found != self._wrong_types[c]:
+                self.get_logger().error(
+                    f'{topic}: publisher(s) of type {found} found; this node subscribes '
+                    f'{IMU_TYPE} there, so corner {CORNERS[c]} gets no data (reported stale; '
+                    f'the other corners keep running). Remap the topic to the Imu one.')
+            self._wrong_types[c] = found
+
+    def _publish_health(self):
+        self._check_input_types()
+        now = time.monotonic()
+        stale = self.stale_reasons(now)
+        counters = self.counters()
+        corners = []
+        for c, corner in enumerate(CORNERS):
+            level, text = (WARN, f'stale input: {stale[c]}') if stale[c] else (OK, 'ok')
+            values = [('topic', self._imu_names[c]), ('stale', 'true' if stale[c] else 'false')]
+            values += [(key, value[c]) for key, value in counters.items()]
+            corners.append((corner, level, text, values))
+        p50, p99, worst = self.pacing_latency_ms()
+        stream = self._stream.counts
+        if all(stale):
+            node_level, node_text = WARN, 'no input'
+        elif any(stale):
+            node_level, node_text = WARN, 'input stale on ' + ', '.join(
+                corner for corner, why in zip(CORNERS, stale) if why)
+        else:
+            node_level, node_text = OK, 'running'
+        if any(self._wrong_types):
+            node_level = ERROR
+            node_text = 'input topic with the wrong message type'
+        values = [('model', self._params.model_path), ('sample_rate_hz', f'{self._fs_hz:g}'),
+                  ('block_size', self._params.block_size),
+                  ('look_ahead_samples', self._stream.delay_samples),
+                  ('samples_in', stream['samples_in']), ('samples_out', stream['samples_out']),
+                  ('published', self._published), ('waiting', self._n_unpublished),
+                  ('gaps', stream['gaps']), ('missing_samples', stream['missing_samples']),
+                  ('flushes', stream['flushes']), ('resets', stream['jumps']),
+                  ('damage_messages', self._damage_messages),
+                  ('pacing_latency_p50_ms', f'{p50:.2f}'),
+                  ('pacing_latency_p99_ms', f'{p99:.2f}'),
+                  ('pacing_latency_max_ms', f'{worst:.2f}'), ('event', self._event)]
+        self._health_pub.publish(build_health_array(
+            self.get_name(), self.get_fully_qualified_name(),
+            self.get_clock().now().nanoseconds, corners, (node_level, node_text, values)))
         if any(stale):
             self.get_logger().warning(
-                'stale input: ' + '; '.join(f'{self._params.imu_topics[c]} {why}'
+                'stale input: ' + '; '.join(f'{self._imu_names[c]} {why}'
                                             for c, why in enumerate(stale) if why),
                 throttle_duration_sec=WARN_THROTTLE_S)
-        budget = float(self.get_parameter('damage_budget').value)
-        stamp_ns = self.get_clock().now().nanoseconds
-        self._damage_pub.publish(build_damage_array(reports, self.get_name(), stamp_ns, budget))
+
+    def finish(self):
+        """Shutdown: take what is buffered, flush, publish everything, wait for the acks."""
+        if any(self._raw):
+            self._process(time.monotonic())
+        self._end_of_stream(always=True)   # main() logs the summary
+        if self._n_unpublished:
+            self._pump(self._n_unpublished)
+        self._publish_health()
+        for pub in self._pubs + [self._damage_pub]:
+            pub.wait_for_all_acked(Duration(seconds=SHUTDOWN_ACK_S))
 
     def summary(self) -> str:
-        """Return the counters as one line (logged at shutdown)."""
+        """Return the counters and the pacing latency as one line."""
         counters = self.counters()
         text = ', '.join(f'{key}={value}' for key, value in counters.items())
-        return f'counters per corner (lf, rf, lr, rr): {text}'
+        p50, p99, worst = self.pacing_latency_ms()
+        return (f'counters per corner (lf, rf, lr, rr): {text}; pacing latency p50 '
+                f'{p50:.1f} ms, p99 {p99:.1f} ms, max {worst:.1f} ms')
+
+
+def _make_stream(model, layout, params) -> ForceStream:
+    """Return the node's estimation stream: the one place its Predictor is made."""
+    # The live (causal) estimator for this look-ahead (the model's, else the cut FIR).
+    predictor = Predictor(model, causal_delay_samples=layout.causal_delay_samples)
+    return ForceStream(predictor, params.block_size, params.sn_slope,
+                       damage_period_s=params.damage_publish_period_s)
+
+
+def _warm_up(model, layout, params):
+    """
+    Run the whole processing chain once on made-up samples, on throwaway objects.
+
+    The first call of the filter, the damage counter (numba) and the codecs compiles and plans
+    (~0.2 s measured, more on a loaded machine); done while the first messages arrive, it
+    stalls the executor long enough to overflow the input queues.
+    """
+    n = 2 * params.block_size + layout.causal_delay_samples
+    period_ns = int(round(1e9 / model.fs_hz))
+    stamps = np.arange(1, n + 1, dtype=np.int64) * period_ns
+    accel = np.repeat(np.asarray(model.static_accel_mps2, float)[:, None], n, axis=1)
+    blobs = [raw for c in range(len(CORNERS))
+             for raw in encode_imu(stamps, accel[3 * c:3 * c + 3], 'warm_up')]
+    decode_imu(blobs)
+    stream = _make_stream(model, layout, params)     # a throwaway twin of the node's
+    stream.feed(stamps, accel)
+    stream.flush()
+    out_stamps, force = stream.take()
+    encode_wrench(out_stamps, force[list(layout.force_rows[0])], 'warm_up')
+    stream.final_damage_report()
 
 
 def _slice(decoded, lo: int, hi: int):
@@ -370,10 +573,10 @@ def spin(node: Node, timeout_s: float = 0.1, stop: threading.Event = None):
 
 
 def main(args=None) -> int:
-    """Run the node until shutdown; return 0, or 1 when it refuses to start."""
+    """Run the node until SIGINT/SIGTERM; return 0, or 1 when it refuses to start."""
     # SIGINT/SIGTERM only request a stop, checked between executor turns: rclpy's own handler
     # would raise KeyboardInterrupt inside whatever callback is running (a FATAL log line and
-    # a half-processed block); this way the last block is finished and the counters logged.
+    # a half-processed block); this way the last block is finished, published and counted.
     stop = threading.Event()
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
@@ -398,10 +601,12 @@ def main(args=None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        if node.context.ok():
+            node.finish()
         summary = node.summary()
         node.destroy_node()
         rclpy.try_shutdown()
-        # After destroy_node: the context may be gone (Ctrl-C), so no /rosout publication.
+        # After destroy_node: the context may be gone, so no /rosout publication.
         rclpy.logging.get_logger(NODE_NAME).info(summary)
     return 0
 

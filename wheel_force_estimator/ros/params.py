@@ -3,12 +3,17 @@
 """
 Parameters of ``wheel_force_node``: declarations, validation and the model check.
 
-Every key of the ``wheel_force_node`` section of ``config/wheel_force.yaml`` is declared with a
+Every key of the ``/**`` section of ``config/wheel_force.yaml`` is declared with a
 ``ParameterDescriptor`` whose description states the unit, with a numeric range where one
 exists, read-only unless a live change makes sense (only ``damage_budget`` may change while
 running: it affects the diagnostics level, nothing else).  All values are then checked together
 in :class:`NodeParams`; any problem raises :class:`ConfigError` naming the parameter, and the
 node refuses to start with that one message.
+
+Defaults have one home each: topic names and frame ids are :mod:`..bagio.topics`'s (shared
+with the offline commands), everything else is in :data:`PARAMETERS`; the shipped params file is
+checked against both by a test.  Topic names are relative (DESIGN.md), so the node moves
+with its namespace.
 """
 from dataclasses import dataclass
 from typing import Any, Optional, Tuple
@@ -19,15 +24,16 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.exceptions import ParameterException
 
 from wheel_force_estimator import CORNERS
-from wheel_force_estimator import INPUT_CHANNELS
-from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.bagio import topics as topic_defaults
 from wheel_force_estimator.bagio.topics import TopicConfig
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ModelFileError
+from wheel_force_estimator.core.spindle import MOMENT_CHANNELS  # noqa: F401 (public here)
+from wheel_force_estimator.core.spindle import spindle_layout
 
 RELIABILITIES = ('best_effort', 'reliable')
-#: Extra output channels a model may carry (moments), published as the wrench torque.
-MOMENT_CHANNELS = tuple(f'{c}_m{ax}' for c in CORNERS for ax in 'xyz')
+#: What the wrench torque holds when the model has no moments.
+UNKNOWN_TORQUES = ('zero', 'nan')
 _MAX_FLOAT = 1.0e300
 
 
@@ -57,29 +63,35 @@ _FOUR = 'list of 4, corners lf, rf, lr, rr'
 PARAMETERS = (
     _Spec('model_path', '', 'model file (.npz) written by `wheel-force fit` [path]',
           constraints='required; channels and sample rate must match the node'),
-    _Spec('imu_topics', [f'/spindle/{c}/imu' for c in CORNERS],
-          'sensor_msgs/Imu input topics [topic names]', constraints=_FOUR),
-    _Spec('wft_topics', [f'/wft/{c}/wrench' for c in CORNERS],
+    _Spec('imu_topics', list(topic_defaults.DEFAULT_IMU_TOPICS),
+          'sensor_msgs/Imu input topics, relative to the node namespace [topic names]',
+          constraints=_FOUR),
+    _Spec('wft_topics', list(topic_defaults.DEFAULT_WFT_TOPICS),
           'measured wheel force topics (offline commands; not used live) [topic names]',
           constraints=_FOUR),
-    _Spec('output_topics', [f'/virtual_wft/{c}/wrench' for c in CORNERS],
+    _Spec('travel_topic', topic_defaults.DEFAULT_TRAVEL_TOPIC,
+          'sensor_msgs/JointState suspension travel (offline commands; not used live) '
+          '[topic name]'),
+    _Spec('output_topics', list(topic_defaults.DEFAULT_OUTPUT_TOPICS),
           'geometry_msgs/WrenchStamped output topics [topic names]', constraints=_FOUR),
-    _Spec('damage_topic', '/virtual_wft/damage',
+    _Spec('damage_topic', topic_defaults.DEFAULT_DAMAGE_TOPIC,
           'diagnostic_msgs/DiagnosticArray running pseudo damage topic [topic name]'),
-    _Spec('event_topic', '/proving_ground/event',
+    _Spec('event_topic', topic_defaults.DEFAULT_EVENT_TOPIC,
           'std_msgs/String proving-ground event topic (shown in diagnostics) [topic name]'),
-    _Spec('frame_ids', [f'{c}_wheel' for c in CORNERS],
-          'header.frame_id of the output wrenches [frame ids]', constraints=_FOUR),
+    _Spec('frame_ids', list(topic_defaults.DEFAULT_FRAME_IDS),
+          'header.frame_id of the output wrenches: non-rotating, vehicle-aligned frames at '
+          'the wheel centres [frame ids]', constraints=_FOUR),
     _Spec('imu_frame_ids', [''],
           'accepted Imu header.frame_id per corner; other frames are dropped [frame ids]',
           constraints='[""] accepts any; otherwise ' + _FOUR + ' ("" = any)'),
-    _Spec('block_size', 128, 'samples per overlap-add block [samples]', int_range=(1, 8192)),
-    _Spec('causal_delay_s', 0.25, 'FIR look-ahead kept by the live filter [s]',
+    _Spec('block_size', 16, 'samples per Predictor call [samples]', int_range=(1, 8192)),
+    _Spec('live_look_ahead_s', 0.05, 'look-ahead of the live (causal) estimator [s]',
           float_range=(0.0, 60.0),
           constraints="at most the model's look-ahead (fir_delay_samples / fs)"),
     _Spec('sn_slope', 5.0, 'Basquin exponent k of the pseudo damage [-]',
           float_range=(0.5, 50.0)),
-    _Spec('damage_publish_period_s', 1.0, 'period of the damage diagnostics [s]',
+    _Spec('damage_publish_period_s', 1.0,
+          'period of the damage messages, in data time (sample stamps) [s]',
           float_range=(0.01, 3600.0)),
     _Spec('damage_budget', 0.0,
           'pseudo damage per channel that raises ERROR (WARN from 80 %); 0 = off [N^k]',
@@ -88,19 +100,25 @@ PARAMETERS = (
           'a corner silent (or lagging) this long is reported stale [sample periods]',
           int_range=(1, 10_000_000)),
     _Spec('input_qos_depth', 200, 'history depth of the Imu subscriptions [messages]',
-          int_range=(1, 100_000)),
+          int_range=(50, 100_000)),
     _Spec('input_reliability', 'best_effort', 'reliability of the Imu subscriptions [-]',
           constraints='best_effort | reliable'),
     _Spec('output_qos_depth', 1024,
           'history depth of the reliable wrench publishers [messages]',
           int_range=(1, 1_000_000), constraints='>= 4 * block_size'),
     _Spec('flush_timeout_s', 0.5,
-          'no input for this long: estimates in flight are completed (end of stream) [s]',
+          'no input for this long (steady clock): estimates in flight are completed and '
+          'published, with a damage message (end of stream) [s]',
           float_range=(0.001, 3600.0)),
     _Spec('sample_rate_hz', 0.0,
           "expected input sample rate; 0 = the model's; else must equal the model's [Hz]",
           float_range=(0.0, 1.0e6)),
+    _Spec('unknown_torque', 'zero',
+          'wrench torque when the model estimates no moments: zero or NaN [-]',
+          constraints='zero | nan'),
 )
+#: Names of the declared parameters (and ``use_sim_time``, which rclpy declares).
+PARAMETER_NAMES = frozenset(spec.name for spec in PARAMETERS) | {'use_sim_time'}
 
 
 @dataclass(frozen=True)
@@ -118,13 +136,14 @@ class NodeParams:
     model_path: str
     imu_topics: Tuple[str, ...]
     wft_topics: Tuple[str, ...]
+    travel_topic: str
     output_topics: Tuple[str, ...]
     damage_topic: str
     event_topic: str
     frame_ids: Tuple[str, ...]
     imu_frame_ids: Tuple[str, ...]
     block_size: int
-    causal_delay_s: float
+    live_look_ahead_s: float
     sn_slope: float
     damage_publish_period_s: float
     damage_budget: float
@@ -134,6 +153,7 @@ class NodeParams:
     output_qos_depth: int
     flush_timeout_s: float
     sample_rate_hz: float
+    unknown_torque: str
 
     def __post_init__(self):
         """Check what descriptors cannot express; normalise ``imu_frame_ids`` to 4 entries."""
@@ -144,7 +164,7 @@ class NodeParams:
             TopicConfig(imu_topics=tuple(self.imu_topics), wft_topics=tuple(self.wft_topics),
                         output_topics=tuple(self.output_topics),
                         damage_topic=self.damage_topic, event_topic=self.event_topic,
-                        frame_ids=tuple(self.frame_ids))
+                        travel_topic=self.travel_topic, frame_ids=tuple(self.frame_ids))
         except ConfigError as err:
             raise ConfigError(f'parameters: {err}'.replace('TopicConfig: ', '')) from err
         frames = tuple(self.imu_frame_ids)
@@ -154,6 +174,9 @@ class NodeParams:
             raise ConfigError(f'parameter imu_frame_ids must be [""] (accept any) or a list of '
                               f'{len(CORNERS)} frame ids (lf, rf, lr, rr), got {list(frames)}')
         object.__setattr__(self, 'imu_frame_ids', frames)
+        if self.unknown_torque not in UNKNOWN_TORQUES:
+            raise ConfigError(f'parameter unknown_torque must be one of '
+                              f'{", ".join(UNKNOWN_TORQUES)}, got {self.unknown_torque!r}')
         if self.input_reliability not in RELIABILITIES:
             raise ConfigError(f'parameter input_reliability must be one of '
                               f'{", ".join(RELIABILITIES)}, got {self.input_reliability!r}')
@@ -168,7 +191,7 @@ class NodeParams:
         for name in ('damage_publish_period_s', 'flush_timeout_s', 'sn_slope'):
             if not getattr(self, name) > 0.0:
                 raise ConfigError(f'parameter {name} must be > 0, got {getattr(self, name)}')
-        for name in ('causal_delay_s', 'damage_budget', 'sample_rate_hz'):
+        for name in ('live_look_ahead_s', 'damage_budget', 'sample_rate_hz'):
             if not getattr(self, name) >= 0.0:
                 raise ConfigError(f'parameter {name} must be >= 0, got {getattr(self, name)}')
 
@@ -177,7 +200,8 @@ class NodeParams:
         """Return the topic names as the offline commands see them."""
         return TopicConfig(imu_topics=self.imu_topics, wft_topics=self.wft_topics,
                            output_topics=self.output_topics, damage_topic=self.damage_topic,
-                           event_topic=self.event_topic, frame_ids=self.frame_ids)
+                           event_topic=self.event_topic, travel_topic=self.travel_topic,
+                           frame_ids=self.frame_ids)
 
 
 def declare_node_parameters(node) -> NodeParams:
@@ -216,23 +240,20 @@ def declare_node_parameters(node) -> NodeParams:
 @dataclass(frozen=True)
 class ModelLayout:
     """
-    How the model's channels map onto the node's topics.
+    How the model's outputs map onto the node's topics.
 
     Attributes
     ----------
-    input_order : tuple of int
-        ``input_order[k]`` is the aligned row (corner-major lf_ax ... rr_az) feeding model
-        input ``k``.
     force_rows : tuple of tuple of int
         Per corner, the model output rows of force x, y, z.
     torque_rows : tuple of tuple of int or None
-        Per corner, the rows of moments x, y, z, or ``None`` (torque published as 0).
+        Per corner, the rows of moments x, y, z, or ``None`` (torque unknown: published as
+        ``unknown_torque`` says).
     causal_delay_samples : int
-        FIR look-ahead in samples.
+        Look-ahead of the live estimator, ``round(live_look_ahead_s * fs)`` [samples].
 
     """
 
-    input_order: Tuple[int, ...]
     force_rows: Tuple[Tuple[int, int, int], ...]
     torque_rows: Optional[Tuple[Tuple[int, int, int], ...]]
     causal_delay_samples: int
@@ -242,52 +263,39 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
     """
     Check that ``model`` fits the node and return the channel mapping.
 
+    The channel and unit rule is :func:`wheel_force_estimator.core.spindle.spindle_layout`,
+    the one ``predict`` and ``evaluate`` apply to bags.
+
     Raises
     ------
     ModelFileError
-        The model's channels are not the 12 spindle accelerations / 12 (or 24) wheel loads,
-        its units are not m/s^2 in and N out, its sample rate differs from
-        ``sample_rate_hz``, or its look-ahead is shorter than ``causal_delay_s``.
+        The model does not map the 12 spindle accelerations [m/s^2] to the wheel loads [N],
+        its sample rate differs from ``sample_rate_hz``, or its look-ahead is shorter than
+        ``live_look_ahead_s``.
 
     """
     where = f'model {params.model_path}'
-    if sorted(model.input_channels) != sorted(INPUT_CHANNELS):
-        raise ModelFileError(
-            f'{where}: input channels {list(model.input_channels)} are not the 12 spindle '
-            f'accelerations {list(INPUT_CHANNELS)} the node subscribes to')
-    outputs = list(model.output_channels)
-    missing = [c for c in OUTPUT_CHANNELS if c not in outputs]
-    unknown = [c for c in outputs if c not in OUTPUT_CHANNELS + MOMENT_CHANNELS]
-    if missing or unknown:
-        raise ModelFileError(
-            f'{where}: output channels {outputs} do not fit the node (missing '
-            f'{missing or "none"}, unknown {unknown or "none"})')
-    units = dict(model.units)
-    if units.get('input') != 'm/s^2' or units.get('output') != 'N':
-        # Imu messages carry m/s^2; a model fitted on displacement or velocity inputs (a
-        # generic DAQ fit) would turn them into forces off by orders of magnitude.
-        raise ModelFileError(
-            f'{where}: units {units} - the node feeds sensor_msgs/Imu linear accelerations '
-            f"[m/s^2] and publishes forces [N]; it needs a model with units input 'm/s^2', "
-            f"output 'N'")
-    moments = [c for c in outputs if c in MOMENT_CHANNELS]
-    if moments and len(moments) != len(MOMENT_CHANNELS):
-        raise ModelFileError(f'{where}: has moments {moments} but not all of '
-                             f'{list(MOMENT_CHANNELS)}')
+    layout = spindle_layout(model, where)
     fs = model.fs_hz
     if params.sample_rate_hz and abs(params.sample_rate_hz - fs) > 1e-6 * fs:
         raise ModelFileError(f'{where}: sample rate {fs:g} Hz differs from parameter '
                              f'sample_rate_hz = {params.sample_rate_hz:g} Hz')
-    delay = int(round(params.causal_delay_s * fs))
+    delay = int(round(params.live_look_ahead_s * fs))
     if delay > model.fir_delay_samples:
         raise ModelFileError(
-            f'{where}: causal_delay_s = {params.causal_delay_s:g} s ({delay} samples) exceeds '
-            f"the model's look-ahead of {model.fir_delay_samples} samples "
+            f'{where}: live_look_ahead_s = {params.live_look_ahead_s:g} s ({delay} samples) '
+            f"exceeds the model's look-ahead of {model.fir_delay_samples} samples "
             f'({model.fir_delay_samples / fs:g} s)')
-    index = {name: k for k, name in enumerate(outputs)}
-    force_rows = tuple(tuple(index[f'{c}_f{ax}'] for ax in 'xyz') for c in CORNERS)
-    torque_rows = tuple(tuple(index[f'{c}_m{ax}'] for ax in 'xyz') for c in CORNERS) \
-        if moments else None
-    return ModelLayout(
-        input_order=tuple(INPUT_CHANNELS.index(name) for name in model.input_channels),
-        force_rows=force_rows, torque_rows=torque_rows, causal_delay_samples=delay)
+    return ModelLayout(force_rows=layout.force_rows, torque_rows=layout.torque_rows,
+                       causal_delay_samples=delay)
+
+
+def unknown_parameters(node) -> Tuple[str, ...]:
+    """
+    Return the names given to ``node`` (params file, ``-p``) that it does not declare.
+
+    rclpy ignores them silently; a typo in a params file would otherwise go unnoticed.
+    """
+    overrides = getattr(node, '_parameter_overrides', None) or {}
+    return tuple(sorted(name for name in overrides if name not in PARAMETER_NAMES
+                        and not node.has_parameter(name)))

@@ -32,11 +32,11 @@ from sensor_msgs.msg import Imu
 from std_msgs.msg import String
 
 from wheel_force_estimator import CORNERS
+from wheel_force_estimator.bagio.cdr import decode_wrench
+from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.bagio.topics import TopicConfig
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
-from wheel_force_estimator.ros.conversions import decode_wrench
-from wheel_force_estimator.ros.conversions import encode_imu
 
 # Samples encoded per chunk: bounds memory for long recordings.
 _ENCODE_CHUNK = 4096
@@ -319,19 +319,20 @@ def _wait_for_outputs(collector: _Collector, n_expected: int, settle_s: float):
         if time.monotonic() - collector.last_rx_s > settle_s:
             break
         time.sleep(0.02)
-    # The damage message following the last output carries the final totals.
+    # The damage message made when the input stopped covers every output.
     n_out = min(len(r) for r in collector.raw)
     deadline = time.monotonic() + settle_s
     while time.monotonic() < deadline:
         damage = collector.damage
-        if damage is not None and damage.status and _published(damage) >= n_out:
+        if damage is not None and damage.status and _covered(damage) >= n_out:
             break
         time.sleep(0.02)
 
 
-def _published(damage: DiagnosticArray) -> int:
+def _covered(damage: DiagnosticArray) -> int:
+    """Return how many estimates a damage message covers (its ``samples`` value)."""
     for kv in damage.status[0].values:
-        if kv.key == 'published':
+        if kv.key == 'samples':
             return int(kv.value)
     return -1
 

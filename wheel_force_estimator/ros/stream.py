@@ -14,29 +14,97 @@ filter stream estimates input sample ``j - delay``; the first ``delay`` outputs 
 
 Discontinuities (each is counted):
 
-* **gap** — consecutive stamps not one sample period apart (within ±25 %, which tolerates
-  clock jitter but not another sample rate): the samples in flight are **flushed** (their
-  estimates are completed by ``Predictor.flush``, the signal held at its last value, exactly as
-  the offline ``predict`` ends a segment) and the filter restarts afresh at the next sample.
-  Nothing received is discarded, nothing missing is invented, and each gap-free stretch equals
-  the offline prediction of that stretch.
+* **gap** — a step between consecutive stamps longer than 1.5 periods, or shorter than half
+  a period (:mod:`wheel_force_estimator.core.gaps`: the rule the offline reader cuts
+  segments with, so a gap-free stretch here is exactly an offline segment): the samples in
+  flight are **flushed** (their estimates are completed by ``Predictor.flush``, exactly as the
+  offline ``predict`` ends a segment) and the filter restarts afresh at the next sample.
+  Nothing received is discarded, nothing missing is invented.  Each break is kept as a
+  :class:`StreamBreak` (stamps either side, samples missing) for the node to log.
 * **stall** — :meth:`ForceStream.flush` called by the node when no sample arrived for a while
   (end of a recording): the same flush, so the last ``delay`` samples are not held forever.
 * **jump** — the stamps went back (:meth:`ForceStream.restart`): flush, then the pseudo damage
   starts again from zero as well.
+
+The running pseudo damage is reported in **data time**: every ``damage_period_s`` of sample
+stamps (counted from the first estimate after a start or jump) a :class:`DamageReport` is
+made of the damage of the estimates stamped before that boundary, so a replay at any rate,
+and any chunking of the input, gives the same reports.
 """
 from dataclasses import dataclass
-from typing import List, Tuple
+from typing import List, Optional, Tuple
 
 import numpy as np
 
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.fatigue import StreamingDamage
+from wheel_force_estimator.core.gaps import classify_steps
+from wheel_force_estimator.core.gaps import missing_samples
+from wheel_force_estimator.core.lag import LeadDrop
 from wheel_force_estimator.core.predict import Predictor
 
-#: Stamp spacing accepted as "one sample period" (fraction of the period either way).
-PERIOD_TOLERANCE = 0.25
+_NS_PER_S = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class StreamBreak:
+    """
+    Where the stream was cut (gap or impossible step).
+
+    Attributes
+    ----------
+    kind : str
+        ``'gap'`` (samples missing) or ``'short_step'`` (step under half a period).
+    before_ns, after_ns : int
+        Stamps either side of the break [ns].
+    missing_samples : int
+        Sample periods missing in the step (0 for a short step).
+
+    """
+
+    kind: str
+    before_ns: int
+    after_ns: int
+    missing_samples: int
+
+    def __str__(self) -> str:
+        """Describe the break for a log line."""
+        step_ms = (self.after_ns - self.before_ns) * 1e-6
+        if self.kind == 'gap':
+            what = f'{self.missing_samples} sample(s) missing'
+        else:
+            what = 'step under half a sample period'
+        return (f'{what} between stamps {self.before_ns} ns and {self.after_ns} ns '
+                f'({step_ms:.3f} ms step)')
+
+
+@dataclass(frozen=True, eq=False)
+class DamageReport:
+    """
+    The running pseudo damage at a data-time boundary.
+
+    Attributes
+    ----------
+    stamp_ns : int
+        Boundary stamp: the damage covers every estimate stamped before it (after the last
+        start or jump) [ns].
+    damage : numpy.ndarray, shape (n_outputs,)
+        Accumulated pseudo damage per output channel [N^k].
+    rate_per_s : numpy.ndarray, shape (n_outputs,)
+        Damage increase since the previous report per second of data time [N^k/s].
+    n_samples : int
+        Number of estimates the damage covers.
+    final : bool
+        Made at an end of stream (stall, shutdown, jump), not at a period boundary.
+
+    """
+
+    stamp_ns: int
+    damage: np.ndarray
+    rate_per_s: np.ndarray
+    n_samples: int
+    final: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,15 +137,18 @@ class ForceStream:
         Samples per ``Predictor.process`` call, >= 1.
     sn_slope : float
         Basquin exponent of the running pseudo damage.
+    damage_period_s : float, optional
+        Data time between two :class:`DamageReport` s [s]; ``None``: no reports.
 
     Raises
     ------
     ConfigError
-        On a bad block size or slope.
+        On a bad block size, slope or period.
 
     """
 
-    def __init__(self, predictor: Predictor, block_size: int, sn_slope: float):
+    def __init__(self, predictor: Predictor, block_size: int, sn_slope: float,
+                 damage_period_s: Optional[float] = None):
         if isinstance(block_size, bool) or not isinstance(block_size, (int, np.integer)) \
                 or block_size < 1:
             raise ConfigError(f'block_size must be an integer >= 1, got {block_size!r}')
@@ -88,11 +159,19 @@ class ForceStream:
         self._n_out = len(predictor.model.output_channels)
         self._period_ns = 1e9 / predictor.model.fs_hz
         self._damage = StreamingDamage(self._n_out, sn_slope)
-        self.counts = {'samples_in': 0, 'samples_out': 0, 'gaps': 0, 'flushes': 0,
-                       'jumps': 0}
+        if damage_period_s is not None and not damage_period_s > 0.0:
+            raise ConfigError(f'damage_period_s must be > 0, got {damage_period_s!r}')
+        self._report_ns = None if damage_period_s is None else int(
+            round(damage_period_s * _NS_PER_S))
+        self.counts = {'samples_in': 0, 'samples_out': 0, 'gaps': 0, 'short_steps': 0,
+                       'missing_samples': 0, 'flushes': 0, 'jumps': 0}
         self._last_stamp = None
+        self._lead = LeadDrop(self._delay)
         self._reset_filter()
         self._out: List[StampedForces] = []
+        self._breaks: List[StreamBreak] = []
+        self._reports: List[DamageReport] = []
+        self._reset_reports()
 
     @property
     def delay_samples(self) -> int:
@@ -118,9 +197,16 @@ class ForceStream:
         """Return the pseudo damage of all emitted since start or the last jump, per output."""
         return self._damage.damage()
 
+    def _reset_reports(self):
+        self._first_out_ns: Optional[int] = None          # first estimate after (re)start
+        self._next_report_ns: Optional[int] = None        # next data-time boundary
+        self._last_report = None                          # (stamp_ns, damage)
+        self._last_out_ns: Optional[int] = None
+        self._n_damaged = 0                               # estimates in the damage
+
     def _reset_filter(self):
         self._predictor.reset()
-        self._n_fed = 0                                   # filter inputs since restart
+        self._lead.reset()
         self._fifo = np.empty(0, dtype=np.int64)          # stamps fed, estimate pending
         self._queued: List[np.ndarray] = []               # stamps waiting for a full block
         self._queued_x: List[np.ndarray] = []
@@ -150,19 +236,65 @@ class ForceStream:
                              f'expected ({self._n_in}, {stamps.size})')
         if stamps.size == 0:
             return
-        prev = stamps[0] - round(self._period_ns) if self._last_stamp is None \
-            else self._last_stamp
-        step = np.diff(stamps, prepend=prev)
-        breaks = np.flatnonzero(np.abs(step - self._period_ns)
-                                > PERIOD_TOLERANCE * self._period_ns)
+        if self._last_stamp is None:
+            step = np.diff(stamps, prepend=stamps[0] - round(self._period_ns))
+        else:
+            step = np.diff(stamps, prepend=self._last_stamp)
+        gap, short = classify_steps(step, self._period_ns)
+        breaks = np.flatnonzero(gap | short)
         starts = [0, *breaks[breaks > 0].tolist()]
         for lo, hi in zip(starts, starts[1:] + [stamps.size]):
             if lo in breaks:
-                self.counts['gaps'] += 1
-                self.flush()
+                before = int(stamps[lo - 1]) if lo else int(self._last_stamp)
+                self._break(gap[lo], before, int(stamps[lo]))
             self._queue(stamps[lo:hi], x[:, lo:hi])
         self._last_stamp = int(stamps[-1])
         self.counts['samples_in'] += stamps.size
+
+    def _break(self, is_gap: bool, before_ns: int, after_ns: int):
+        if is_gap:
+            missing = missing_samples(after_ns - before_ns, self._period_ns)
+            self.counts['gaps'] += 1
+            self.counts['missing_samples'] += missing
+            self._breaks.append(StreamBreak('gap', before_ns, after_ns, missing))
+        else:
+            self.counts['short_steps'] += 1
+            self._breaks.append(StreamBreak('short_step', before_ns, after_ns, 0))
+        self.flush()
+
+    def take_breaks(self) -> List[StreamBreak]:
+        """Return and forget the breaks (gaps, short steps) found since the last call."""
+        out, self._breaks = self._breaks, []
+        return out
+
+    def take_damage_reports(self) -> List[DamageReport]:
+        """Return and forget the damage reports made since the last call, in order."""
+        out, self._reports = self._reports, []
+        return out
+
+    def final_damage_report(self) -> Optional[DamageReport]:
+        """
+        Report the damage of everything emitted so far (end of stream); ``None`` if nothing.
+
+        Stamped one sample period after the last estimate (the report covers the estimates
+        stamped before it).  Nothing is reset: the next period boundary stays where it was.
+        """
+        if self._last_out_ns is None:
+            return None
+        stamp = self._last_out_ns + int(round(self._period_ns))
+        return self._report(stamp, final=True)
+
+    def _report(self, stamp_ns: int, final: bool = False) -> DamageReport:
+        damage = self._damage.damage()
+        if self._last_report is None:
+            since_ns, before = self._first_out_ns, np.zeros_like(damage)
+        else:
+            since_ns, before = self._last_report
+        span_s = (stamp_ns - since_ns) / _NS_PER_S
+        rate = (damage - before) / span_s if span_s > 0 else np.zeros_like(damage)
+        if not final:
+            self._last_report = (stamp_ns, damage)
+        return DamageReport(int(stamp_ns), damage, rate, self._n_damaged, final)
 
     def flush(self) -> None:
         """Complete the estimates in flight (stall / end of stream); the filter restarts."""
@@ -170,11 +302,16 @@ class ForceStream:
             self._flush()
 
     def restart(self) -> None:
-        """Stamps went back: flush, then start afresh including the pseudo damage."""
+        """Stamps went back: flush, report, then start afresh including the pseudo damage."""
         self.counts['jumps'] += 1
         self.flush()
+        if self._report_ns is not None:
+            final = self.final_damage_report()
+            if final is not None:
+                self._reports.append(final)
         self._last_stamp = None
         self._damage.reset()
+        self._reset_reports()
 
     def take(self) -> Tuple[np.ndarray, np.ndarray]:
         """
@@ -217,29 +354,49 @@ class ForceStream:
         """Filter one block; emit the estimates that map to received samples."""
         y = self._predictor.process(x)
         self._fifo = np.concatenate([self._fifo, stamps])
-        self._n_fed += stamps.size
         self._emit(y)
 
     def _emit(self, y: np.ndarray):
-        # Outputs j < delay (counted from the restart) estimate samples before the restart.
-        first_j = self._n_fed - y.shape[1]
-        skip = min(max(self._delay - first_j, 0), y.shape[1])
-        n = y.shape[1] - skip
-        if n <= 0:
+        force = self._lead(y)
+        n = force.shape[1]
+        if n == 0:
             return
         stamps, self._fifo = self._fifo[:n], self._fifo[n:]
-        force = y[:, skip:]
-        self._damage.update(force)
+        if self._report_ns is None:
+            self._damage.update(force)
+        else:
+            self._update_reporting(stamps, force)
         self.counts['samples_out'] += n
         self._out.append(StampedForces(stamps, force))
+
+    def _update_reporting(self, stamps: np.ndarray, force: np.ndarray):
+        """Accumulate damage, reporting at every data-time boundary the stamps cross."""
+        if self._next_report_ns is None:
+            self._first_out_ns = int(stamps[0])
+            self._next_report_ns = int(stamps[0]) + self._report_ns
+        lo = 0
+        while True:
+            cut = int(np.searchsorted(stamps, self._next_report_ns, side='left'))
+            if cut >= stamps.size:
+                break
+            self._damage.update(force[:, lo:cut])
+            self._n_damaged += cut - lo
+            # After a long gap several boundaries may lie before the next stamp: one report,
+            # at the last of them.
+            k = (int(stamps[cut]) - self._next_report_ns) // self._report_ns
+            boundary = self._next_report_ns + k * self._report_ns
+            self._reports.append(self._report(boundary))
+            self._next_report_ns = boundary + self._report_ns
+            lo = cut
+        self._damage.update(force[:, lo:])
+        self._n_damaged += stamps.size - lo
+        self._last_out_ns = int(stamps[-1])
 
     def _flush(self):
         self.counts['flushes'] += 1
         if self._queued:
             self._run(np.concatenate(self._queued), np.concatenate(self._queued_x, axis=1))
             self._queued, self._queued_x, self._n_queued = [], [], 0
-        if self._n_fed:
-            y = self._predictor.flush()
-            self._n_fed += y.shape[1]
-            self._emit(y)
+        if self._fifo.size:
+            self._emit(self._predictor.flush())
         self._reset_filter()

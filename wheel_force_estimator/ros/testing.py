@@ -97,9 +97,9 @@ def isolated_ros_env(base: Optional[Mapping[str, str]] = None) -> Dict[str, str]
 
 
 def node_command(model_path, params: Mapping[str, object] = (),
-                 params_file: Optional[Path] = None) -> list:
+                 params_file: Optional[Path] = None, ros_args: Sequence[str] = ()) -> list:
     """Return the command line running ``wheel_force_node`` with parameter overrides."""
-    cmd = [sys.executable, '-m', 'wheel_force_estimator.ros.node', '--ros-args']
+    cmd = [sys.executable, '-m', 'wheel_force_estimator.ros.node', '--ros-args', *ros_args]
     if params_file is not None:
         cmd += ['--params-file', str(params_file)]
     cmd += ['-p', f'model_path:={model_path}']
@@ -109,17 +109,20 @@ def node_command(model_path, params: Mapping[str, object] = (),
                                     for v in value) + ']'
         elif isinstance(value, float):
             value = repr(value)
+        elif isinstance(value, bool):
+            value = str(value).lower()
         cmd += ['-p', f'{key}:={value}']
     return cmd
 
 
 def start_node(model_path, env: Mapping[str, str], params: Mapping[str, object] = (),
-               log_path: Optional[Path] = None) -> subprocess.Popen:
+               log_path: Optional[Path] = None, params_file: Optional[Path] = None,
+               ros_args: Sequence[str] = ()) -> subprocess.Popen:
     """Start the node as a subprocess (stdout/stderr to ``log_path`` or discarded)."""
     out = open(log_path, 'w') if log_path is not None else subprocess.DEVNULL
     try:
-        return subprocess.Popen(node_command(model_path, params), env=dict(env), stdout=out,
-                                stderr=subprocess.STDOUT)
+        return subprocess.Popen(node_command(model_path, params, params_file, ros_args),
+                                env=dict(env), stdout=out, stderr=subprocess.STDOUT)
     finally:
         if log_path is not None:
             out.close()
@@ -191,3 +194,63 @@ class SpinningParticipant:
             self.executor.shutdown()
         self.node.destroy_node()
         self._rclpy.try_shutdown(context=self.context)
+
+
+def count_messages_main(argv: Sequence[str]) -> int:
+    """
+    Count raw messages on topics in a process of its own, like ``ros2 topic echo``.
+
+    ``python -m wheel_force_estimator.ros.testing RELIABILITY DEPTH EXPECTED TIMEOUT_S TOPIC...``
+    subscribes every TOPIC (``geometry_msgs/WrenchStamped``, KEEP_LAST ``DEPTH``), prints
+    ``ready`` once each has a publisher, then a JSON list of counts when every topic reached
+    ``EXPECTED`` messages or ``TIMEOUT_S`` passed after the first message.
+    """
+    import json
+
+    from geometry_msgs.msg import WrenchStamped
+    import rclpy
+    from rclpy.experimental import EventsExecutor
+    from rclpy.qos import HistoryPolicy
+    from rclpy.qos import QoSProfile
+    from rclpy.qos import ReliabilityPolicy
+
+    reliability, depth, expected, timeout_s, *topics = argv
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth),
+                     reliability=(ReliabilityPolicy.RELIABLE if reliability == 'reliable'
+                                  else ReliabilityPolicy.BEST_EFFORT))
+    rclpy.init()
+    node = rclpy.create_node('message_counter')
+    counts = [0] * len(topics)
+    first = []
+
+    def counter(k):
+        def on_msg(_raw):
+            if not first:
+                first.append(time.monotonic())
+            counts[k] += 1
+        return on_msg
+
+    subs = [node.create_subscription(WrenchStamped, t, counter(k), qos, raw=True)
+            for k, t in enumerate(topics)]
+    executor = EventsExecutor()
+    executor.add_node(node)
+    ready = False
+    try:
+        while True:
+            executor.spin_once(timeout_sec=0.01)
+            if not ready and all(node.count_publishers(t) for t in topics):
+                ready = True
+                print('ready', flush=True)
+            if min(counts) >= int(expected) or (
+                    first and time.monotonic() - first[0] > float(timeout_s)):
+                break
+    finally:
+        print(json.dumps(counts), flush=True)
+        del subs
+        executor.shutdown()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(count_messages_main(sys.argv[1:]))

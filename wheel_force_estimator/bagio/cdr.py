@@ -1,13 +1,15 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Message conversion: bulk CDR codecs for Imu / WrenchStamped and the damage diagnostics.
+The one CDR codec of the package: fixed-layout stamped messages, in bulk, with numpy.
 
-The node receives ``sensor_msgs/Imu`` with ``raw=True`` subscriptions and decodes whole batches
-of serialized messages with numpy (DESIGN.md: a Python message object costs ~3x more than the
-raw bytes), and publishes ``geometry_msgs/WrenchStamped`` as serialized bytes built the same
-way.  Only the fields the package uses are interpreted; layout (XCDR1 / plain CDR, as every
-ROS 2 Jazzy RMW writes it)::
+``sensor_msgs/Imu`` and ``geometry_msgs/WrenchStamped`` are a Header followed by float64
+fields only, so once the frame_id length is known every field sits at a fixed byte offset.
+The layouts (:data:`IMU`, :data:`WRENCH`) and offsets (:func:`body_offset`) are defined here
+once; the bag readers and writer (:mod:`.fastcdr`) and the live node (raw subscriptions: a
+Python message object costs ~3x more than the raw bytes, DESIGN.md) both use them.  No ROS
+import: plain numpy.  Only the fields the package uses are interpreted; layout (XCDR1 / plain
+CDR, as every ROS 2 Jazzy RMW writes it)::
 
     4 bytes   encapsulation header (0x00 0x01 = little endian, 0x00 0x00 = big endian)
     int32     header.stamp.sec          uint32  header.stamp.nanosec
@@ -27,19 +29,63 @@ import numpy as np
 
 from wheel_force_estimator.core.errors import ShapeError
 
-# Doubles after the header: orientation(4), its covariance(9), angular_velocity(3), its
-# covariance(9), linear_acceleration(3), its covariance(9).
-_IMU_BODY_BYTES = 37 * 8
-_IMU_ACCEL_FROM_END = 12 * 8
-_WRENCH_BODY_BYTES = 6 * 8
+IMU_TYPE = 'sensor_msgs/msg/Imu'
+WRENCH_TYPE = 'geometry_msgs/msg/WrenchStamped'
+STRING_TYPE = 'std_msgs/msg/String'
+
+
+@dataclass(frozen=True)
+class Layout:
+    """
+    Where the three float64 values we need sit in a fixed-layout stamped message.
+
+    Attributes
+    ----------
+    msgtype : str
+        ROS 2 message type name.
+    tail_bytes : int
+        Bytes after the (8-aligned) header: all float64 fields.
+    value_offset : int
+        Offset of the x, y, z values from the start of the tail.
+    vector_path : tuple of str
+        Attribute path to the Vector3 in a deserialised message (for the generic path).
+
+    """
+
+    msgtype: str
+    tail_bytes: int
+    value_offset: int
+    vector_path: Tuple[str, ...]
+
+
+# Imu tail: orientation(4) + cov(9) + angular_velocity(3) + cov(9) + linear_acceleration(3)
+# + cov(9) float64; linear_acceleration starts after 25 doubles.
+IMU = Layout(IMU_TYPE, 37 * 8, 25 * 8, ('linear_acceleration',))
+# WrenchStamped tail: force(3) + torque(3) float64.
+WRENCH = Layout(WRENCH_TYPE, 6 * 8, 0, ('wrench', 'force'))
+LAYOUTS = {IMU_TYPE: IMU, WRENCH_TYPE: WRENCH}
+
+
+def body_offset(strlen: int) -> int:
+    """
+    Byte offset of the first float64 after a header whose frame_id has ``strlen`` bytes.
+
+    ``strlen`` counts the terminating NUL, as CDR does.
+    """
+    return 4 + (12 + strlen + 7) // 8 * 8
+
+
+def payload_length(layout: Layout, strlen: int) -> int:
+    """Return the serialised length for a frame_id of ``strlen`` bytes (NUL included)."""
+    return body_offset(strlen) + layout.tail_bytes
+
+
+_IMU_BODY_BYTES = IMU.tail_bytes
+_IMU_ACCEL_FROM_END = IMU.tail_bytes - IMU.value_offset
+_WRENCH_BODY_BYTES = WRENCH.tail_bytes
 _ENCAPSULATION = 4
 _HEADER_FIXED = 12          # sec, nanosec, string length
 _NS_PER_S = 1_000_000_000
-
-
-def _body_offset(frame_len_with_nul: int) -> int:
-    """Byte offset of the first double for a frame id of this (NUL-terminated) length."""
-    return _ENCAPSULATION + ((_HEADER_FIXED + frame_len_with_nul + 7) // 8) * 8
 
 
 def _frame_bytes(frame_id: str) -> bytes:
@@ -217,7 +263,7 @@ def _encode(stamp_ns, body: np.ndarray, frame_id: str) -> List[bytes]:
     if stamps.size and stamps.min() < 0:
         raise ShapeError(f'encode: negative stamp {int(stamps.min())} ns cannot be a ROS time')
     frame = _frame_bytes(frame_id)
-    offset = _body_offset(len(frame))
+    offset = body_offset(len(frame))
     length = offset + 8 * body.shape[1]
     n = stamps.size
     buf = np.zeros((n, length), dtype=np.uint8)

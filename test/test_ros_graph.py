@@ -1,0 +1,330 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The node in a ROS graph, through real rclpy/DDS: namespaces, sim time, QoS, wrong types.
+
+Each test starts node processes and talks to them from participants in their own contexts
+(random domain, localhost only: parallel runs never meet).
+"""
+from pathlib import Path
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import WrenchStamped
+import numpy as np
+import pytest
+from rclpy.qos import HistoryPolicy
+from rclpy.qos import QoSProfile
+from rclpy.qos import ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Imu
+
+from wheel_force_estimator.bagio.cdr import decode_wrench
+from wheel_force_estimator.bagio.cdr import encode_imu
+from wheel_force_estimator.core.model import save_model
+from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.ros.diagnostics import status_values
+from wheel_force_estimator.ros.testing import isolated_ros_env
+from wheel_force_estimator.ros.testing import sample_stamps
+from wheel_force_estimator.ros.testing import SpinningParticipant
+from wheel_force_estimator.ros.testing import start_node
+from wheel_force_estimator.ros.testing import stop_node
+from wheel_force_estimator.ros.testing import synthetic_accel
+from wheel_force_estimator.ros.testing import synthetic_model
+from wheel_force_estimator.ros.testing import wait_until
+
+pytestmark = [pytest.mark.ros, pytest.mark.timeout(180)]
+
+FS_HZ = 512.0
+CORNERS = ('lf', 'rf', 'lr', 'rr')
+CONFIG = Path(__file__).resolve().parents[1] / 'config' / 'wheel_force.yaml'
+# live_look_ahead_s = 0.05 s (the shipped default) at 512 Hz
+LOOK_AHEAD = round(0.05 * FS_HZ)
+# node vs offline: the same Predictor, different call lengths: FFT rounding only (~1e-15)
+RTOL = 1e-9
+RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000,
+                      reliability=ReliabilityPolicy.RELIABLE)
+
+
+@pytest.fixture
+def ros_env(monkeypatch):
+    env = isolated_ros_env()
+    for key in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'RMW_IMPLEMENTATION'):
+        monkeypatch.setenv(key, env[key])
+    return env
+
+
+@pytest.fixture(scope='module')
+def model_and_file(tmp_path_factory):
+    model = synthetic_model(fs_hz=FS_HZ, n_taps=96, delay_samples=40, seed=31)
+    return model, save_model(model, tmp_path_factory.mktemp('model') / 'model.npz')
+
+
+class Peer(SpinningParticipant):
+    """Imu publishers, wrench/diagnostics subscribers and an optional /clock publisher."""
+
+    def __init__(self, name, namespaces=('',), out_qos=None, clock=False):
+        super().__init__(name)
+        self.pubs = {ns: [self.node.create_publisher(Imu, f'{ns}/spindle/{c}/imu', RELIABLE)
+                          for c in CORNERS] for ns in namespaces}
+        self.raw = {}
+        self.subs = []
+        for ns in namespaces:
+            for c in CORNERS:
+                topic = f'{ns}/virtual_wft/{c}/wrench'
+                self.raw[topic] = []
+                self.subs.append(self.node.create_subscription(
+                    WrenchStamped, topic, self.raw[topic].append, out_qos or RELIABLE,
+                    raw=True))
+        self.health, self.damage = [], []
+        self.subs.append(self.node.create_subscription(DiagnosticArray, '/diagnostics',
+                                                       self.health.append, 100))
+        self.subs.append(self.node.create_subscription(
+            DiagnosticArray, f'{namespaces[0]}/virtual_wft/damage', self.damage.append, 100))
+        self.damage_by_ns = {}
+        for ns in namespaces:
+            self.damage_by_ns[ns] = []
+            self.subs.append(self.node.create_subscription(
+                DiagnosticArray, f'{ns}/virtual_wft/damage', self.damage_by_ns[ns].append,
+                100))
+        self.clock_pub = self.node.create_publisher(Clock, '/clock', 10) if clock else None
+        self.start()
+
+    def wait_for_node(self, n_nodes=1, timeout_s=60.0):
+        pubs = [p for ps in self.pubs.values() for p in ps]
+        return wait_until(lambda: all(p.get_subscription_count() >= 1 for p in pubs)
+                          and all(s.get_publisher_count() >= 1 for s in self.subs[:4]),
+                          timeout_s)
+
+    def publish(self, ns, stamps, accel, rate, burst=4, clock_on=None):
+        """Publish at ``rate`` x real time; ``clock_on(i)`` says whether /clock ticks."""
+        msgs = [encode_imu(stamps, accel[3 * c:3 * c + 3], f'{corner}_spindle')
+                for c, corner in enumerate(CORNERS)]
+        start = time.monotonic()
+        for lo in range(0, stamps.size, burst):
+            due = (stamps[lo] - stamps[0]) * 1e-9 / rate
+            time.sleep(max(0.0, due - (time.monotonic() - start)))
+            if self.clock_pub is not None and clock_on(lo):
+                msg = Clock()
+                msg.clock.sec, msg.clock.nanosec = divmod(int(stamps[lo]), 10**9)
+                self.clock_pub.publish(msg)
+            for k in range(lo, min(lo + burst, stamps.size)):
+                for c in range(len(CORNERS)):
+                    self.pubs[ns][c].publish(msgs[c][k])
+
+    def forces(self, topic):
+        stamps, wrench, bad = decode_wrench(list(self.raw[topic]))
+        assert not bad.any()
+        return stamps, wrench
+
+
+def by_name(msg):
+    return {s.name: (s, status_values(s)) for s in msg.status}
+
+
+def test_two_cars_in_one_graph_with_one_params_file(ros_env, model_and_file, tmp_path):
+    model, path = model_and_file
+    # The shipped file with two values changed: it must apply to both instances, also to
+    # car2's node renamed with __node:= (that is what /** is for).
+    params = tmp_path / 'params.yaml'
+    text = CONFIG.read_text()
+    assert 'damage_publish_period_s: 1.0 ' in text and 'unknown_torque: "zero"' in text
+    text = text.replace('damage_publish_period_s: 1.0 ', 'damage_publish_period_s: 0.5 ')
+    params.write_text(text.replace('unknown_torque: "zero"', 'unknown_torque: "nan"'))
+    procs = [start_node(path, ros_env, {'input_reliability': 'reliable'},
+                        log_path=tmp_path / f'{car}.log', params_file=params,
+                        ros_args=['-r', f'__ns:=/{car}'] + extra)
+             for car, extra in (('car1', []), ('car2', ['-r', '__node:=rear_axle_wft']))]
+    n = 1024
+    stamps = sample_stamps(n)
+    data = {'/car1': synthetic_accel(n, FS_HZ, seed=41),
+            '/car2': synthetic_accel(n, FS_HZ, seed=42)}
+    peer = Peer('two_cars', namespaces=('/car1', '/car2'))
+    try:
+        assert peer.wait_for_node(), 'nodes did not come up'
+        time.sleep(0.5)
+        for ns, accel in data.items():
+            peer.publish(ns, stamps, accel, rate=4.0)
+        assert wait_until(lambda: all(len(r) == n for r in peer.raw.values()), 20.0), \
+            {t: len(r) for t, r in peer.raw.items()}
+        for ns, accel in data.items():
+            expected = predict_forces(model, accel, LOOK_AHEAD)
+            other = predict_forces(model, data['/car2' if ns == '/car1' else '/car1'],
+                                   LOOK_AHEAD)
+            for c, corner in enumerate(CORNERS):
+                got_stamps, wrench = peer.forces(f'{ns}/virtual_wft/{corner}/wrench')
+                np.testing.assert_array_equal(got_stamps, stamps)
+                scale = np.abs(expected).max()
+                np.testing.assert_allclose(wrench[:3], expected[3 * c:3 * c + 3], rtol=0,
+                                           atol=RTOL * scale)
+                assert np.abs(wrench[:3] - other[3 * c:3 * c + 3]).max() > 1.0  # own inputs
+                assert np.isnan(wrench[3:]).all()         # unknown torque: "nan" applied
+            # damage every 0.5 s of data (the file's value), then the end-of-stream one
+            assert wait_until(lambda: len(peer.damage_by_ns[ns]) >= 3, 5.0)
+            first = peer.damage_by_ns[ns][0].header.stamp
+            assert first.sec * 10**9 + first.nanosec == int(stamps[0]) + 500_000_000
+        # each instance reports health under its own fully qualified name
+        ids = {s.hardware_id for m in peer.health for s in m.status}
+        assert ids == {'/car1/wheel_force_node', '/car2/rear_axle_wft'}
+        names = {s.name for m in peer.health for s in m.status}
+        assert {'wheel_force_node: lf', 'rear_axle_wft: rr', 'rear_axle_wft'} <= names
+    finally:
+        peer.close()
+        codes = [stop_node(p) for p in procs]
+    assert codes == [0, 0]
+    for car in ('car1', 'car2'):
+        log = (tmp_path / f'{car}.log').read_text()
+        # start-up names are the resolved ones
+        assert f'inputs /{car}/spindle/lf/imu' in log and f'/{car}/virtual_wft/damage' in log
+
+
+def test_sim_time_with_a_paused_clock_and_input_that_stops(ros_env, model_and_file, tmp_path):
+    model, path = model_and_file
+    log = tmp_path / 'node.log'
+    proc = start_node(path, ros_env, {'use_sim_time': True, 'input_reliability': 'reliable',
+                                      'damage_publish_period_s': 0.5}, log_path=log)
+    n = 2048                                  # 4 s of data, played at 2x: 2 s
+    stamps = sample_stamps(n)
+    accel = synthetic_accel(n, FS_HZ, seed=43)
+    peer = Peer('sim_clock', clock=True)
+    try:
+        assert peer.wait_for_node()
+        time.sleep(0.5)
+        # /clock ticks for the first quarter, pauses, resumes for the last quarter, then
+        # stops for good together with the input.
+        peer.publish('', stamps, accel, rate=2.0,
+                     clock_on=lambda i: i < n // 4 or i >= 3 * n // 4)
+        n_health = len(peer.health)
+        assert wait_until(lambda: all(len(r) == n for r in peer.raw.values()), 10.0), \
+            [len(r) for r in peer.raw.values()]
+        # the tail was flushed on the steady clock: no /clock since the input stopped
+        assert wait_until(lambda: peer.damage and status_values(
+            peer.damage[-1].status[0])['samples'] == str(n), 5.0)
+        time.sleep(1.2)
+        assert len(peer.health) > n_health        # health keeps coming without /clock
+    finally:
+        peer.close()
+    assert stop_node(proc) == 0
+    # damage every 0.5 s of data time, stamped at the boundaries, then the final one
+    stamps_ns = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in peer.damage]
+    periodic = [int(stamps[0]) + k * 500_000_000 for k in range(1, 8)]
+    assert stamps_ns[:7] == periodic
+    assert stamps_ns[7] == int(stamps[-1]) + round(1e9 / FS_HZ)
+    # the last damage = offline pseudo damage of the published forces
+    from wheel_force_estimator.core.fatigue import pseudo_damage
+    _, wrench = peer.forces('/virtual_wft/lf/wrench')
+    final = status_values(peer.damage[-1].status[0])
+    np.testing.assert_allclose([float(final[k]) for k in ('fx', 'fy', 'fz')],
+                               pseudo_damage(wrench[:3], 5.0), rtol=1e-9)
+    text = log.read_text()
+    assert 'no input for' in text and 'counters per corner' in text
+
+
+def test_reliable_and_best_effort_depth_5_subscribers_get_everything_at_1x(
+        ros_env, model_and_file, tmp_path):
+    """Each subscriber in a process of its own, as ``ros2 topic echo`` would be."""
+    import json
+    import subprocess
+    import sys
+    _, path = model_and_file
+    proc = start_node(path, ros_env, {'input_reliability': 'reliable'},
+                      log_path=tmp_path / 'node.log')
+    n = 1536                                  # 3 s at 1x
+    stamps = sample_stamps(n)
+    accel = synthetic_accel(n, FS_HZ, seed=44)
+    topics = [f'/virtual_wft/{c}/wrench' for c in CORNERS]
+    counters = [subprocess.Popen(
+        [sys.executable, '-m', 'wheel_force_estimator.ros.testing', reliability, '5', str(n),
+         '20', *topics], env=ros_env, stdout=subprocess.PIPE, text=True)
+        for reliability in ('reliable', 'best_effort')]
+    peer = Peer('qos_feeder')
+    try:
+        assert peer.wait_for_node()
+        for counter in counters:
+            assert counter.stdout.readline().strip() == 'ready'
+        time.sleep(1.0)                       # the writers' side of the matches
+        peer.publish('', stamps, accel, rate=1.0, burst=1)
+        counts = [json.loads(counter.stdout.readline()) for counter in counters]
+    finally:
+        peer.close()
+        for counter in counters:
+            if counter.poll() is None:
+                counter.kill()
+            counter.wait()
+    assert counts == [[n] * 4, [n] * 4], counts
+    assert stop_node(proc) == 0
+
+
+def test_input_topic_of_the_wrong_type_is_named_once(ros_env, model_and_file, tmp_path):
+    _, path = model_and_file
+    log = tmp_path / 'node.log'
+    # rf's input remapped onto the measured wrench topic (an easy mistake)
+    proc = start_node(path, ros_env, {'input_reliability': 'reliable'}, log_path=log,
+                      ros_args=['-r', 'spindle/rf/imu:=wft/rf/wrench'])
+    n = 1024
+    stamps = sample_stamps(n)
+    accel = synthetic_accel(n, FS_HZ, seed=45)
+    peer = Peer('wrong_type')
+    wrong = peer.node.create_publisher(WrenchStamped, '/wft/rf/wrench', RELIABLE)
+    try:
+        assert wait_until(lambda: peer.pubs[''][0].get_subscription_count() >= 1, 60.0)
+        time.sleep(0.5)
+        for _ in range(3):
+            wrong.publish(WrenchStamped())
+        n_before = len(peer.health)
+        peer.publish('', stamps, accel, rate=0.7)   # ~2.9 s: two health periods at least
+        during = [by_name(m) for m in peer.health[n_before:]]
+        time.sleep(1.2)
+        assert proc.poll() is None            # still running
+        last = by_name(peer.health[-1])
+    finally:
+        peer.close()
+    # while the other corners deliver, only rf is stale, and the node status says why
+    assert any(h['wheel_force_node: rf'][1]['stale'] == 'true'
+               and 'WrenchStamped' in h['wheel_force_node: rf'][0].message
+               and all(h[f'wheel_force_node: {c}'][1]['stale'] == 'false'
+                       for c in ('lf', 'lr', 'rr'))
+               and h['wheel_force_node'][0].level == b'\x02' for h in during), during
+    for corner in ('lf', 'lr', 'rr'):
+        assert int(last[f'wheel_force_node: {corner}'][1]['received']) == n
+    assert last['wheel_force_node: rf'][1]['received'] == '0'
+    assert stop_node(proc) == 0
+    lines = [ln for ln in log.read_text().splitlines() if 'publisher(s) of type' in ln]
+    assert len(lines) == 1, lines
+    assert '/wft/rf/wrench' in lines[0] and 'geometry_msgs/msg/WrenchStamped' in lines[0]
+
+
+def test_sigterm_flushes_the_look_ahead_and_publishes_everything(
+        ros_env, model_and_file, tmp_path):
+    model, path = model_and_file
+    log = tmp_path / 'node.log'
+    # a stall flush would come only after 60 s: what arrives below is the shutdown's doing
+    proc = start_node(path, ros_env, {'input_reliability': 'reliable', 'flush_timeout_s': 60.0},
+                      log_path=log)
+    n = 1000                                  # not a multiple of the block: a partial block
+    stamps = sample_stamps(n)
+    accel = synthetic_accel(n, FS_HZ, seed=46)
+    peer = Peer('sigterm')
+    try:
+        assert peer.wait_for_node()
+        time.sleep(0.5)
+        peer.publish('', stamps, accel, rate=4.0)
+        # everything but the look-ahead and the partial block is published while running
+        assert wait_until(lambda: min(len(r) for r in peer.raw.values()) >= n - LOOK_AHEAD - 16,
+                          10.0)
+        time.sleep(0.5)
+        assert max(len(r) for r in peer.raw.values()) < n     # the tail waits for more input
+        proc.send_signal(15)
+        assert proc.wait(20) == 0
+        assert wait_until(lambda: all(len(r) == n for r in peer.raw.values()), 5.0), \
+            [len(r) for r in peer.raw.values()]
+        assert wait_until(lambda: peer.damage and status_values(
+            peer.damage[-1].status[0])['samples'] == str(n), 5.0)
+    finally:
+        peer.close()
+    got_stamps, wrench = peer.forces('/virtual_wft/rr/wrench')
+    np.testing.assert_array_equal(got_stamps, stamps)
+    expected = predict_forces(model, accel, LOOK_AHEAD)
+    np.testing.assert_allclose(wrench[:3], expected[9:12], rtol=0,
+                               atol=RTOL * np.abs(expected).max())
+    assert 'counters per corner' in log.read_text()
