@@ -32,6 +32,8 @@ from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.frf import estimate_frf
 from wheel_force_estimator.core.frf import FrfConfig
 from wheel_force_estimator.core.frf import FrfEstimate
+from wheel_force_estimator.core.live_estimator import design_live
+from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.model import FrfModel
 from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spectra import cross_spectra
@@ -78,6 +80,9 @@ class FitConfig:
         ``1.5 * crossover_hz`` the short one; raised-cosine blend between [Hz].
     long_regularisation : float
         Relative regularisation of the long-segment estimate [-].
+    live : LiveDesign or None
+        Also design the live (causal) estimators from the same spectra (the long-segment
+        ones when present: their correlations reach further back); ``None`` = none.
 
     Raises
     ------
@@ -98,6 +103,7 @@ class FitConfig:
     long_segment_length: int = 0
     crossover_hz: float = 2.0
     long_regularisation: float = 5e-2
+    live: Optional[LiveDesign] = None
 
     def __post_init__(self):
         """Validate values that the spectral and FRF configs do not check themselves."""
@@ -119,6 +125,8 @@ class FitConfig:
             raise ConfigError(f'coherence_floor must be in [0, 0.5), got {self.coherence_floor!r}')
         if not np.isfinite(self.f_min_hz) or self.f_min_hz < 0:
             raise ConfigError(f'f_min_hz must be >= 0, got {self.f_min_hz!r}')
+        if self.live is not None and not isinstance(self.live, LiveDesign):
+            raise ConfigError(f'live must be a LiveDesign or None, got {self.live!r}')
         if self.f_max_hz is not None and not self.f_max_hz > self.f_min_hz:
             raise ConfigError(
                 f'f_max_hz ({self.f_max_hz!r}) must be > f_min_hz ({self.f_min_hz!r})')
@@ -220,6 +228,7 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
                        keep_dc=config.f_min_hz == 0.0)
     extra = {}
+    live_spectra = combined
     if long_welch is not None:
         if not long_spectra:
             raise InsufficientDataError(
@@ -228,6 +237,7 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
                 f'{max(seg.accel_mps2.shape[1] for seg in segments)} samples; record longer '
                 f'runs or set long_segment_length: 0 (single resolution)')
         long_combined = combine_spectra(long_spectra)
+        live_spectra = long_combined
         long_est = estimate_frf(long_combined, config.long_frf())
         h_long = long_est.h * coherence_weight(long_est.coherence_multiple,
                                                config.coherence_floor)[:, :, None]
@@ -250,13 +260,14 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     }
     info.update(extra)
     info.update(dict(fit_info or {}))
+    live = () if config.live is None else design_live(live_spectra, config.live)
     return FrfModel(
         fs_hz=fs_hz, input_channels=tuple(input_channels),
         output_channels=tuple(output_channels), f_hz=est.f_hz, h=h,
         coherence_ordinary=est.coherence_ordinary, coherence_multiple=est.coherence_multiple,
         cond_sxx=est.cond_sxx, fir_taps=fir.taps, fir_delay_samples=fir.delay_samples,
         static_force_n=sum_y / n_total, static_accel_mps2=sum_x / n_total,
-        estimator=config.estimator, fit=info,
+        estimator=config.estimator, fit=info, live=live,
         created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds'))
 
 

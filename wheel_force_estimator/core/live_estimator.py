@@ -1,0 +1,474 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The live (causal) estimator: a MIMO least-squares FIR designed for a stated look-ahead.
+
+Why this method
+---------------
+The offline FIR is the two-sided inverse of the FRF; cutting its acausal part to a short
+look-ahead throws away what the cut taps did, and nothing else makes up for it.  The causal
+Wiener filter instead asks which causal filter (inputs up to ``n + D``, ``D`` the look-ahead)
+minimises the mean square error, so the history takes over what the future cannot supply.
+Of the ways to get it:
+
+- spectral factorisation of the 12x12 input spectrum (causal Wiener) needs a stable MIMO
+  spectral factor of a nearly singular matrix at low frequency (collinear rigid-body
+  motion): fragile, and it does not bound the filter length;
+- a Kalman observer needs an identified state-space model (order selection, stability), a
+  second estimation problem with its own failure modes;
+- the least-squares FIR with look-ahead solves linear normal equations (Wiener-Hopf) built
+  from the correlation functions, and those are the inverse FFT of the SAME Welch
+  cross-spectra ``fit`` already computes: no second pass over the data, one Cholesky solve.
+
+So the estimator is the least-squares FIR.  Its history must be long (the quasi-static
+loads of braking and cornering live in seconds of history: measured z RMSE 22 % with 0.5 s,
+12.7 % with 2 s), but a full-rate FIR of seconds has 12 x 1000s of unknowns per output.  The
+impulse response far in the past is smooth, so the taps are **multi-rate**: one tap per
+sample from ``-D`` to ``fine_s``, then piecewise-constant blocks whose width grows
+geometrically (``blocks_per_octave`` per doubling of the lag) up to ``history_s``.  About
+250 unknowns per input at the defaults, solved exactly; the piecewise-constant blocks also give a cheap
+recursive realisation (a running sum, :mod:`.causal_filter`).
+
+Correlations from Welch spectra
+-------------------------------
+With the density scaling of :mod:`.spectra`, ``irfft`` of the two-sided spectrum times
+``fs * sum(w²)`` is the mean over windows of ``sum_n w(n) x_i(n) w(n+τ) x_j(n+τ)``; dividing
+by the window's own circular autocorrelation ``W(τ) = sum_n w(n) w(n+τ)`` gives the
+correlation ``r_ij(τ) = E[x_i(n) x_j(n+τ)]``.  This is reliable while ``W(τ)`` is large, so
+the longest lag used is a quarter of the Welch segment (Hann: ``W(L/4) / W(0) = 0.66``); the
+history is shortened to fit and the stored estimator records the history actually used.
+The per-window mean removal of Welch slightly lowers the correlation of the slowest content
+(periods beyond the segment length); the offline FIR has the same limit.
+
+Normal equations
+----------------
+Output ``o`` is ``y_o(n) ~ sum_i sum_l g_oi(l) x_i(n - l)`` for lags ``l`` in ``[-D, H]``,
+``g_oi = sum_p θ_oip b_p`` with ``b_p`` the indicator of lag block ``p``.  Then
+``A[(i,p),(j,q)] = sum_{l in p} sum_{m in q} r_ij(l - m)`` and
+``B[(j,q), o] = sum_{m in q} r_{x_j y_o}(m)``, built from cumulative sums of ``r``.  A ridge
+``λ_i = regularisation * r_ii(0)`` per unit tap (times the block width) is added for each
+input ``i``: relative to that input's power like the FRF's Tikhonov term, so the result does
+not depend on the units or gains of the channels, and it keeps collinear inputs (left and
+right on a symmetric road) from trading huge opposite taps.
+
+Defaults (``LiveDesign``), chosen on held-out simulated data (``bench/bench_live.py``): the
+history is what a quarter of the default 8192-sample long segment resolves (4 s at 512 Hz);
+resolution kept paying for Fz (z RMSE at 50 ms: 8 blocks/octave 16.2 %, 16: 13.8, 32: 10.7,
+64: 11.0 with a 10x dearer fit), so 32; ridge 1e-4, the FRF's own default Tikhonov (1e-3
+and 1e-2 were worse in every direction).
+"""
+import dataclasses
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+import scipy.fft
+import scipy.linalg
+
+from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import InsufficientDataError
+from wheel_force_estimator.core.errors import ModelFileError
+from wheel_force_estimator.core.filtering import FirFilter
+from wheel_force_estimator.core.spectra import CrossSpectra
+
+# The look-ahead the node and `predict --causal` use when nothing else is configured [s]
+# (DESIGN.md `live_look_ahead_s`): 26 samples at 512 Hz.
+DEFAULT_LIVE_LOOK_AHEAD_S = 0.05
+# Look-aheads `fit` also designs, so reports can show accuracy against look-ahead [s].
+SWEEP_LOOK_AHEADS_S = (0.0, 0.025, 0.05, 0.1, 0.25)
+# Longest correlation lag taken from a Welch segment of length L (see the module notes).
+_MAX_LAG_FRACTION = 0.25
+METHOD = 'multirate_ls_fir'
+
+
+def look_ahead_samples(look_ahead_s: float, fs_hz: float) -> int:
+    """Return the look-ahead in samples for ``look_ahead_s`` at ``fs_hz`` (rounded)."""
+    return int(round(float(look_ahead_s) * float(fs_hz)))
+
+
+@dataclasses.dataclass(frozen=True)
+class LiveDesign:
+    """
+    How the live estimators are designed at fit time.
+
+    Parameters
+    ----------
+    look_aheads_s : tuple of float
+        Look-aheads to design, each >= 0 [s]; the first one is the configured one.
+    history_s : float
+        Longest past lag used [s], > 0 (shortened to a quarter Welch segment, see notes).
+    fine_s : float
+        Past lags up to this are one tap per sample [s], >= 0.
+    blocks_per_octave : int
+        Resolution of the coarse taps beyond ``fine_s``: blocks per doubling of the lag, >= 1.
+    regularisation : float
+        Ridge per unit tap relative to each input's power [-], >= 0.
+
+    Raises
+    ------
+    ConfigError
+        On invalid values.
+
+    """
+
+    look_aheads_s: Tuple[float, ...] = (DEFAULT_LIVE_LOOK_AHEAD_S,)
+    history_s: float = 4.0
+    fine_s: float = 0.125
+    blocks_per_octave: int = 32
+    regularisation: float = 1e-4
+
+    def __post_init__(self):
+        """Validate the values."""
+        try:
+            looks = tuple(float(v) for v in self.look_aheads_s)
+        except (TypeError, ValueError) as err:
+            raise ConfigError(f'live look-aheads must be numbers, got '
+                              f'{self.look_aheads_s!r}') from err
+        if not looks or not all(np.isfinite(v) and v >= 0.0 for v in looks):
+            raise ConfigError(f'live look-aheads must be finite and >= 0 s, got {looks!r}')
+        object.__setattr__(self, 'look_aheads_s', looks)
+        for name in ('history_s', 'fine_s', 'regularisation'):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
+                raise ConfigError(f'live {name} must be finite and >= 0, got {value!r}')
+        if self.history_s <= 0.0:
+            raise ConfigError(f'live history_s must be > 0, got {self.history_s!r}')
+        if isinstance(self.blocks_per_octave, bool) or not isinstance(
+                self.blocks_per_octave, (int, np.integer)) or self.blocks_per_octave < 1:
+            raise ConfigError(f'live blocks_per_octave must be an integer >= 1, '
+                              f'got {self.blocks_per_octave!r}')
+
+
+@dataclasses.dataclass(frozen=True)
+class CausalEstimator:
+    """
+    A fitted live estimator (immutable; arrays read-only).
+
+    Output sample ``n`` is ``sum_k fine_taps[:, :, k] x(n + D - k)`` (tap ``k`` is lag
+    ``k - D``, so the fine part covers lags ``-D .. n_fine - D - 1``) plus, for every coarse
+    block ``p``, ``coarse_taps[:, :, p]`` times the sum of ``x(n - l)`` over lags
+    ``coarse_edges[p] <= l < coarse_edges[p + 1]``.
+
+    Parameters
+    ----------
+    look_ahead_samples : int
+        ``D`` [samples], >= 0.
+    fine_taps : numpy.ndarray, shape (n_out, n_in, n_fine)
+        Full-rate taps [output unit / input unit], ``n_fine > D``.
+    coarse_edges : numpy.ndarray, shape (n_coarse + 1,), int
+        Lag block boundaries [samples], increasing, starting at ``n_fine - D``
+        (``n_coarse = 0``: one edge, no coarse part).
+    coarse_taps : numpy.ndarray, shape (n_out, n_in, n_coarse)
+        Tap value of each coarse block [output unit / input unit].
+    info : dict
+        How it was designed (method, history, regularisation, look-ahead in s).
+
+    Raises
+    ------
+    ModelFileError
+        A field with the wrong type, shape or values (the field is named).
+
+    """
+
+    look_ahead_samples: int
+    fine_taps: np.ndarray
+    coarse_edges: np.ndarray
+    coarse_taps: np.ndarray
+    info: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self):
+        """Validate shapes and values; store read-only copies."""
+        d = self.look_ahead_samples
+        if isinstance(d, bool) or not isinstance(d, (int, np.integer)) or d < 0:
+            raise ModelFileError(f'live estimator look_ahead_samples: expected an int >= 0, '
+                                 f'got {d!r}')
+        object.__setattr__(self, 'look_ahead_samples', int(d))
+        fine = _read_only(self.fine_taps, np.float64, 'fine_taps', d)
+        if fine.ndim != 3 or fine.shape[2] <= d:
+            raise ModelFileError(f'live estimator (look-ahead {d}) fine_taps: expected '
+                                 f'(n_out, n_in, > {d}), got {fine.shape}')
+        edges = _read_only(self.coarse_edges, np.int64, 'coarse_edges', d)
+        coarse = _read_only(self.coarse_taps, np.float64, 'coarse_taps', d)
+        n_fine = fine.shape[2]
+        if (edges.ndim != 1 or edges.size < 1 or edges[0] != n_fine - d
+                or np.any(np.diff(edges) <= 0)):
+            raise ModelFileError(f'live estimator (look-ahead {d}) coarse_edges: expected '
+                                 f'increasing lags from {n_fine - d}, got {edges.tolist()[:5]}')
+        if coarse.shape != fine.shape[:2] + (edges.size - 1,):
+            raise ModelFileError(f'live estimator (look-ahead {d}) coarse_taps: expected shape '
+                                 f'{fine.shape[:2] + (edges.size - 1,)}, got {coarse.shape}')
+        if not isinstance(self.info, Mapping):
+            raise ModelFileError(f'live estimator (look-ahead {d}) info: expected an object')
+        object.__setattr__(self, 'fine_taps', fine)
+        object.__setattr__(self, 'coarse_edges', edges)
+        object.__setattr__(self, 'coarse_taps', coarse)
+        object.__setattr__(self, 'info', dict(self.info))
+
+    @property
+    def n_out(self) -> int:
+        """Return the number of outputs."""
+        return int(self.fine_taps.shape[0])
+
+    @property
+    def n_in(self) -> int:
+        """Return the number of inputs."""
+        return int(self.fine_taps.shape[1])
+
+    @property
+    def history_samples(self) -> int:
+        """Return the longest past lag used [samples]."""
+        return int(self.coarse_edges[-1]) - 1
+
+    def fir(self, fs_hz: float) -> FirFilter:
+        """Return the same filter as one full-rate FIR (lag zero at tap ``D``)."""
+        d = self.look_ahead_samples
+        taps = np.zeros((self.n_out, self.n_in, d + self.history_samples + 1))
+        taps[:, :, :self.fine_taps.shape[2]] = self.fine_taps
+        for p in range(self.coarse_taps.shape[2]):
+            lo, hi = self.coarse_edges[p] + d, self.coarse_edges[p + 1] + d
+            taps[:, :, lo:hi] = self.coarse_taps[:, :, p:p + 1]
+        return FirFilter(taps, d, fs_hz)
+
+
+def _read_only(value, dtype, name: str, d: int) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=dtype, copy=True)
+    except (TypeError, ValueError) as err:
+        raise ModelFileError(f'live estimator (look-ahead {d}) {name}: not convertible '
+                             f'to {np.dtype(dtype).name}') from err
+    if arr.dtype.kind == 'f' and not np.all(np.isfinite(arr)):
+        raise ModelFileError(f'live estimator (look-ahead {d}) {name}: NaN or infinity')
+    arr.setflags(write=False)
+    return arr
+
+
+# -- design -----------------------------------------------------------------------------------
+
+def lag_edges(look_ahead: int, fine: int, history: int, blocks_per_octave: int) -> np.ndarray:
+    """
+    Return the lag block boundaries of the multi-rate basis [samples].
+
+    One block per lag from ``-look_ahead`` to ``fine - 1``, then blocks whose edges grow by
+    ``2 ** (1 / blocks_per_octave)`` (at least one sample) up to lag ``history``.  Block
+    ``p`` covers lags ``edges[p] <= l < edges[p + 1]``.
+    """
+    fine = max(1, min(fine, history + 1))
+    edges = list(range(-look_ahead, fine + 1))
+    ratio = 2.0 ** (1.0 / blocks_per_octave)
+    while edges[-1] < history + 1:
+        edges.append(min(history + 1, max(edges[-1] + 1, int(round(edges[-1] * ratio)))))
+    return np.asarray(edges, dtype=np.int64)
+
+
+def correlations(spectra: CrossSpectra, max_lag: int) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Return input and input-output correlation functions from Welch spectra.
+
+    Parameters
+    ----------
+    spectra : CrossSpectra
+        Welch spectra (one-sided densities, see :mod:`.spectra`).
+    max_lag : int
+        Largest lag [samples], ``<= segment_length // 2 - 1``.
+
+    Returns
+    -------
+    rxx : numpy.ndarray, shape (n_in, n_in, 2 max_lag + 1)
+        ``rxx[i, j, max_lag + τ] = E[x_i(n) x_j(n + τ)]`` [input unit²].
+    rxy : numpy.ndarray, shape (n_in, n_out, 2 max_lag + 1)
+        ``rxy[i, o, max_lag + τ] = E[x_i(n) y_o(n + τ)]`` [input unit · output unit].
+
+    """
+    cfg = spectra.config
+    n = cfg.segment_length
+    win = cfg.window_array()
+    onesided = np.full(n // 2 + 1, 2.0)
+    onesided[0] = 1.0
+    if n % 2 == 0:
+        onesided[-1] = 1.0
+    scale = (cfg.fs_hz * np.dot(win, win)) / onesided
+    w_corr = scipy.fft.irfft(np.abs(scipy.fft.rfft(win)) ** 2, n=n)
+    lags = np.arange(-max_lag, max_lag + 1) % n
+    gain = 1.0 / w_corr[lags]
+
+    def corr(s):
+        c = scipy.fft.irfft(s * scale[:, None, None], n=n, axis=0)[lags]
+        return np.ascontiguousarray((c * gain[:, None, None]).transpose(1, 2, 0))
+    return corr(spectra.sxx), corr(spectra.syx.transpose(0, 2, 1))
+
+
+def design_causal(spectra: CrossSpectra, look_ahead: int, design: LiveDesign) -> CausalEstimator:
+    """
+    Solve the multi-rate Wiener-Hopf normal equations for one look-ahead.
+
+    Parameters
+    ----------
+    spectra : CrossSpectra
+        Welch spectra of the training data (the longest-segment ones ``fit`` has).
+    look_ahead : int
+        ``D`` [samples], >= 0.
+    design : LiveDesign
+        History, resolution and ridge.
+
+    Returns
+    -------
+    CausalEstimator
+
+    Raises
+    ------
+    ConfigError
+        The Welch segment is too short for this look-ahead (history below one sample).
+    InsufficientDataError
+        The regularised normal equations are not positive definite (no input power).
+
+    """
+    fs = spectra.config.fs_hz
+    max_lag = int(_MAX_LAG_FRACTION * spectra.config.segment_length)
+    history = min(int(round(design.history_s * fs)), max_lag - look_ahead - 2)
+    if history < 1:
+        raise ConfigError(
+            f'live look-ahead {look_ahead} samples leaves no history within a quarter Welch '
+            f'segment ({max_lag} lags of {spectra.config.segment_length}); use a longer '
+            f'(long_)segment_length or a shorter look-ahead')
+    edges = lag_edges(look_ahead, int(round(design.fine_s * fs)), history,
+                      design.blocks_per_octave)
+    t_max = look_ahead + history + 2
+    rxx, rxy = correlations(spectra, t_max)
+    n_in, n_out = rxx.shape[0], rxy.shape[1]
+    n_b = edges.size - 1
+    lags = np.arange(-look_ahead, history + 1)
+    starts = edges[:-1] - edges[0]
+    # sum_{m in q} r(l - m) = C1(l - a_q) - C1(l - e_q) with C1(t) = sum_{τ <= t} r(τ)
+    hi = lags[:, None] - edges[None, :-1] + t_max
+    lo = lags[:, None] - edges[None, 1:] + t_max
+    a = np.empty((n_in, n_b, n_in, n_b))
+    for i in range(n_in):
+        c1 = np.cumsum(rxx[i], axis=-1)                                   # (j, τ)
+        inner = c1[:, hi] - c1[:, lo]                                     # (j, l, q)
+        a[i] = np.add.reduceat(inner, starts, axis=1).transpose(1, 0, 2)  # (p, j, q)
+    # A[(i,p),(j,q)] uses r_ij(l - m): the loop above summed r_ij over m in q for l in p.
+    c1 = np.cumsum(rxy, axis=-1)                                          # (j, o, τ)
+    b = (c1[:, :, edges[1:] - 1 + t_max] - c1[:, :, edges[:-1] - 1 + t_max])  # (j, o, q)
+    a = a.reshape(n_in * n_b, n_in * n_b)
+    a = 0.5 * (a + a.T)
+    width = np.diff(edges).astype(np.float64)
+    power = rxx[np.arange(n_in), np.arange(n_in), t_max]
+    ridge = design.regularisation * (power[:, None] * width[None, :]).ravel()
+    a[np.diag_indices_from(a)] += ridge
+    rhs = b.transpose(0, 2, 1).reshape(n_in * n_b, n_out)
+    try:
+        theta = scipy.linalg.solve(a, rhs, assume_a='pos', check_finite=False)
+    except np.linalg.LinAlgError as err:
+        raise InsufficientDataError(
+            f'live estimator (look-ahead {look_ahead} samples): the normal equations are not '
+            f'positive definite (inputs without power?); raise the live regularisation') from err
+    theta = theta.reshape(n_in, n_b, n_out).transpose(2, 0, 1)            # (o, i, p)
+    n_fine = _fine_count(edges)
+    info = {'method': METHOD, 'look_ahead_s': look_ahead / fs, 'history_s': history / fs,
+            'fine_s': design.fine_s, 'blocks_per_octave': design.blocks_per_octave,
+            'regularisation': design.regularisation, 'n_basis_per_input': int(n_b),
+            'welch_segment_length': spectra.config.segment_length,
+            'n_windows': int(spectra.n_windows)}
+    return CausalEstimator(look_ahead, theta[:, :, :n_fine], edges[n_fine:],
+                           theta[:, :, n_fine:], info)
+
+
+def _fine_count(edges: np.ndarray) -> int:
+    """Return the number of leading one-sample blocks (the full-rate taps)."""
+    width = np.diff(edges)
+    wide = np.flatnonzero(width > 1)
+    return int(wide[0]) if wide.size else int(width.size)
+
+
+def design_live(spectra: CrossSpectra, design: LiveDesign) -> Tuple[CausalEstimator, ...]:
+    """Design one estimator per distinct look-ahead of ``design`` (configured one first)."""
+    fs = spectra.config.fs_hz
+    seen, out = set(), []
+    for look_s in design.look_aheads_s:
+        d = look_ahead_samples(look_s, fs)
+        if d not in seen:
+            seen.add(d)
+            out.append(design_causal(spectra, d, design))
+    return tuple(out)
+
+
+# -- model file section -----------------------------------------------------------------------
+
+def _keys(d: int) -> Tuple[str, str, str]:
+    return (f'live{d}_fine_taps', f'live{d}_coarse_edges', f'live{d}_coarse_taps')
+
+
+def live_arrays(estimators: Sequence[CausalEstimator]) -> Dict[str, np.ndarray]:
+    """Return the model-file arrays of ``estimators`` (keys carry the look-ahead)."""
+    arrays = {}
+    for est in estimators:
+        fine, edges, coarse = _keys(est.look_ahead_samples)
+        arrays.update({fine: est.fine_taps, edges: est.coarse_edges, coarse: est.coarse_taps})
+    return arrays
+
+
+def live_meta(estimators: Sequence[CausalEstimator]) -> list:
+    """Return the ``meta.live_estimators`` list of ``estimators``."""
+    return [dict(est.info, look_ahead_samples=est.look_ahead_samples) for est in estimators]
+
+
+def live_from_contents(meta: Mapping, contents: Mapping[str, np.ndarray]
+                       ) -> Tuple[CausalEstimator, ...]:
+    """
+    Parse the live estimators of a model file (none for schema 1).
+
+    Raises
+    ------
+    ModelFileError
+        A malformed ``meta.live_estimators`` entry or a missing / malformed array (named).
+
+    """
+    entries = meta.get('live_estimators', [])
+    if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
+        raise ModelFileError("model field 'meta.live_estimators': expected a list of objects")
+    out = []
+    for entry in entries:
+        d = entry.get('look_ahead_samples')
+        if isinstance(d, bool) or not isinstance(d, int) or d < 0:
+            raise ModelFileError(f"model field 'meta.live_estimators': look_ahead_samples "
+                                 f'must be an int >= 0, got {d!r}')
+        arrays = []
+        for key in _keys(d):
+            if key not in contents:
+                raise ModelFileError(f'model field {key!r} is missing (live estimator with '
+                                     f'look-ahead {d} samples)')
+            arrays.append(contents[key])
+        if arrays[1].dtype.kind not in 'iu':
+            raise ModelFileError(f'model field {_keys(d)[1]!r}: expected integers')
+        info = {k: v for k, v in entry.items() if k != 'look_ahead_samples'}
+        out.append(CausalEstimator(d, arrays[0], arrays[1], arrays[2], info))
+    return tuple(out)
+
+
+def check_live(estimators, n_out: int, n_in: int) -> Tuple[CausalEstimator, ...]:
+    """
+    Validate a model's live estimators against its channel counts.
+
+    Raises
+    ------
+    ModelFileError
+        Not estimators, wrong channel counts or a look-ahead present twice.
+
+    """
+    if isinstance(estimators, CausalEstimator) or not all(
+            isinstance(e, CausalEstimator) for e in estimators):
+        raise ModelFileError("model field 'live': expected a sequence of CausalEstimator")
+    looks = [e.look_ahead_samples for e in estimators]
+    if len(set(looks)) != len(looks):
+        raise ModelFileError(f"model field 'live': look-aheads {looks} repeat")
+    for e in estimators:
+        if (e.n_out, e.n_in) != (n_out, n_in):
+            raise ModelFileError(
+                f"model field 'live': estimator with look-ahead {e.look_ahead_samples} has "
+                f'{e.n_out} outputs x {e.n_in} inputs, the model {n_out} x {n_in}')
+    return tuple(estimators)
+
+
+def find_live(estimators: Sequence[CausalEstimator], look_ahead: int
+              ) -> Optional[CausalEstimator]:
+    """Return the estimator for ``look_ahead`` samples, or ``None``."""
+    return next((e for e in estimators if e.look_ahead_samples == look_ahead), None)
