@@ -12,7 +12,7 @@ from wheel_force_estimator.core.causal_filter import CausalFilter
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ModelFileError
 from wheel_force_estimator.core.live_estimator import CausalEstimator
-from wheel_force_estimator.core.live_estimator import correlations
+from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import design_causal
 from wheel_force_estimator.core.live_estimator import lag_edges
 from wheel_force_estimator.core.live_estimator import LiveDesign
@@ -24,8 +24,6 @@ from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.core.predict import Predictor
-from wheel_force_estimator.core.spectra import cross_spectra
-from wheel_force_estimator.core.spectra import WelchConfig
 
 FS_HZ = 128.0
 INS = ('a', 'b', 'c')
@@ -49,16 +47,34 @@ def apply_lags(x, taps_by_lag):
     return y
 
 
-def test_correlations_of_a_delayed_copy_peak_at_the_delay():
-    # Bug caught: a sign or scaling slip in the irfft of the one-sided densities.
+def correlate(x, y, max_lag):
+    """Accumulate the correlations of one or more (x, y) segments."""
+    acc = CorrelationAccumulator(x[0].shape[0], y[0].shape[0], max_lag)
+    for a, b in zip(x, y):
+        acc.add(a, b)
+    return acc.result(FS_HZ)
+
+
+def test_correlations_equal_the_direct_sums_over_segments():
+    # Hand-checkable: sum over each segment of x_i(n) y_o(n + τ) after removing its mean,
+    # divided by all samples; a pair never straddles two segments.  Segments longer than one
+    # accumulator block (4096 + T) check the block joins too.
     rng = np.random.default_rng(3)
-    x = rng.normal(size=(1, 200_000))
-    y = 2.0 * np.roll(x, 5, axis=1)          # y(n) = 2 x(n - 5): E[x(n) y(n + 5)] = 2
-    s = cross_spectra(x, y, WelchConfig(fs_hz=FS_HZ, segment_length=256))
-    rxx, rxy = correlations(s, 20)
-    assert rxx[0, 0, 20] == pytest.approx(1.0, rel=0.02)
-    assert rxy[0, 0, 20 + 5] == pytest.approx(2.0, rel=0.02)
-    assert np.max(np.abs(np.delete(rxy[0, 0], 25))) < 0.05
+    xs = [rng.normal(size=(2, 9000)) + 5.0, rng.normal(size=(2, 300))]
+    ys = [rng.normal(size=(1, 9000)), rng.normal(size=(1, 300)) - 2.0]
+    corr = correlate(xs, ys, 7)
+    assert corr.max_lag == 7 and corr.n_samples == 9300
+    for tau in range(-7, 8):
+        want_xx = np.zeros((2, 2))
+        want_xy = np.zeros((2, 1))
+        for x, y in zip(xs, ys):
+            x, y = x - x.mean(axis=1, keepdims=True), y - y.mean(axis=1, keepdims=True)
+            n = x.shape[1]
+            lo, hi = max(0, -tau), min(n, n - tau)
+            want_xx += x[:, lo:hi] @ x[:, lo + tau:hi + tau].T
+            want_xy += x[:, lo:hi] @ y[:, lo + tau:hi + tau].T
+        np.testing.assert_allclose(corr.rxx[:, :, 7 + tau], want_xx / 9300, atol=1e-12)
+        np.testing.assert_allclose(corr.rxy[:, :, 7 + tau], want_xy / 9300, atol=1e-12)
 
 
 def test_design_recovers_a_known_causal_system_with_look_ahead():
@@ -68,8 +84,9 @@ def test_design_recovers_a_known_causal_system_with_look_ahead():
     truth = {lag: rng.normal(size=(2, 3)) for lag in range(-2, 7)}
     x = coloured_inputs(400_000, 1)
     y = apply_lags(x, truth)
-    s = cross_spectra(x, y, WelchConfig(fs_hz=FS_HZ, segment_length=512))
-    est = design_causal(s, 2, LiveDesign(history_s=0.5, fine_s=0.1, regularisation=1e-9))
+    design = LiveDesign(look_aheads_s=(2 / FS_HZ,), history_s=0.5, fine_s=0.1,
+                        regularisation=1e-9)
+    est = design_causal(correlate([x], [y], design.max_lag(FS_HZ)), 2, design)
     fir = est.fir(FS_HZ)
     for lag, g in truth.items():
         np.testing.assert_allclose(fir.taps[:, :, lag + 2], g, atol=0.03)
@@ -88,22 +105,22 @@ def test_design_recovers_piecewise_constant_history():
         for lag in range(edges[p], edges[p + 1]):
             truth[int(lag)] = theta[:, :, p]
     x = coloured_inputs(400_000, 2)
-    s = cross_spectra(x, apply_lags(x, truth), WelchConfig(fs_hz=FS_HZ, segment_length=512))
-    est = design_causal(s, 0, design)
+    corr = correlate([x], [apply_lags(x, truth)], design.max_lag(FS_HZ))
+    est = design_causal(corr, 0, design)
     n_fine = est.fine_taps.shape[2]
     np.testing.assert_array_equal(np.concatenate([np.arange(n_fine), est.coarse_edges]), edges)
     np.testing.assert_allclose(np.concatenate([est.fine_taps, est.coarse_taps], axis=2),
                                theta, atol=0.02 * np.abs(theta).max())
 
 
-def test_history_is_limited_to_a_quarter_segment_and_recorded():
+def test_design_needs_correlations_to_its_longest_lag():
     x = coloured_inputs(20_000, 5)
-    s = cross_spectra(x, x[:2], WelchConfig(fs_hz=FS_HZ, segment_length=256))
-    est = design_causal(s, 3, LiveDesign(history_s=100.0))
-    assert est.history_samples == 64 - 3 - 2
-    assert est.info['history_s'] == pytest.approx(59 / FS_HZ)
-    with pytest.raises(ConfigError, match='no history'):
-        design_causal(s, 62, LiveDesign())
+    design = LiveDesign(look_aheads_s=(3 / FS_HZ,), history_s=0.5)
+    corr = correlate([x], [x[:2]], design.max_lag(FS_HZ))
+    est = design_causal(corr, 3, design)
+    assert est.history_samples == 64 and est.info['history_s'] == 0.5
+    with pytest.raises(ConfigError, match='need correlations to lag 70, have 69'):
+        design_causal(corr, 4, design)
 
 
 def random_estimator(look_ahead=3, seed=0):
@@ -140,7 +157,7 @@ def fitted():
     rng = np.random.default_rng(8)
     y = apply_lags(x, {lag: rng.normal(size=(2, 3)) for lag in range(-3, 40, 3)}) + 100.0
     cfg = FitConfig(segment_length=256, long_segment_length=1024,
-                    live=LiveDesign(look_aheads_s=(4 / FS_HZ, 0.0)))
+                    live=LiveDesign(look_aheads_s=(4 / FS_HZ, 0.0), history_s=1.0))
     model = fit_model([TrainingSegment(x, y, 'train')], FS_HZ, cfg, INS, OUTS)
     return model, x, y
 
@@ -175,7 +192,7 @@ def test_predictor_streams_the_live_estimator_like_the_batch(fitted):
 
 def test_unfitted_look_ahead_names_the_available_ones(fitted):
     model, _, _ = fitted
-    with pytest.raises(ConfigError, match=r'look-aheads of 4 \(31.25 ms\), 0 \(0 ms\).*refit'):
+    with pytest.raises(ConfigError, match=r'look-aheads of 4 \(31.2 ms\), 0 \(0.0 ms\).*refit'):
         Predictor(model, 5)
     assert Predictor(model, None).fallback is None        # the two-sided path is unchanged
 

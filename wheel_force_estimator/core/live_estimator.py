@@ -17,8 +17,8 @@ Of the ways to get it:
 - a Kalman observer needs an identified state-space model (order selection, stability), a
   second estimation problem with its own failure modes;
 - the least-squares FIR with look-ahead solves linear normal equations (Wiener-Hopf) built
-  from the correlation functions, and those are the inverse FFT of the SAME Welch
-  cross-spectra ``fit`` already computes: no second pass over the data, one Cholesky solve.
+  from the correlation functions of the training data: one Cholesky solve, a filter length
+  chosen up front, and the same data ``fit`` already holds in memory.
 
 So the estimator is the least-squares FIR.  Its history must be long (the quasi-static
 loads of braking and cornering live in seconds of history: measured z RMSE 22 % with 0.5 s,
@@ -26,19 +26,19 @@ loads of braking and cornering live in seconds of history: measured z RMSE 22 % 
 impulse response far in the past is smooth, so the taps are **multi-rate**: one tap per
 sample from ``-D`` to ``fine_s``, then piecewise-constant blocks whose width grows
 geometrically (``blocks_per_octave`` per doubling of the lag) up to ``history_s``.  About
-250 unknowns per input at the defaults, solved exactly; the piecewise-constant blocks also give a cheap
-recursive realisation (a running sum, :mod:`.causal_filter`).
+250 unknowns per input at the defaults, solved exactly; the piecewise-constant blocks also
+give a cheap recursive realisation (a running sum, :mod:`.causal_filter`).
 
-Correlations from Welch spectra
--------------------------------
-With the density scaling of :mod:`.spectra`, ``irfft`` of the two-sided spectrum times
-``fs * sum(w²)`` is the mean over windows of ``sum_n w(n) x_i(n) w(n+τ) x_j(n+τ)``; dividing
-by the window's own circular autocorrelation ``W(τ) = sum_n w(n) w(n+τ)`` gives the
-correlation ``r_ij(τ) = E[x_i(n) x_j(n+τ)]``.  This is reliable while ``W(τ)`` is large, so
-the longest lag used is a quarter of the Welch segment (Hann: ``W(L/4) / W(0) = 0.66``); the
-history is shortened to fit and the stored estimator records the history actually used.
-The per-window mean removal of Welch slightly lowers the correlation of the slowest content
-(periods beyond the segment length); the offline FIR has the same limit.
+Correlations
+------------
+First tried: the inverse FFT of the Welch cross-spectra ``fit`` computes anyway, divided by
+the window's autocorrelation (no second pass).  That estimate is consistent but not a
+positive definite sequence; on 2 minutes of data (14 long windows) the normal equations came
+out indefinite.  The correlations are therefore accumulated from the segments themselves
+(:class:`CorrelationAccumulator`, block FFTs while ``fit`` holds the data anyway: about a
+second per 10 minutes): the biased estimate, positive semi-definite by construction, with
+no window taper and no lag limit from the Welch segment, and the whole-segment mean removed
+(not per window), so quasi-static content keeps its correlation.
 
 Normal equations
 ----------------
@@ -51,11 +51,11 @@ input ``i``: relative to that input's power like the FRF's Tikhonov term, so the
 not depend on the units or gains of the channels, and it keeps collinear inputs (left and
 right on a symmetric road) from trading huge opposite taps.
 
-Defaults (``LiveDesign``), chosen on held-out simulated data (``bench/bench_live.py``): the
-history is what a quarter of the default 8192-sample long segment resolves (4 s at 512 Hz);
-resolution kept paying for Fz (z RMSE at 50 ms: 8 blocks/octave 16.2 %, 16: 13.8, 32: 10.7,
-64: 11.0 with a 10x dearer fit), so 32; ridge 1e-4, the FRF's own default Tikhonov (1e-3
-and 1e-2 were worse in every direction).
+Defaults (``LiveDesign``), chosen on held-out simulated data (5 min training, 2.5 min
+held-out, other seed; mean RMSE % x / y / z at 50 ms; offline two-sided 29.0 / 20.6 / 10.7):
+32 blocks per octave 29.3 / 13.7 / 8.2, 16 per octave 29.5 / 13.9 / 12.2 (Fz needs the
+resolution); ridge 1e-3 instead of 1e-4 (the FRF's own default) 29.6 / 13.8 / 10.8; history
+2 s 30.6 / 14.4 / 9.5, 8 s 28.6 / 13.5 / 8.0 (30 % dearer fit), so 4 s.
 """
 import dataclasses
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
@@ -68,15 +68,12 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.errors import ModelFileError
 from wheel_force_estimator.core.filtering import FirFilter
-from wheel_force_estimator.core.spectra import CrossSpectra
 
 # The look-ahead the node and `predict --causal` use when nothing else is configured [s]
 # (DESIGN.md `live_look_ahead_s`): 26 samples at 512 Hz.
 DEFAULT_LIVE_LOOK_AHEAD_S = 0.05
 # Look-aheads `fit` also designs, so reports can show accuracy against look-ahead [s].
 SWEEP_LOOK_AHEADS_S = (0.0, 0.025, 0.05, 0.1, 0.25)
-# Longest correlation lag taken from a Welch segment of length L (see the module notes).
-_MAX_LAG_FRACTION = 0.25
 METHOD = 'multirate_ls_fir'
 
 
@@ -95,7 +92,7 @@ class LiveDesign:
     look_aheads_s : tuple of float
         Look-aheads to design, each >= 0 [s]; the first one is the configured one.
     history_s : float
-        Longest past lag used [s], > 0 (shortened to a quarter Welch segment, see notes).
+        Longest past lag used [s], > 0.
     fine_s : float
         Past lags up to this are one tap per sample [s], >= 0.
     blocks_per_octave : int
@@ -136,6 +133,11 @@ class LiveDesign:
                 self.blocks_per_octave, (int, np.integer)) or self.blocks_per_octave < 1:
             raise ConfigError(f'live blocks_per_octave must be an integer >= 1, '
                               f'got {self.blocks_per_octave!r}')
+
+    def max_lag(self, fs_hz: float) -> int:
+        """Return the longest correlation lag the design needs at ``fs_hz`` [samples]."""
+        longest = max(look_ahead_samples(v, fs_hz) for v in self.look_aheads_s)
+        return longest + max(1, int(round(self.history_s * fs_hz))) + 2
 
 
 @dataclasses.dataclass(frozen=True)
@@ -259,51 +261,103 @@ def lag_edges(look_ahead: int, fine: int, history: int, blocks_per_octave: int) 
     return np.asarray(edges, dtype=np.int64)
 
 
-def correlations(spectra: CrossSpectra, max_lag: int) -> Tuple[np.ndarray, np.ndarray]:
+@dataclasses.dataclass(frozen=True)
+class Correlations:
     """
-    Return input and input-output correlation functions from Welch spectra.
+    Input and input-output correlation functions of the training data.
 
     Parameters
     ----------
-    spectra : CrossSpectra
-        Welch spectra (one-sided densities, see :mod:`.spectra`).
-    max_lag : int
-        Largest lag [samples], ``<= segment_length // 2 - 1``.
-
-    Returns
-    -------
-    rxx : numpy.ndarray, shape (n_in, n_in, 2 max_lag + 1)
-        ``rxx[i, j, max_lag + τ] = E[x_i(n) x_j(n + τ)]`` [input unit²].
-    rxy : numpy.ndarray, shape (n_in, n_out, 2 max_lag + 1)
-        ``rxy[i, o, max_lag + τ] = E[x_i(n) y_o(n + τ)]`` [input unit · output unit].
+    rxx : numpy.ndarray, shape (n_in, n_in, 2 T + 1)
+        ``rxx[i, j, T + τ] = E[x_i(n) x_j(n + τ)]`` [input unit²].
+    rxy : numpy.ndarray, shape (n_in, n_out, 2 T + 1)
+        ``rxy[i, o, T + τ] = E[x_i(n) y_o(n + τ)]`` [input unit · output unit].
+    fs_hz : float
+        Sample rate [Hz].
+    n_samples : int
+        Samples the estimate is averaged over.
 
     """
-    cfg = spectra.config
-    n = cfg.segment_length
-    win = cfg.window_array()
-    onesided = np.full(n // 2 + 1, 2.0)
-    onesided[0] = 1.0
-    if n % 2 == 0:
-        onesided[-1] = 1.0
-    scale = (cfg.fs_hz * np.dot(win, win)) / onesided
-    w_corr = scipy.fft.irfft(np.abs(scipy.fft.rfft(win)) ** 2, n=n)
-    lags = np.arange(-max_lag, max_lag + 1) % n
-    gain = 1.0 / w_corr[lags]
 
-    def corr(s):
-        c = scipy.fft.irfft(s * scale[:, None, None], n=n, axis=0)[lags]
-        return np.ascontiguousarray((c * gain[:, None, None]).transpose(1, 2, 0))
-    return corr(spectra.sxx), corr(spectra.syx.transpose(0, 2, 1))
+    rxx: np.ndarray
+    rxy: np.ndarray
+    fs_hz: float
+    n_samples: int
+
+    @property
+    def max_lag(self) -> int:
+        """Return ``T``, the largest lag held [samples]."""
+        return (self.rxx.shape[2] - 1) // 2
 
 
-def design_causal(spectra: CrossSpectra, look_ahead: int, design: LiveDesign) -> CausalEstimator:
+class CorrelationAccumulator:
+    """
+    Accumulate correlations of gap-free segments, lags ``-T .. T``, in blocks.
+
+    Each segment has its own mean removed (the predictor removes the static input too) and
+    contributes ``sum_n z_a(n) z_b(n + τ)`` over the pairs inside it (no pair straddles two
+    segments); the sum is divided by the total sample count.  This is the standard biased
+    correlation estimate, a positive semi-definite sequence, so the normal equations built
+    from it are too (the window-corrected Welch correlogram is not: with a few minutes of
+    data it gave indefinite equations).  Cost: FFTs of blocks of ~4 T samples, memory
+    ~(n_in + n_out)² x 2 T complex values.
+
+    Parameters
+    ----------
+    n_in, n_out : int
+        Channel counts.
+    max_lag : int
+        ``T`` [samples], >= 1.
+
+    """
+
+    def __init__(self, n_in: int, n_out: int, max_lag: int):
+        self._n_in, self._n_out, self._t = int(n_in), int(n_out), int(max_lag)
+        self._n_fft = scipy.fft.next_fast_len(max(4 * self._t, 4096), real=True)
+        self._block = self._n_fft - self._t
+        nz = self._n_in + self._n_out
+        self._acc = np.zeros((nz, nz, self._n_fft // 2 + 1), dtype=np.complex128)
+        self._n = 0
+
+    def add(self, x: np.ndarray, y: np.ndarray) -> None:
+        """Add one segment: ``x`` (n_in, n) inputs, ``y`` (n_out, n) outputs (validated)."""
+        z = np.concatenate([x, y], axis=0)
+        z = z - z.mean(axis=1, keepdims=True)
+        n = z.shape[1]
+        for s in range(0, n, self._block):
+            u = scipy.fft.rfft(z[:, s:s + self._block], n=self._n_fft, axis=1)
+            v = scipy.fft.rfft(z[:, s:s + self._block + self._t], n=self._n_fft, axis=1)
+            self._acc += u.conj()[:, None, :] * v[None, :, :]
+        self._n += n
+
+    def result(self, fs_hz: float) -> Correlations:
+        """
+        Return the correlations averaged over every sample added.
+
+        Raises
+        ------
+        InsufficientDataError
+            Nothing was added.
+
+        """
+        if self._n == 0:
+            raise InsufficientDataError('live estimator: no training samples')
+        t = self._t
+        c = scipy.fft.irfft(self._acc, n=self._n_fft, axis=2)[:, :, :t + 1] / self._n
+        full = np.concatenate([c.transpose(1, 0, 2)[:, :, :0:-1], c], axis=2)   # -T .. T
+        ni = self._n_in
+        return Correlations(np.ascontiguousarray(full[:ni, :ni]),
+                            np.ascontiguousarray(full[:ni, ni:]), float(fs_hz), self._n)
+
+
+def design_causal(corr: Correlations, look_ahead: int, design: LiveDesign) -> CausalEstimator:
     """
     Solve the multi-rate Wiener-Hopf normal equations for one look-ahead.
 
     Parameters
     ----------
-    spectra : CrossSpectra
-        Welch spectra of the training data (the longest-segment ones ``fit`` has).
+    corr : Correlations
+        Correlations of the training data, lags up to ``design.max_lag(fs)`` at least.
     look_ahead : int
         ``D`` [samples], >= 0.
     design : LiveDesign
@@ -316,23 +370,22 @@ def design_causal(spectra: CrossSpectra, look_ahead: int, design: LiveDesign) ->
     Raises
     ------
     ConfigError
-        The Welch segment is too short for this look-ahead (history below one sample).
+        ``corr`` does not reach lag ``look_ahead + history + 2``.
     InsufficientDataError
         The regularised normal equations are not positive definite (no input power).
 
     """
-    fs = spectra.config.fs_hz
-    max_lag = int(_MAX_LAG_FRACTION * spectra.config.segment_length)
-    history = min(int(round(design.history_s * fs)), max_lag - look_ahead - 2)
-    if history < 1:
-        raise ConfigError(
-            f'live look-ahead {look_ahead} samples leaves no history within a quarter Welch '
-            f'segment ({max_lag} lags of {spectra.config.segment_length}); use a longer '
-            f'(long_)segment_length or a shorter look-ahead')
+    fs = corr.fs_hz
+    history = max(1, int(round(design.history_s * fs)))
+    t_max = look_ahead + history + 2
+    if t_max > corr.max_lag:
+        raise ConfigError(f'live estimator: look-ahead {look_ahead} + history {history} '
+                          f'samples need correlations to lag {t_max}, have {corr.max_lag}')
     edges = lag_edges(look_ahead, int(round(design.fine_s * fs)), history,
                       design.blocks_per_octave)
-    t_max = look_ahead + history + 2
-    rxx, rxy = correlations(spectra, t_max)
+    lo_t = corr.max_lag - t_max
+    rxx = corr.rxx[:, :, lo_t:corr.rxx.shape[2] - lo_t]
+    rxy = corr.rxy[:, :, lo_t:corr.rxy.shape[2] - lo_t]
     n_in, n_out = rxx.shape[0], rxy.shape[1]
     n_b = edges.size - 1
     lags = np.arange(-look_ahead, history + 1)
@@ -360,14 +413,13 @@ def design_causal(spectra: CrossSpectra, look_ahead: int, design: LiveDesign) ->
     except np.linalg.LinAlgError as err:
         raise InsufficientDataError(
             f'live estimator (look-ahead {look_ahead} samples): the normal equations are not '
-            f'positive definite (inputs without power?); raise the live regularisation') from err
+            f'positive definite (inputs without power?)') from err
     theta = theta.reshape(n_in, n_b, n_out).transpose(2, 0, 1)            # (o, i, p)
     n_fine = _fine_count(edges)
     info = {'method': METHOD, 'look_ahead_s': look_ahead / fs, 'history_s': history / fs,
             'fine_s': design.fine_s, 'blocks_per_octave': design.blocks_per_octave,
             'regularisation': design.regularisation, 'n_basis_per_input': int(n_b),
-            'welch_segment_length': spectra.config.segment_length,
-            'n_windows': int(spectra.n_windows)}
+            'n_training_samples': int(corr.n_samples)}
     return CausalEstimator(look_ahead, theta[:, :, :n_fine], edges[n_fine:],
                            theta[:, :, n_fine:], info)
 
@@ -379,15 +431,14 @@ def _fine_count(edges: np.ndarray) -> int:
     return int(wide[0]) if wide.size else int(width.size)
 
 
-def design_live(spectra: CrossSpectra, design: LiveDesign) -> Tuple[CausalEstimator, ...]:
+def design_live(corr: Correlations, design: LiveDesign) -> Tuple[CausalEstimator, ...]:
     """Design one estimator per distinct look-ahead of ``design`` (configured one first)."""
-    fs = spectra.config.fs_hz
     seen, out = set(), []
     for look_s in design.look_aheads_s:
-        d = look_ahead_samples(look_s, fs)
+        d = look_ahead_samples(look_s, corr.fs_hz)
         if d not in seen:
             seen.add(d)
-            out.append(design_causal(spectra, d, design))
+            out.append(design_causal(corr, d, design))
     return tuple(out)
 
 

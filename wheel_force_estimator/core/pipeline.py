@@ -32,6 +32,7 @@ from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.frf import estimate_frf
 from wheel_force_estimator.core.frf import FrfConfig
 from wheel_force_estimator.core.frf import FrfEstimate
+from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import design_live
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.model import FrfModel
@@ -81,8 +82,8 @@ class FitConfig:
     long_regularisation : float
         Relative regularisation of the long-segment estimate [-].
     live : LiveDesign or None
-        Also design the live (causal) estimators from the same spectra (the long-segment
-        ones when present: their correlations reach further back); ``None`` = none.
+        Also design the live (causal) estimators (correlations accumulated from the same
+        segments while they are in memory); ``None`` = none.
 
     Raises
     ------
@@ -212,12 +213,16 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     sum_x = np.zeros(len(input_channels))
     sum_y = np.zeros(len(output_channels))
     n_total = 0
+    corr = None if config.live is None else CorrelationAccumulator(
+        len(input_channels), len(output_channels), config.live.max_lag(fs_hz))
     for seg in segments:
         x = as_signals(seg.accel_mps2, f'accelerations of {seg.source}', input_channels)
         y = as_signals(seg.force_n, f'forces of {seg.source}', output_channels)
         spectra.append(cross_spectra(x, y, welch, name=seg.source))
         if long_welch is not None and x.shape[1] >= config.long_segment_length:
             long_spectra.append(cross_spectra(x, y, long_welch, name=seg.source))
+        if corr is not None:
+            corr.add(x, y)
         sum_x += x.sum(axis=1)
         sum_y += y.sum(axis=1)
         n_total += x.shape[1]
@@ -228,7 +233,6 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
                        keep_dc=config.f_min_hz == 0.0)
     extra = {}
-    live_spectra = combined
     if long_welch is not None:
         if not long_spectra:
             raise InsufficientDataError(
@@ -237,7 +241,6 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
                 f'{max(seg.accel_mps2.shape[1] for seg in segments)} samples; record longer '
                 f'runs or set long_segment_length: 0 (single resolution)')
         long_combined = combine_spectra(long_spectra)
-        live_spectra = long_combined
         long_est = estimate_frf(long_combined, config.long_frf())
         h_long = long_est.h * coherence_weight(long_est.coherence_multiple,
                                                config.coherence_floor)[:, :, None]
@@ -260,7 +263,7 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     }
     info.update(extra)
     info.update(dict(fit_info or {}))
-    live = () if config.live is None else design_live(live_spectra, config.live)
+    live = () if corr is None else design_live(corr.result(fs_hz), config.live)
     return FrfModel(
         fs_hz=fs_hz, input_channels=tuple(input_channels),
         output_channels=tuple(output_channels), f_hz=est.f_hz, h=h,

@@ -98,18 +98,18 @@ def select_filter(model: FrfModel, causal_delay_samples: Optional[int] = None):
     if live is not None:
         return CausalFilter(live, fs), None
     if model.live:
-        have = ', '.join(f'{e.look_ahead_samples} ({1e3 * e.look_ahead_samples / fs:g} ms)'
+        have = ', '.join(f'{e.look_ahead_samples} ({1e3 * e.look_ahead_samples / fs:.1f} ms)'
                          for e in model.live)
         raise ConfigError(
             f'the model has live estimators for look-aheads of {have} samples, not for '
-            f'{delay} samples ({1e3 * delay / fs:g} ms); use one of those or refit with '
+            f'{delay} samples ({1e3 * delay / fs:.1f} ms); use one of those or refit with '
             f'`wheel-force fit --live-look-ahead-s {delay / fs:g}`')
     if delay > model.fir_delay_samples:
         raise ConfigError(
             f'causal delay {causal_delay_samples} samples must be within '
             f"[0, {model.fir_delay_samples}] (the model's look-ahead)")
     message = (f'the model has no live (causal) estimator (schema 1 or fitted without one): '
-               f'using the offline FIR cut to {delay} samples ({1e3 * delay / fs:g} ms) of '
+               f'using the offline FIR cut to {delay} samples ({1e3 * delay / fs:.1f} ms) of '
                f'look-ahead, which loses accuracy; refit with `wheel-force fit` to get the '
                f'causal estimator')
     return OverlapAddFilter(with_delay(full, delay)), message
