@@ -409,7 +409,8 @@ def design_causal(corr: Correlations, look_ahead: int, design: LiveDesign) -> Ca
     a[np.diag_indices_from(a)] += ridge
     rhs = b.transpose(0, 2, 1).reshape(n_in * n_b, n_out)
     try:
-        theta = scipy.linalg.solve(a, rhs, assume_a='pos', check_finite=False)
+        theta = scipy.linalg.cho_solve(scipy.linalg.cho_factor(a, check_finite=False), rhs,
+                                       check_finite=False)
     except np.linalg.LinAlgError as err:
         raise InsufficientDataError(
             f'live estimator (look-ahead {look_ahead} samples): the normal equations are not '

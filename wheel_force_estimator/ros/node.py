@@ -98,6 +98,9 @@ class WheelForceNode(Node):
             model = load_model(params.model_path)
             self._layout = layout = model_layout(model, params)
             predictor = Predictor(model, layout.causal_delay_samples)
+            if predictor.fallback:
+                # Once, at start: the model predates the live estimator (issue 16).
+                self.get_logger().warning(f'{params.model_path}: {predictor.fallback}')
             self._stream = ForceStream(predictor, params.block_size, params.sn_slope)
         except WheelForceError:
             self.destroy_node()
