@@ -40,7 +40,6 @@ from wheel_force_estimator.core.evaluation import EvalSegment
 from wheel_force_estimator.core.evaluation import evaluate_segments
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
-from wheel_force_estimator.core.live_estimator import design_causal
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.overlap_add import apply_fir
 from wheel_force_estimator.core.pipeline import fit_model
@@ -64,7 +63,7 @@ def ls_fir_cg(rxx, rxy, t_max, look_ahead, history, regularisation, tol=1e-7, ma
     r_{x_j y_o}(m)`` with ``λ_j = regularisation * r_jj(0)`` (the new estimator's ridge).
     Returns the taps (no, ni, D + H + 1) (tap k = lag k - D) and (iterations, residual).
     """
-    ni, no = rxx.shape[0], rxy.shape[1]
+    ni = rxx.shape[0]
     n_lag = look_ahead + history + 1
     n_fft = 4 * n_lag
     # conv(g, r_flip): r_flip(τ') = r(-τ') for τ' in -(L-1)..(L-1), index τ' + L - 1
@@ -139,8 +138,8 @@ def main():
     n_train, n_val = train.accel_mps2.shape[1], val.accel_mps2.shape[1]
     print(f'simulated {n_train / fs:.0f} s training, {n_val / fs:.0f} s held-out validation '
           f'in {time.perf_counter() - t0:.0f} s')
-    design = LiveDesign(look_aheads_s=(DEFAULT_S,) + tuple(s for s in LOOK_AHEADS_S
-                                                          if s != DEFAULT_S))
+    others = tuple(s for s in LOOK_AHEADS_S if s != DEFAULT_S)
+    design = LiveDesign(look_aheads_s=(DEFAULT_S,) + others)
     cfg = load_fit_config()                                 # the `wheel-force fit` defaults
     seg = TrainingSegment(train.accel_mps2, train.force_n, 'seed1')
     t1 = time.perf_counter()

@@ -37,7 +37,7 @@ NODE_PARAMS = {'damage_publish_period_s': 0.2, 'input_reliability': 'reliable',
 
 
 def live_model(seed=31):
-    """A synthetic model plus a random live estimator at 26 samples (4 s history)."""
+    """Return a synthetic model plus a random live estimator at 26 samples (4 s history)."""
     model = synthetic_model(fs_hz=FS_HZ, n_taps=160, delay_samples=48, seed=seed)
     rng = np.random.default_rng(seed)
     edges = lag_edges(LOOK_AHEAD, 64, 2048, 32)
