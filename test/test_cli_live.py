@@ -28,7 +28,7 @@ T0_NS = 1_750_000_000 * 10**9
 
 
 def write_bag(path, seconds, seed):
-    """A known causal-ish 12x12 system (coloured inputs through 2nd-order filters)."""
+    """Write a bag of a known 12x12 system (coloured inputs through 2nd-order filters)."""
     n = int(seconds * FS_HZ)
     rng = np.random.default_rng(seed)
     b_in, a_in = signal.butter(2, 40 / (FS_HZ / 2))
@@ -115,8 +115,7 @@ def test_evaluate_causal_puts_offline_and_live_side_by_side(setup, capsys):
     assert (rep / 'accuracy_vs_look_ahead.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
 
 
-def test_look_ahead_the_model_was_not_fitted_for_exits_1_naming_the_ones_it_has(setup,
-                                                                                 capsys):
+def test_unfitted_look_ahead_exits_1_naming_the_ones_the_model_has(setup, capsys):
     d, path = setup
     rc = main(['predict', str(path), str(d / 'val'), '-o', str(d / 'x'),
                '--live-look-ahead-s', '0.2'])
