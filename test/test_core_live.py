@@ -14,6 +14,7 @@ from wheel_force_estimator.core.errors import ModelFileError
 from wheel_force_estimator.core.live_estimator import CausalEstimator
 from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import design_causal
+from wheel_force_estimator.core.live_estimator import design_live
 from wheel_force_estimator.core.live_estimator import lag_edges
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.model import load_model
@@ -121,6 +122,20 @@ def test_design_needs_correlations_to_its_longest_lag():
     assert est.history_samples == 64 and est.info['history_s'] == 0.5
     with pytest.raises(ConfigError, match='need correlations to lag 70, have 69'):
         design_causal(corr, 4, design)
+
+
+def test_design_live_submatrices_equal_separate_designs():
+    # Bug caught: a wrong principal submatrix (lags of another input kept) for the shorter
+    # look-aheads that design_live derives from the longest one's equations.
+    x = coloured_inputs(30_000, 9)
+    design = LiveDesign(look_aheads_s=(2 / FS_HZ, 6 / FS_HZ, 0.0), history_s=0.5,
+                        blocks_per_octave=4)
+    corr = correlate([x], [x[:2] * 2.0 + np.roll(x[1:], 3, axis=1)], design.max_lag(FS_HZ))
+    for est in design_live(corr, design):
+        alone = design_causal(corr, est.look_ahead_samples, design)
+        np.testing.assert_allclose(est.fir(FS_HZ).taps, alone.fir(FS_HZ).taps, rtol=0,
+                                   atol=1e-9 * np.abs(alone.fine_taps).max())
+        assert est.info == alone.info
 
 
 def random_estimator(look_ahead=3, seed=0):

@@ -375,53 +375,86 @@ def design_causal(corr: Correlations, look_ahead: int, design: LiveDesign) -> Ca
         The regularised normal equations are not positive definite (no input power).
 
     """
-    fs = corr.fs_hz
-    history = max(1, int(round(design.history_s * fs)))
-    t_max = look_ahead + history + 2
-    if t_max > corr.max_lag:
-        raise ConfigError(f'live estimator: look-ahead {look_ahead} + history {history} '
-                          f'samples need correlations to lag {t_max}, have {corr.max_lag}')
-    edges = lag_edges(look_ahead, int(round(design.fine_s * fs)), history,
-                      design.blocks_per_octave)
-    lo_t = corr.max_lag - t_max
-    rxx = corr.rxx[:, :, lo_t:corr.rxx.shape[2] - lo_t]
-    rxy = corr.rxy[:, :, lo_t:corr.rxy.shape[2] - lo_t]
-    n_in, n_out = rxx.shape[0], rxy.shape[1]
-    n_b = edges.size - 1
-    lags = np.arange(-look_ahead, history + 1)
-    starts = edges[:-1] - edges[0]
-    # sum_{m in q} r(l - m) = C1(l - a_q) - C1(l - e_q) with C1(t) = sum_{τ <= t} r(τ)
-    hi = lags[:, None] - edges[None, :-1] + t_max
-    lo = lags[:, None] - edges[None, 1:] + t_max
-    a = np.empty((n_in, n_b, n_in, n_b))
-    for i in range(n_in):
-        c1 = np.cumsum(rxx[i], axis=-1)                                   # (j, τ)
-        inner = c1[:, hi] - c1[:, lo]                                     # (j, l, q)
-        a[i] = np.add.reduceat(inner, starts, axis=1).transpose(1, 0, 2)  # (p, j, q)
-    # A[(i,p),(j,q)] uses r_ij(l - m): the loop above summed r_ij over m in q for l in p.
-    c1 = np.cumsum(rxy, axis=-1)                                          # (j, o, τ)
-    b = (c1[:, :, edges[1:] - 1 + t_max] - c1[:, :, edges[:-1] - 1 + t_max])  # (j, o, q)
-    a = a.reshape(n_in * n_b, n_in * n_b)
-    a = 0.5 * (a + a.T)
-    width = np.diff(edges).astype(np.float64)
-    power = rxx[np.arange(n_in), np.arange(n_in), t_max]
-    ridge = design.regularisation * (power[:, None] * width[None, :]).ravel()
-    a[np.diag_indices_from(a)] += ridge
-    rhs = b.transpose(0, 2, 1).reshape(n_in * n_b, n_out)
+    return _solve(_NormalEquations(corr, look_ahead, design), look_ahead)
+
+
+class _NormalEquations:
+    """The regularised normal equations of the basis for look-ahead ``D`` (see notes)."""
+
+    def __init__(self, corr: Correlations, look_ahead: int, design: LiveDesign):
+        fs = corr.fs_hz
+        history = max(1, int(round(design.history_s * fs)))
+        t_max = look_ahead + history + 2
+        if t_max > corr.max_lag:
+            raise ConfigError(f'live estimator: look-ahead {look_ahead} + history {history} '
+                              f'samples need correlations to lag {t_max}, have {corr.max_lag}')
+        edges = lag_edges(look_ahead, int(round(design.fine_s * fs)), history,
+                          design.blocks_per_octave)
+        lo_t = corr.max_lag - t_max
+        rxx = corr.rxx[:, :, lo_t:corr.rxx.shape[2] - lo_t]
+        rxy = corr.rxy[:, :, lo_t:corr.rxy.shape[2] - lo_t]
+        n_in, n_out = rxx.shape[0], rxy.shape[1]
+        n_b = edges.size - 1
+        lags = np.arange(-look_ahead, history + 1)
+        starts = edges[:-1] - edges[0]
+        # sum_{m in q} r(l - m) = C1(l - a_q) - C1(l - e_q) with C1(t) = sum_{τ <= t} r(τ)
+        hi = lags[:, None] - edges[None, :-1] + t_max
+        lo = lags[:, None] - edges[None, 1:] + t_max
+        a = np.empty((n_in, n_b, n_in, n_b))
+        for i in range(n_in):
+            c1 = np.cumsum(rxx[i], axis=-1)                                   # (j, τ)
+            inner = c1[:, hi] - c1[:, lo]                                     # (j, l, q)
+            a[i] = np.add.reduceat(inner, starts, axis=1).transpose(1, 0, 2)  # (p, j, q)
+        # A[(i,p),(j,q)] uses r_ij(l - m): the loop above summed r_ij over m in q, l in p.
+        c1 = np.cumsum(rxy, axis=-1)                                          # (j, o, τ)
+        b = c1[:, :, edges[1:] - 1 + t_max] - c1[:, :, edges[:-1] - 1 + t_max]  # (j, o, q)
+        a = a.reshape(n_in * n_b, n_in * n_b)
+        self.a = 0.5 * (a + a.T)
+        width = np.diff(edges).astype(np.float64)
+        power = rxx[np.arange(n_in), np.arange(n_in), t_max]
+        self.a[np.diag_indices_from(self.a)] += design.regularisation * (
+            power[:, None] * width[None, :]).ravel()
+        self.rhs = b.transpose(0, 2, 1).reshape(n_in * n_b, n_out)
+        self.edges, self.n_in, self.n_out = edges, n_in, n_out
+        self.info = {'method': METHOD, 'history_s': history / fs, 'fine_s': design.fine_s,
+                     'blocks_per_octave': design.blocks_per_octave,
+                     'regularisation': design.regularisation,
+                     'n_training_samples': int(corr.n_samples)}
+        self.fs_hz = fs
+
+    def sub(self, look_ahead: int) -> '_NormalEquations':
+        """
+        Return the equations of a shorter look-ahead (its basis drops the first lags).
+
+        Only the leading one-sample blocks (future lags) differ between look-aheads, so the
+        smaller problem is a principal submatrix: no second pass over the correlations.
+        """
+        drop = -int(self.edges[0]) - look_ahead
+        if drop < 0 or drop >= _fine_count(self.edges):
+            raise ConfigError(f'look-ahead {look_ahead} is not within the fine lags')
+        n_b = self.edges.size - 1
+        sel = (np.arange(self.n_in)[:, None] * n_b + np.arange(drop, n_b)[None, :]).ravel()
+        out = object.__new__(_NormalEquations)
+        out.__dict__.update(self.__dict__)
+        out.a = self.a[np.ix_(sel, sel)]
+        out.rhs = self.rhs[sel]
+        out.edges = self.edges[drop:]
+        return out
+
+
+def _solve(eq: _NormalEquations, look_ahead: int) -> CausalEstimator:
     try:
-        theta = scipy.linalg.cho_solve(scipy.linalg.cho_factor(a, check_finite=False), rhs,
-                                       check_finite=False)
+        theta = scipy.linalg.cho_solve(scipy.linalg.cho_factor(eq.a, check_finite=False),
+                                       eq.rhs, check_finite=False)
     except np.linalg.LinAlgError as err:
         raise InsufficientDataError(
             f'live estimator (look-ahead {look_ahead} samples): the normal equations are not '
             f'positive definite (inputs without power?)') from err
-    theta = theta.reshape(n_in, n_b, n_out).transpose(2, 0, 1)            # (o, i, p)
-    n_fine = _fine_count(edges)
-    info = {'method': METHOD, 'look_ahead_s': look_ahead / fs, 'history_s': history / fs,
-            'fine_s': design.fine_s, 'blocks_per_octave': design.blocks_per_octave,
-            'regularisation': design.regularisation, 'n_basis_per_input': int(n_b),
-            'n_training_samples': int(corr.n_samples)}
-    return CausalEstimator(look_ahead, theta[:, :, :n_fine], edges[n_fine:],
+    n_b = eq.edges.size - 1
+    theta = theta.reshape(eq.n_in, n_b, eq.n_out).transpose(2, 0, 1)        # (o, i, p)
+    n_fine = _fine_count(eq.edges)
+    info = dict(eq.info, look_ahead_s=look_ahead / eq.fs_hz, n_basis_per_input=int(n_b))
+    return CausalEstimator(look_ahead, theta[:, :, :n_fine], eq.edges[n_fine:],
                            theta[:, :, n_fine:], info)
 
 
@@ -434,13 +467,10 @@ def _fine_count(edges: np.ndarray) -> int:
 
 def design_live(corr: Correlations, design: LiveDesign) -> Tuple[CausalEstimator, ...]:
     """Design one estimator per distinct look-ahead of ``design`` (configured one first)."""
-    seen, out = set(), []
-    for look_s in design.look_aheads_s:
-        d = look_ahead_samples(look_s, corr.fs_hz)
-        if d not in seen:
-            seen.add(d)
-            out.append(design_causal(corr, d, design))
-    return tuple(out)
+    looks = list(dict.fromkeys(look_ahead_samples(v, corr.fs_hz) for v in design.look_aheads_s))
+    # One set of equations for the longest look-ahead; the others are its submatrices.
+    full = _NormalEquations(corr, max(looks), design)
+    return tuple(_solve(full.sub(d), d) for d in looks)
 
 
 # -- model file section -----------------------------------------------------------------------
