@@ -395,17 +395,28 @@ class _NormalEquations:
         rxy = corr.rxy[:, :, lo_t:corr.rxy.shape[2] - lo_t]
         n_in, n_out = rxx.shape[0], rxy.shape[1]
         n_b = edges.size - 1
-        lags = np.arange(-look_ahead, history + 1)
-        starts = edges[:-1] - edges[0]
-        # sum_{m in q} r(l - m) = C1(l - a_q) - C1(l - e_q) with C1(t) = sum_{τ <= t} r(τ)
-        hi = lags[:, None] - edges[None, :-1] + t_max
-        lo = lags[:, None] - edges[None, 1:] + t_max
+        # sum_{l in p} sum_{m in q} r(l - m) from C2, the double cumulative sum of r:
+        # with C1(t) = sum_{τ <= t} r(τ), sum_{m in q} r(l - m) = C1(l - a_q) - C1(l - e_q),
+        # and summing that over l in [a_p, e_p) gives four values of C2 (index 0 = lag
+        # -2 t_max - 1, an empty sum).  Rounding: ~eps (2 t_max)² max|r|, far below the ridge.
+        start, end = edges[:-1], edges[1:]
+
+        def c2_at(t):
+            return t + 2 * t_max + 1
+
+        pp = (c2_at(end[:, None] - 1 - start[None, :]), c2_at(start[:, None] - 1 - start[None, :]),
+              c2_at(end[:, None] - 1 - end[None, :]), c2_at(start[:, None] - 1 - end[None, :]))
         a = np.empty((n_in, n_b, n_in, n_b))
+        zeros = np.zeros((n_in, 2 * t_max + 2))
         for i in range(n_in):
-            c1 = np.cumsum(rxx[i], axis=-1)                                   # (j, τ)
-            inner = c1[:, hi] - c1[:, lo]                                     # (j, l, q)
-            a[i] = np.add.reduceat(inner, starts, axis=1).transpose(1, 0, 2)  # (p, j, q)
-        # A[(i,p),(j,q)] uses r_ij(l - m): the loop above summed r_ij over m in q, l in p.
+            # r_ij(τ) for τ in -2 t_max .. 2 t_max (0 beyond t_max: never reached)
+            r = np.zeros((n_in, 4 * t_max + 1))
+            r[:, t_max:3 * t_max + 1] = rxx[i]
+            c2 = np.concatenate([zeros[:, :1], np.cumsum(np.cumsum(r, axis=-1), axis=-1)],
+                                axis=-1)
+            a[i] = (c2[:, pp[0]] - c2[:, pp[1]] - c2[:, pp[2]] + c2[:, pp[3]]).transpose(1, 0, 2)
+        # A[(i,p),(j,q)] uses r_ij(l - m) summed over l in p and m in q.
+        del zeros
         c1 = np.cumsum(rxy, axis=-1)                                          # (j, o, τ)
         b = c1[:, :, edges[1:] - 1 + t_max] - c1[:, :, edges[:-1] - 1 + t_max]  # (j, o, q)
         a = a.reshape(n_in * n_b, n_in * n_b)
