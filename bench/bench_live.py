@@ -13,8 +13,8 @@ estimators; then, at each look-ahead 25 / 50 / 100 / 250 ms:
   without live estimators still does);
 - ``ls2s``: the plain least-squares causal FIR, one tap per sample, 2 s history (the
   baseline of issue 16), solved here by conjugate gradients on the block-Toeplitz normal
-  equations from the same correlations and with the same ridge as the new estimator (12 x
-  ~1050 unknowns per output: too many for a dense solve);
+  equations (circulant preconditioner) from the same correlations and with the same ridge
+  as the new estimator (12 x ~1050 unknowns per output: too many for a dense solve);
 - ``live``: the new multi-rate estimator stored in the model (``core.live_estimator``).
 
 Figures: mean over the four corners per direction (x, y, z) of RMSE % unfiltered, RMSE % of
@@ -54,13 +54,15 @@ BASELINE_HISTORY_S = 2.0
 DIRS = 'xyz'
 
 
-def ls_fir_cg(rxx, rxy, t_max, look_ahead, history, regularisation, tol=1e-7, max_iter=4000):
+def ls_fir_cg(rxx, rxy, t_max, look_ahead, history, regularisation, tol=1e-5, max_iter=1000):
     """
-    Full-rate least-squares causal FIR (lags -D..H) by Jacobi-preconditioned CG.
+    Full-rate least-squares causal FIR (lags -D..H) by preconditioned conjugate gradients.
 
     ``rxx`` (ni, ni, 2 T + 1), ``rxy`` (ni, no, 2 T + 1) with lag 0 at index ``t_max``.
     Solves, for all outputs at once, ``sum_i sum_l g_oi(l) r_ij(l - m) + λ_j g_oj(m) =
     r_{x_j y_o}(m)`` with ``λ_j = regularisation * r_jj(0)`` (the new estimator's ridge).
+    The block-Toeplitz matrix is applied by FFT; the preconditioner is the circulant one of
+    the Bartlett-tapered correlations (a PSD 12x12 matrix per frequency, inverted per bin).
     Returns the taps (no, ni, D + H + 1) (tap k = lag k - D) and (iterations, residual).
     """
     ni = rxx.shape[0]
@@ -69,20 +71,32 @@ def ls_fir_cg(rxx, rxy, t_max, look_ahead, history, regularisation, tol=1e-7, ma
     # conv(g, r_flip): r_flip(τ') = r(-τ') for τ' in -(L-1)..(L-1), index τ' + L - 1
     taus = np.arange(-(n_lag - 1), n_lag)
     r_flip = rxx[:, :, t_max - taus]                                   # (i, j, 2L - 1)
-    r_f = np.fft.rfft(r_flip, n=n_fft, axis=-1)
+    r_f = np.ascontiguousarray(np.fft.rfft(r_flip, n=n_fft, axis=-1).transpose(2, 0, 1))
     ridge = regularisation * rxx[np.arange(ni), np.arange(ni), t_max]  # (j,)
 
     def matvec(g):                                                     # g (o, i, L)
-        g_f = np.fft.rfft(g, n=n_fft, axis=-1)
-        c = np.fft.irfft(np.einsum('oif,ijf->ojf', g_f, r_f), n=n_fft, axis=-1)
+        g_f = np.fft.rfft(g, n=n_fft, axis=-1).transpose(2, 0, 1)       # (f, o, i)
+        c = np.fft.irfft(np.matmul(g_f, r_f).transpose(1, 2, 0), n=n_fft, axis=-1)
         return c[:, :, n_lag - 1:2 * n_lag - 1] + ridge[None, :, None] * g
+
+    n_c = 2 * n_lag
+    circ = np.zeros((ni, ni, n_c))
+    lags = np.arange(-(n_lag - 1), n_lag)
+    circ[:, :, lags % n_c] = rxx[:, :, t_max + lags] * (1.0 - np.abs(lags) / n_lag)
+    c_f = np.fft.rfft(circ, axis=-1).transpose(2, 0, 1)                # (f, i, j)
+    c_f = c_f + np.diag(ridge)[None]
+    c_inv = np.linalg.inv(c_f)                                         # (f, j, i)
+
+    def precond(r):                                                    # r (o, j, L)
+        r_f2 = np.fft.rfft(r, n=n_c, axis=-1).transpose(2, 0, 1)        # (f, o, j)
+        z = np.fft.irfft(np.matmul(r_f2, c_inv).transpose(1, 2, 0), n=n_c, axis=-1)
+        return z[:, :, :n_lag]
 
     b = np.ascontiguousarray(rxy[:, :, t_max - look_ahead:t_max + history + 1]
                              .transpose(1, 0, 2))                      # (o, j, L)
-    precond = 1.0 / (rxx[np.arange(ni), np.arange(ni), t_max] + ridge)[None, :, None]
     g = np.zeros_like(b)
     r = b - matvec(g)
-    z = precond * r
+    z = precond(r)
     p = z.copy()
     rz = np.sum(r * z, axis=(1, 2))
     b_norm = np.sqrt(np.sum(b * b, axis=(1, 2)))
@@ -94,7 +108,7 @@ def ls_fir_cg(rxx, rxy, t_max, look_ahead, history, regularisation, tol=1e-7, ma
         res = np.max(np.sqrt(np.sum(r * r, axis=(1, 2))) / b_norm)
         if res < tol:
             break
-        z = precond * r
+        z = precond(r)
         rz_new = np.sum(r * z, axis=(1, 2))
         p = z + (rz_new / rz)[:, None, None] * p
         rz = rz_new
