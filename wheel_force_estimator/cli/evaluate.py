@@ -9,6 +9,7 @@ sample times from 0 at ``--fs`` and no road events.  The model must have been fi
 same channels (names, input quantity) at the same rate; nothing is renamed or resampled.
 """
 import argparse
+import functools
 import json
 from pathlib import Path
 
@@ -35,8 +36,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--config', metavar='YAML', help='params file (topic names, sn_slope)')
     add_namespace_argument(p)
     p.add_argument('--sn-slope', type=float, default=5.0, help='Basquin exponent k')
-    p.add_argument('--causal-delay-samples', type=int, metavar='N',
-                   help='evaluate the live filter with this look-ahead instead of the full one')
+    from wheel_force_estimator.cli.live import add_causal_arguments
+    add_causal_arguments(p, 'evaluate')
     add_generic_arguments(p)
     return p
 
@@ -109,30 +110,49 @@ def check_generic_model(model, model_path, request) -> None:
 def command(args: argparse.Namespace) -> int:
     """Run ``evaluate``; return the exit code."""
     from wheel_force_estimator.cli.common import generic_request
+    from wheel_force_estimator.cli.live import announce
+    from wheel_force_estimator.cli.live import causal_delay
     from wheel_force_estimator.core.model import load_model
     from wheel_force_estimator.report.builders import evaluation_text
 
     request = generic_request(args, args.recordings)
     model = load_model(args.model)
+    delay = causal_delay(args, model.fs_hz)
+    announce(model, args.model, delay)
     if request is None:
         from wheel_force_estimator.cli.common import check_bag_model
         from wheel_force_estimator.cli.common import read_recordings
         check_bag_model(model, args.model)
         recordings = read_recordings(args.recordings, topic_config(args),
                                      require_wft=True, expected_fs_hz=model.fs_hz)
-        evaluation, segments = evaluate_recordings(model, recordings, args.sn_slope,
-                                                   args.causal_delay_samples)
+
+        def run(d):
+            return evaluate_recordings(model, recordings, args.sn_slope, d)
     else:
         check_generic_model(model, args.model, request)
-        evaluation, segments = evaluate_generic(model, request.read(args.recordings),
-                                                args.sn_slope, args.causal_delay_samples)
+        generic = request.read(args.recordings)
+
+        def run(d):
+            return evaluate_generic(model, generic, args.sn_slope, d)
+    evaluation, segments = run(delay)
     print(evaluation_text(evaluation))
+    doc = evaluation.to_json()
+    extra = None
+    if delay is not None and delay != model.fir_delay_samples:
+        # The live estimate side by side with the offline one, and against look-ahead.
+        from wheel_force_estimator.cli import live
+        cmp = live.compare(model, lambda d: evaluation if d == delay else run(d)[0], delay)
+        print('\n' + live.comparison_text(cmp, model.fs_hz))
+        doc.update(live.comparison_json(cmp, model.fs_hz))
+        doc['offline'] = {'channels': cmp.offline.to_json()['channels']}
+        extra = functools.partial(live.report_section, cmp=cmp, fs_hz=model.fs_hz,
+                                  data=f'{len(segments)} evaluated segment(s)')
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(evaluation.to_json(), indent=1))
+        Path(args.json).write_text(json.dumps(doc, indent=1))
         print(f'json: {args.json}')
     if args.report:
         from wheel_force_estimator.report.builders import write_evaluation_report
-        report = write_evaluation_report(args.report, model, evaluation, segments)
+        report = write_evaluation_report(args.report, model, evaluation, segments, extra)
         print(f'report: {report}')
     return 0

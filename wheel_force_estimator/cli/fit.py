@@ -18,6 +18,7 @@ resolution and says so; nothing is padded.  When the user did ask, the fit is re
 """
 import argparse
 import dataclasses
+import functools
 from pathlib import Path
 from typing import List, Optional, Tuple
 
@@ -55,6 +56,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help='long Welch segment below the crossover (0 = single resolution; '
                         'default 8192, dropped with a note for generic records shorter '
                         'than that)')
+    p.add_argument('--live-look-ahead-s', type=float, metavar='S',
+                   help='look-ahead of the live (causal) estimator stored in the model [s] '
+                        '(default: live_look_ahead_s of the params file, else 0.05); '
+                        '0, 25, 50, 100 and 250 ms are designed too, for the reports')
     add_generic_arguments(p)
     return p
 
@@ -168,6 +173,7 @@ def command(args: argparse.Namespace) -> int:
     if request is not None:
         config, note = _short_record_fallback(config, data,
                                               explicit_fit_keys(args.config, **settings))
+    config = _with_live(config, args)
     model = fit_model(data.segments, data.fs_hz, config, data.input_channels,
                       data.output_channels, fit_info=data.fit_info)
     model = dataclasses.replace(model, units=data.units)
@@ -175,11 +181,28 @@ def command(args: argparse.Namespace) -> int:
     summary = coherence_summary(model)
     _print_summary(model, summary, config, data, note)
     if args.report:
+        from wheel_force_estimator.cli import live
         from wheel_force_estimator.report.builders import write_fit_report
-        report = write_fit_report(args.report, model, summary)
+        cmp = live.compare(model, live.training_evaluator(model, data.segments),
+                           model.live[0].look_ahead_samples)
+        print(live.comparison_text(cmp, model.fs_hz))
+        extra = functools.partial(live.report_section, cmp=cmp, fs_hz=model.fs_hz,
+                                  data='Training data (in-sample: `evaluate --causal` on '
+                                       'held-out recordings is the honest figure)')
+        report = write_fit_report(args.report, model, summary, extra)
         print(f'report: {report}')
     print(f'model: {path}')
     return 0
+
+
+def _with_live(config, args):
+    """Return ``config`` designing the live estimators (configured look-ahead first)."""
+    from wheel_force_estimator.cli.live import configured_look_ahead_s
+    from wheel_force_estimator.core.live_estimator import LiveDesign
+    from wheel_force_estimator.core.live_estimator import SWEEP_LOOK_AHEADS_S
+    look = configured_look_ahead_s(args.config, args.live_look_ahead_s)
+    return dataclasses.replace(config, live=LiveDesign(look_aheads_s=(look,)
+                                                       + SWEEP_LOOK_AHEADS_S))
 
 
 def _print_summary(model, summary, config, data: _TrainingData, note: str) -> None:
@@ -204,3 +227,11 @@ def _print_summary(model, summary, config, data: _TrainingData, note: str) -> No
         print(f'  {name:6s} {summary["mean_coherence"][name]:.3f}   low: {text}{more}')
     worst = ', '.join(f'{c:.3g} @ {f:.2f} Hz' for f, c in summary['worst_cond'][:3])
     print(f'worst condition numbers of Sxx: {worst}')
+    if model.live:
+        first = model.live[0]
+        others = ', '.join(f'{1e3 * e.look_ahead_samples / model.fs_hz:.1f}'
+                           for e in model.live[1:])
+        print(f'live estimator: look-ahead {first.look_ahead_samples} samples '
+              f'({1e3 * first.look_ahead_samples / model.fs_hz:.1f} ms), '
+              f'{first.info["method"]}, history {first.history_samples / model.fs_hz:.2f} s; '
+              f'also stored: {others or "-"} ms')

@@ -24,8 +24,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--compression', choices=('zstd', 'none'), default='zstd',
                    help='mcap chunk compression of OUT_BAG (default zstd: ~30 %% of the size, '
                         'read by ros2 bag and rosbags; ignored for sqlite3)')
-    p.add_argument('--causal-delay-samples', type=int, metavar='N',
-                   help="FIR look-ahead to keep (default: the model's full two-sided filter)")
+    from wheel_force_estimator.cli.live import add_causal_arguments
+    add_causal_arguments(p, 'predict')
     return p
 
 
@@ -98,14 +98,18 @@ def command(args: argparse.Namespace) -> int:
     from wheel_force_estimator.bagio import write_recording
     from wheel_force_estimator.cli.common import check_bag_model
     from wheel_force_estimator.cli.common import read_recordings
+    from wheel_force_estimator.cli.live import announce
+    from wheel_force_estimator.cli.live import causal_delay
     from wheel_force_estimator.core.model import load_model
 
     model = load_model(args.model)
     check_bag_model(model, args.model)
+    delay = causal_delay(args, model.fs_hz)
+    announce(model, args.model, delay)
     topics = topic_config(args)
     (recording,) = read_recordings([args.bag], topics, require_wft=False,
                                    expected_fs_hz=model.fs_hz)
-    stamps, force = stream_recording(model, recording, args.causal_delay_samples)
+    stamps, force = stream_recording(model, recording, delay)
     storage = args.storage or input_storage(args.bag)
     write_recording(args.output, stamps, force_n=force, topics=topics, storage=storage,
                     output=True, compression=args.compression.replace('none', ''))

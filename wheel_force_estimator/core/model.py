@@ -19,7 +19,14 @@ Arrays (``nf`` frequency lines, ``no`` outputs, ``ni`` inputs, ``nt`` FIR taps):
 ``fir_taps``              (no, ni, nt) f64    two-sided impulse response [N/(m/s²)]
 ``static_force_n``        (no,) f64           mean force at fit time, added back [N]
 ``static_accel_mps2``     (ni,) f64           mean specific force at fit time [m/s²]
+``live{D}_fine_taps``     (no, ni, nf) f64    live estimator for look-ahead ``D`` samples
+``live{D}_coarse_edges``  (nc + 1,) int64     (schema 2, optional; one set per entry of
+``live{D}_coarse_taps``   (no, ni, nc) f64    ``meta.live_estimators``, see
+                                              :mod:`.live_estimator`)
 ========================  ==================  ===========================================
+
+Schema 1 files (no live estimators) still load; the predictor then cuts the offline FIR for
+a short look-ahead and says so (:func:`.predict.live_fallback`).
 """
 import dataclasses
 import datetime
@@ -33,8 +40,15 @@ import zipfile
 import numpy as np
 
 from wheel_force_estimator.core.errors import ModelFileError
+from wheel_force_estimator.core.live_estimator import CausalEstimator
+from wheel_force_estimator.core.live_estimator import check_live
+from wheel_force_estimator.core.live_estimator import live_arrays
+from wheel_force_estimator.core.live_estimator import live_from_contents
+from wheel_force_estimator.core.live_estimator import live_meta
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+# Versions this code reads: 1 has no live estimators.
+READABLE_SCHEMA_VERSIONS = (1, 2)
 
 _ARRAYS = ('f_hz', 'h', 'coherence_ordinary', 'coherence_multiple', 'cond_sxx', 'fir_taps',
            'static_force_n', 'static_accel_mps2')
@@ -94,6 +108,9 @@ class FrfModel:
         ISO 8601 creation time (UTC).
     physics : tuple of dict
         Physics terms added by diagnosis (``PhysicsTerm.to_dict()``), applied after the FIR.
+    live : tuple of CausalEstimator
+        Live (causal) estimators, one per look-ahead (``fit`` designs them); empty for
+        schema 1 files.
 
     Raises
     ------
@@ -120,6 +137,7 @@ class FrfModel:
         default_factory=lambda: {'input': 'm/s^2', 'output': 'N'})
     created: str = ''
     physics: Tuple[Mapping[str, Any], ...] = ()
+    live: Tuple[CausalEstimator, ...] = ()
 
     def __post_init__(self):
         """Validate every field; convert arrays to read-only copies."""
@@ -176,6 +194,7 @@ class FrfModel:
         if isinstance(physics, (str, bytes)) or not all(isinstance(p, Mapping) for p in physics):
             raise ModelFileError("model field 'physics': expected a list of objects")
         object.__setattr__(self, 'physics', tuple(dict(p) for p in physics))
+        object.__setattr__(self, 'live', check_live(self.live, no, ni))
 
     @property
     def n_taps(self) -> int:
@@ -200,6 +219,7 @@ class FrfModel:
                 datetime.timezone.utc).isoformat(timespec='seconds'),
             'fir_delay_samples': self.fir_delay_samples,
             'physics': [dict(p) for p in self.physics],
+            'live_estimators': live_meta(self.live),
         }
 
 
@@ -233,6 +253,7 @@ def save_model(model: FrfModel, path) -> Path:
     except (TypeError, ValueError) as err:
         raise ModelFileError(f'{path}: model metadata is not JSON-serialisable: {err}') from err
     arrays = {name: np.asarray(getattr(model, name)) for name in _ARRAYS}
+    arrays.update(live_arrays(model.live))
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix='.tmp')
@@ -305,10 +326,10 @@ def _model_from_contents(contents: Mapping[str, np.ndarray], path: Path) -> FrfM
     for key in _META_REQUIRED:
         if key not in meta:
             raise ModelFileError(f"{path}: model field 'meta.{key}' is missing")
-    if meta['schema_version'] != SCHEMA_VERSION:
+    if meta['schema_version'] not in READABLE_SCHEMA_VERSIONS:
         raise ModelFileError(
             f'{path}: model field \'meta.schema_version\' is {meta["schema_version"]!r}, '
-            f'this version reads {SCHEMA_VERSION}')
+            f'this version reads {list(READABLE_SCHEMA_VERSIONS)}')
     for name in _ARRAYS:
         if name not in contents:
             raise ModelFileError(f'{path}: model field {name!r} is missing')
@@ -319,13 +340,14 @@ def _model_from_contents(contents: Mapping[str, np.ndarray], path: Path) -> FrfM
                 f'{path}: model field {name!r} has dtype {contents[name].dtype}, expected '
                 f'{"complex" if expected == "c" else "float"}')
     try:
+        live = live_from_contents(meta, contents)
         return FrfModel(
             fs_hz=meta['sample_rate_hz'],
             input_channels=tuple(meta['input_channels']),
             output_channels=tuple(meta['output_channels']),
             estimator=meta['estimator'], fit=meta['fit'], units=meta['units'],
             created=meta['created'], fir_delay_samples=meta['fir_delay_samples'],
-            physics=tuple(meta.get('physics', ())),
+            physics=tuple(meta.get('physics', ())), live=live,
             **{name: contents[name] for name in _ARRAYS})
     except ModelFileError as err:
         raise ModelFileError(f'{path}: {err}') from err

@@ -32,6 +32,9 @@ from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.frf import estimate_frf
 from wheel_force_estimator.core.frf import FrfConfig
 from wheel_force_estimator.core.frf import FrfEstimate
+from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
+from wheel_force_estimator.core.live_estimator import design_live
+from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.model import FrfModel
 from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spectra import cross_spectra
@@ -78,6 +81,9 @@ class FitConfig:
         ``1.5 * crossover_hz`` the short one; raised-cosine blend between [Hz].
     long_regularisation : float
         Relative regularisation of the long-segment estimate [-].
+    live : LiveDesign or None
+        Also design the live (causal) estimators (correlations accumulated from the same
+        segments while they are in memory); ``None`` = none.
 
     Raises
     ------
@@ -98,6 +104,7 @@ class FitConfig:
     long_segment_length: int = 0
     crossover_hz: float = 2.0
     long_regularisation: float = 5e-2
+    live: Optional[LiveDesign] = None
 
     def __post_init__(self):
         """Validate values that the spectral and FRF configs do not check themselves."""
@@ -119,6 +126,8 @@ class FitConfig:
             raise ConfigError(f'coherence_floor must be in [0, 0.5), got {self.coherence_floor!r}')
         if not np.isfinite(self.f_min_hz) or self.f_min_hz < 0:
             raise ConfigError(f'f_min_hz must be >= 0, got {self.f_min_hz!r}')
+        if self.live is not None and not isinstance(self.live, LiveDesign):
+            raise ConfigError(f'live must be a LiveDesign or None, got {self.live!r}')
         if self.f_max_hz is not None and not self.f_max_hz > self.f_min_hz:
             raise ConfigError(
                 f'f_max_hz ({self.f_max_hz!r}) must be > f_min_hz ({self.f_min_hz!r})')
@@ -204,12 +213,16 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     sum_x = np.zeros(len(input_channels))
     sum_y = np.zeros(len(output_channels))
     n_total = 0
+    corr = None if config.live is None else CorrelationAccumulator(
+        len(input_channels), len(output_channels), config.live.max_lag(fs_hz))
     for seg in segments:
         x = as_signals(seg.accel_mps2, f'accelerations of {seg.source}', input_channels)
         y = as_signals(seg.force_n, f'forces of {seg.source}', output_channels)
         spectra.append(cross_spectra(x, y, welch, name=seg.source))
         if long_welch is not None and x.shape[1] >= config.long_segment_length:
             long_spectra.append(cross_spectra(x, y, long_welch, name=seg.source))
+        if corr is not None:
+            corr.add(x, y)
         sum_x += x.sum(axis=1)
         sum_y += y.sum(axis=1)
         n_total += x.shape[1]
@@ -250,13 +263,14 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     }
     info.update(extra)
     info.update(dict(fit_info or {}))
+    live = () if corr is None else design_live(corr.result(fs_hz), config.live)
     return FrfModel(
         fs_hz=fs_hz, input_channels=tuple(input_channels),
         output_channels=tuple(output_channels), f_hz=est.f_hz, h=h,
         coherence_ordinary=est.coherence_ordinary, coherence_multiple=est.coherence_multiple,
         cond_sxx=est.cond_sxx, fir_taps=fir.taps, fir_delay_samples=fir.delay_samples,
         static_force_n=sum_y / n_total, static_accel_mps2=sum_x / n_total,
-        estimator=config.estimator, fit=info,
+        estimator=config.estimator, fit=info, live=live,
         created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds'))
 
 

@@ -8,7 +8,16 @@ arrive; :func:`predict_forces` feeds a whole recording and flushes the filter's 
 
 Signal path per block::
 
-    accel [m/s²] - static_accel  ->  FIR (overlap-add)  ->  + static_force  ->  physics terms
+    accel [m/s²] - static_accel  ->  filter  ->  + static_force  ->  physics terms
+
+Which filter (one rule, :func:`select_filter`, shared by the node and ``predict --causal``):
+no ``causal_delay_samples`` (or the model's full look-ahead) -> the two-sided offline FIR;
+a look-ahead the model carries a live estimator for -> that causal estimator
+(:mod:`.live_estimator`, streamed by :class:`.causal_filter.CausalFilter`); a model without
+any live estimator (schema 1, or fitted without) -> the offline FIR cut to that look-ahead,
+with :attr:`Predictor.fallback` saying so; a model with live estimators, but not for that
+look-ahead -> :class:`ConfigError` naming the look-aheads it has.  Nothing is substituted
+silently.
 
 Start and end: the filter starts at the fit-time rest state (as if the car had been standing
 at its mean specific force before the first sample; low-coherence bands, where a step would be
@@ -24,11 +33,13 @@ from typing import Iterator, Optional
 
 import numpy as np
 
+from wheel_force_estimator.core.causal_filter import CausalFilter
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.filtering import with_delay
 from wheel_force_estimator.core.lag import LeadDrop
+from wheel_force_estimator.core.live_estimator import find_live
 from wheel_force_estimator.core.model import FrfModel
 from wheel_force_estimator.core.overlap_add import OverlapAddFilter
 from wheel_force_estimator.core.validation import as_signals
@@ -50,39 +61,90 @@ class _DelayLine:
         return out
 
 
-class Predictor:
+def select_filter(model: FrfModel, causal_delay_samples: Optional[int] = None):
     """
-    Streaming force estimator for one model (linear FIR + optional physics terms).
+    Return the filter engine for a look-ahead and why it is not the designed one.
+
+    The one rule deciding what a look-ahead gets (see the module notes).
 
     Parameters
     ----------
     model : FrfModel
         The fitted model.
     causal_delay_samples : int, optional
-        Look-ahead kept by the FIR [samples].  ``None`` keeps the model's full two-sided
-        filter (best accuracy, latency ``model.fir_delay_samples / fs``); a smaller value
-        truncates the acausal part of the impulse response (lower latency).
+        Look-ahead [samples]; ``None`` = the full two-sided offline filter.
+
+    Returns
+    -------
+    (engine, str or None)
+        An :class:`OverlapAddFilter` or :class:`CausalFilter`, and ``None`` or the fallback
+        message (the offline FIR cut, because the model has no live estimator).
 
     Raises
     ------
     ConfigError
-        When ``causal_delay_samples`` is negative or exceeds the model's look-ahead.
+        Negative look-ahead; a look-ahead the model's live estimators were not fitted for
+        (the available ones and a refit hint named); without live estimators, a look-ahead
+        beyond the offline FIR's.
+
+    """
+    fs = model.fs_hz
+    full = FirFilter(np.asarray(model.fir_taps), model.fir_delay_samples, fs)
+    if causal_delay_samples is None or int(causal_delay_samples) == model.fir_delay_samples:
+        return OverlapAddFilter(full), None
+    delay = int(causal_delay_samples)
+    if delay < 0:
+        raise ConfigError(f'look-ahead {causal_delay_samples} samples must be >= 0')
+    live = find_live(model.live, delay)
+    if live is not None:
+        return CausalFilter(live, fs), None
+    if model.live:
+        have = ', '.join(f'{e.look_ahead_samples} ({1e3 * e.look_ahead_samples / fs:.1f} ms)'
+                         for e in model.live)
+        raise ConfigError(
+            f'the model has live estimators for look-aheads of {have} samples, not for '
+            f'{delay} samples ({1e3 * delay / fs:.1f} ms); use one of those or refit with '
+            f'`wheel-force fit --live-look-ahead-s {delay / fs:g}`')
+    if delay > model.fir_delay_samples:
+        raise ConfigError(
+            f'causal delay {causal_delay_samples} samples must be within '
+            f"[0, {model.fir_delay_samples}] (the model's look-ahead)")
+    message = (f'the model has no live (causal) estimator (schema 1 or fitted without one): '
+               f'using the offline FIR cut to {delay} samples ({1e3 * delay / fs:.1f} ms) of '
+               f'look-ahead, which loses accuracy; refit with `wheel-force fit` to get the '
+               f'causal estimator')
+    return OverlapAddFilter(with_delay(full, delay)), message
+
+
+class Predictor:
+    """
+    Streaming force estimator for one model (linear filter + optional physics terms).
+
+    Parameters
+    ----------
+    model : FrfModel
+        The fitted model.
+    causal_delay_samples : int, optional
+        Look-ahead [samples].  ``None`` keeps the model's full two-sided filter (best
+        accuracy, latency ``model.fir_delay_samples / fs``); a smaller value selects the
+        model's live estimator for that look-ahead (see :func:`select_filter`).
+
+    Attributes
+    ----------
+    fallback : str or None
+        Why the filter is the cut offline FIR instead of a live estimator (model without
+        one), for the node's warning and ``predict --causal``; ``None`` otherwise.
+
+    Raises
+    ------
+    ConfigError
+        As :func:`select_filter`.
 
     """
 
     def __init__(self, model: FrfModel, causal_delay_samples: Optional[int] = None):
         self.model = model
-        fir = FirFilter(np.asarray(model.fir_taps), model.fir_delay_samples, model.fs_hz)
-        if causal_delay_samples is not None:
-            delay = int(causal_delay_samples)
-            if delay < 0 or delay > model.fir_delay_samples:
-                raise ConfigError(
-                    f'causal delay {causal_delay_samples} samples must be within '
-                    f"[0, {model.fir_delay_samples}] (the model's look-ahead)")
-            if delay != model.fir_delay_samples:
-                fir = with_delay(fir, delay)
-        self.fir = fir
-        self._filter = OverlapAddFilter(fir)
+        self._filter, self.fallback = select_filter(model, causal_delay_samples)
         self._static_accel = np.asarray(model.static_accel_mps2, dtype=np.float64)
         self._static_force = np.asarray(model.static_force_n, dtype=np.float64)[:, None]
         self._physics = None

@@ -69,8 +69,12 @@ def output_units(model) -> List[str]:
     return [_unit(c) if _unit(c) != '-' else fallback for c in model.output_channels]
 
 
-def write_fit_report(directory, model, summary) -> Path:
-    """Write the fit report (coherence, FRF, condition number); return report.md."""
+def write_fit_report(directory, model, summary, extra=None) -> Path:
+    """
+    Write the fit report (coherence, FRF, condition number); return report.md.
+
+    ``extra(writer, directory)``, when given, appends more sections (the live comparison).
+    """
     out = ReportWriter(directory)
     d = Path(directory)
     paired = paired_inputs(model.input_channels, model.output_channels)
@@ -110,11 +114,17 @@ def write_fit_report(directory, model, summary) -> Path:
     out.image(plot_condition_number(d / 'condition_number.png', model.f_hz,
                                     model.cond_sxx),
               'Condition number of the input cross-spectral matrix')
+    if extra is not None:
+        extra(out, d)
     return out.write()
 
 
-def write_evaluation_report(directory, model, evaluation, segments) -> Path:
-    """Write the evaluation report (paper Figures 6-13, Tables 2-3); return report.md."""
+def write_evaluation_report(directory, model, evaluation, segments, extra=None) -> Path:
+    """
+    Write the evaluation report (paper Figures 6-13, Tables 2-3); return report.md.
+
+    ``extra(writer, directory)``, when given, appends more sections (the live comparison).
+    """
     from wheel_force_estimator.core.metrics import rubric
     out = ReportWriter(directory)
     d = Path(directory)
@@ -175,4 +185,6 @@ def write_evaluation_report(directory, model, evaluation, segments) -> Path:
                                     longest.prediction_n, ch, window_s=(mid, mid + 5.0),
                                     title=f'{longest.source} (5 s zoom)', units=units),
                   'Zoom on 5 s')
+    if extra is not None:
+        extra(out, d)
     return out.write()

@@ -123,6 +123,9 @@ class WheelForceNode(Node):
             model = load_model(params.model_path)
             self._layout = layout = model_layout(model, params)
             self._stream = _make_stream(model, layout, params)
+            if self._stream.fallback:
+                # Once, at start: the model predates the live estimator (issue 16).
+                self.get_logger().warning(f'{params.model_path}: {self._stream.fallback}')
         except WheelForceError:
             self.destroy_node()
             raise

@@ -197,6 +197,11 @@ class ForceStream:
         """Return the pseudo damage of all emitted since start or the last jump, per output."""
         return self._damage.damage()
 
+    @property
+    def fallback(self) -> Optional[str]:
+        """Why the Predictor cuts the offline FIR (no live estimator), else None."""
+        return self._predictor.fallback
+
     def _reset_reports(self):
         self._first_out_ns: Optional[int] = None          # first estimate after (re)start
         self._next_report_ns: Optional[int] = None        # next data-time boundary
