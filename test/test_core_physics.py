@@ -235,9 +235,9 @@ def test_stage_rejects_unknown_channels_and_negative_delay():
     term = ph.PhysicsTerm('mass_error', ('xx_fz',), {'mass_kg': 1.0}, sources=('lf_az',))
     with pytest.raises(ConfigError, match='xx_fz'):
         ph.PhysicsStage([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
-    late = ph.PhysicsTerm('time_delay', ('lf_fz',), {'delay_s': -0.01})
-    with pytest.raises(ConfigError, match='look-ahead'):
-        ph.PhysicsStage([late], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    # A force that leads the acceleration needs look-ahead: refused when the term is built.
+    with pytest.raises(ConfigError, match='time_delay.delay_s.*look-ahead'):
+        ph.PhysicsTerm('time_delay', ('lf_fz',), {'delay_s': -0.01})
 
 
 def test_predictor_applies_physics_like_the_batch_stage():
