@@ -5,6 +5,7 @@ import json
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
@@ -57,6 +58,21 @@ def test_clip_found_below_a_tenth_of_a_percent_and_not_on_clean_or_quantised_dat
     for clean in (x, np.round(x * 20) / 20):
         clip = clip_test(clean, 'a')
         assert clip is None or clip.p_value > 1e-3
+
+
+def test_a_quantised_turning_point_is_not_a_clip():
+    # A displacement-controlled rig reversing: a slow sine, quantised, dwells longest at its
+    # extreme value (like a clip) but creeps into it instead of being cut while moving.
+    t = np.arange(20_000) / 100.0
+    x = np.round(20.0 * np.sin(2 * np.pi * 0.1 * t) / 0.01) * 0.01
+    _, counts = np.unique(x, return_counts=True)
+    # The repeat count alone would call it a clip (140 samples vs 46 for the neighbours).
+    assert stats.poisson.sf(counts[-1] - 1, counts[-21:-1].mean()) < 1e-20
+    # Bug caught: the entry-speed rule lost (the MR-damper rig's reversals became clips).
+    assert clip_test(x, 'x') is None
+    # The same sine clipped at 90 % of its amplitude is a clip (entered at speed).
+    clip = clip_test(np.minimum(x, 18.0), 'x')
+    assert clip is not None and clip.level == 18.0 and clip.p_value < 1e-10
 
 
 def test_supporting_mass_is_the_outboard_mass_of_a_flying_wheel():

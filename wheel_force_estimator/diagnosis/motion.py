@@ -101,21 +101,35 @@ def clip_test(x: np.ndarray, channel: str = '', min_samples: int = 3) -> Optiona
     Return the more significant flat top of ``x`` (max or min side), or None.
 
     The count at the extreme value is compared with a Poisson law whose mean is the mean
-    repeat count of the :data:`NEIGHBOURS` distinct values next to it (at least 1).
+    repeat count of the :data:`NEIGHBOURS` distinct values next to it (at least 1).  A clip
+    cuts the signal while it is still moving, so the flat top is entered at speed: the median
+    of the last full steps before it must be at least half the RMS sample-to-sample step of
+    the record (a Gaussian process crosses any level at its typical speed, Rice; a sine
+    clipped at 90 % of its amplitude at 0.62 of it).  A smooth turning point (a
+    displacement-controlled rig reversing, quantised) dwells longest at its extreme value
+    too, but creeps into it.
     """
     x = np.asarray(x, dtype=np.float64)
     if x.size < NEIGHBOURS + min_samples:
         return None
     values, counts = np.unique(x, return_counts=True)
+    steps = np.abs(np.diff(x))
+    typical = float(np.sqrt(np.mean(steps ** 2)))
     best = None
     for side in (1, -1):
         k = int(counts[-1] if side > 0 else counts[0])
         inner = counts[-1 - NEIGHBOURS:-1] if side > 0 else counts[1:1 + NEIGHBOURS]
         if k < min_samples or inner.size == 0:
             continue
+        level = float(values[-1] if side > 0 else values[0])
+        at = x == level
+        # The full step before the entry (the entry step itself is cut short by the clip).
+        entries = np.flatnonzero(at[1:] & ~at[:-1])
+        entries = entries[entries >= 1]
+        if entries.size == 0 or np.median(steps[entries - 1]) < 0.5 * typical:
+            continue
         lam = max(float(np.mean(inner)), 1.0)
         p = float(stats.poisson.sf(k - 1, lam))
-        level = float(values[-1] if side > 0 else values[0])
         if best is None or p < best.p_value:
             best = Clip(channel, level, k, p, lam)
     return best
