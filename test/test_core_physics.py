@@ -266,6 +266,30 @@ def test_predictor_applies_physics_like_the_batch_stage():
     np.testing.assert_allclose(augmented, expected, rtol=1e-9, atol=1e-2)
 
 
+def test_predictor_streams_every_term_like_one_block():
+    from wheel_force_estimator.core.model import FrfModel
+    from wheel_force_estimator.core.predict import predict_forces
+    nf, nt = 65, 128
+    taps = np.zeros((12, 12, nt))
+    taps[np.arange(12), np.arange(12), 10] = 30.0
+    model = FrfModel(fs_hz=FS, input_channels=INPUT_CHANNELS, output_channels=OUTPUT_CHANNELS,
+                     f_hz=np.linspace(0.0, FS / 2, nf), h=np.zeros((nf, 12, 12), complex),
+                     coherence_ordinary=np.zeros((nf, 12, 12)),
+                     coherence_multiple=np.zeros((nf, 12)), cond_sxx=np.ones(nf),
+                     fir_taps=taps, fir_delay_samples=10, static_force_n=np.full(12, 3000.0),
+                     static_accel_mps2=np.full(12, 9.81), estimator='h1')
+    accel, _ = _signals(n=3000)
+    # Every kind, including the cross-corner roll bar and the delay line of time_delay,
+    # through the Predictor that predict, evaluate and the node share.
+    augmented = model.with_physics(_terms())
+    whole = predict_forces(augmented, accel, block_size=3000)
+    # Bug caught: state (delay line, play operator, filters) lost between blocks.
+    for block in (1, 37, 256):
+        np.testing.assert_allclose(predict_forces(augmented, accel, block_size=block), whole,
+                                   rtol=0.0, atol=1e-6)
+    assert not np.allclose(whole, predict_forces(model, accel))
+
+
 def test_load_driven_backlash_hand_values_and_stage():
     np.testing.assert_allclose(ph.load_backlash_force([-500.0, 90.0, 100.0, 150.0, 900.0],
                                                       100.0, 200.0, 0.5),
