@@ -121,6 +121,8 @@ def _terms():
         ph.PhysicsTerm('tire_lift_off', ('lr_fz',), {'threshold_n': 0.0, 'gain': 1.0}),
         ph.PhysicsTerm('anti_roll_bar', ('lf_fz', 'rf_fz'), {'stiffness_n_per_m': 2e4},
                        partners=('rf_az', 'lf_az')),
+        ph.PhysicsTerm('anti_roll_bar', ('lr_fz', 'rr_fz'), {'gain': 0.2},
+                       partners=('rr_fz', 'lr_fz'), state='load', state_lowpass_hz=2.0),
         ph.PhysicsTerm('time_delay', ('lf_fy', 'rr_fz'), {'delay_s': 3.3 / FS}),
         ph.PhysicsTerm('sensor_saturation', ('lf_fz',),
                        {'limit': 25.0, 'force_n': 40.0, 'integration': 2.0}),
@@ -253,7 +255,10 @@ def test_predictor_applies_physics_like_the_batch_stage():
                      fir_taps=taps, fir_delay_samples=10, static_force_n=np.full(12, 3000.0),
                      static_accel_mps2=np.full(12, 9.81), estimator='h1')
     accel, _ = _signals(n=3000)
-    terms = [t for t in _terms() if t.physics != 'time_delay']
+    # Without the delay line and the load state, which start from the first force sample the
+    # stage sees (the predictor's stage sees its look-ahead of held rest first); both are
+    # covered by test_predictor_streams_every_term_like_one_block.
+    terms = [t for t in _terms() if t.physics != 'time_delay' and t.state == 'motion']
     linear = predict_forces(model, accel)
     augmented = predict_forces(model.with_physics([t.to_dict() for t in terms]), accel)
     expected = ph.apply_physics(terms, FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, linear,
@@ -288,6 +293,35 @@ def test_predictor_streams_every_term_like_one_block():
         np.testing.assert_allclose(predict_forces(augmented, accel, block_size=block), whole,
                                    rtol=0.0, atol=1e-6)
     assert not np.allclose(whole, predict_forces(model, accel))
+
+
+def test_load_driven_roll_coupling_is_antisymmetric_and_streams():
+    np.testing.assert_allclose(ph.load_roll_force([1000.0, 0.0], [0.0, 1000.0], 0.2),
+                               [100.0, -100.0])
+    term = ph.PhysicsTerm('anti_roll_bar', ('lf_fz', 'rf_fz'), {'gain': 0.3},
+                          partners=('rf_fz', 'lf_fz'), state='load', state_lowpass_hz=2.0)
+    accel, force = _signals()
+    batch = ph.apply_physics([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force)
+    lf, rf = OUTPUT_CHANNELS.index('lf_fz'), OUTPUT_CHANNELS.index('rf_fz')
+    b, a = signal.butter(1, 2.0, fs=FS)
+
+    def low(x):
+        return signal.lfilter(b, a, x, zi=signal.lfilter_zi(b, a) * x[0])[0]
+    added = batch - force
+    # Known answer: half the gain times the low-passed left-right load difference, with
+    # opposite signs (bug caught: both sides pushed the same way, or the partner's input read).
+    np.testing.assert_allclose(added[lf], 0.15 * (low(force[lf]) - low(force[rf])), atol=1e-9)
+    np.testing.assert_allclose(added[rf], -added[lf], atol=1e-9)
+    assert np.count_nonzero(np.delete(added, [lf, rf], 0)) == 0
+    stage = ph.PhysicsStage([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    parts = [stage.process(accel[:, i:i + 333], force[:, i:i + 333]) for i in range(0, 6000, 333)]
+    assert np.array_equal(np.concatenate(parts, axis=1), batch)
+    assert ph.PhysicsTerm.from_dict(json.loads(json.dumps(term.to_dict()))) == term
+    with pytest.raises(ConfigError, match="partner channel 'rf_az'"):
+        ph.PhysicsStage([ph.PhysicsTerm('anti_roll_bar', ('lf_fz',), {'gain': 0.3},
+                                        partners=('rf_az',), state='load',
+                                        state_lowpass_hz=2.0)],
+                        FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
 
 
 def test_load_driven_backlash_hand_values_and_stage():

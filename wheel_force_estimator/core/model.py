@@ -197,7 +197,13 @@ class FrfModel:
                     raise ModelFileError(
                         f"model field 'physics': term {i} ({term.physics}): output channel "
                         f'{name!r} is not one of the model outputs {list(self.output_channels)}')
-            for name in term.sources + term.partners:
+            partners = () if term.partners_are_outputs else term.partners
+            for name in term.partners if term.partners_are_outputs else ():
+                if name not in self.output_channels:
+                    raise ModelFileError(
+                        f"model field 'physics': term {i} ({term.physics}): partner channel "
+                        f'{name!r} is not one of the model outputs {list(self.output_channels)}')
+            for name in term.sources + partners:
                 if name not in self.input_channels:
                     raise ModelFileError(
                         f"model field 'physics': term {i} ({term.physics}): input channel "

@@ -29,13 +29,13 @@ from wheel_force_estimator.core.physics_laws import *  # noqa: F401,F403  (re-ex
 from wheel_force_estimator.core.physics_laws import clip_indicator
 from wheel_force_estimator.core.physics_laws import play_operator
 from wheel_force_estimator.core.physics_laws import QUANTITIES
+from wheel_force_estimator.core.physics_params import TermParams  # noqa: F401
 from wheel_force_estimator.core.physics_terms import default_source  # noqa: F401
 from wheel_force_estimator.core.physics_terms import LOAD_PARAMETERS  # noqa: F401
 from wheel_force_estimator.core.physics_terms import PARAMETERS  # noqa: F401
 from wheel_force_estimator.core.physics_terms import PhysicsTerm
 from wheel_force_estimator.core.physics_terms import term_kind  # noqa: F401
 from wheel_force_estimator.core.physics_terms import TERM_KINDS  # noqa: F401
-from wheel_force_estimator.core.physics_terms import TermParams  # noqa: F401
 from wheel_force_estimator.core.validation import as_signals
 
 
@@ -132,7 +132,7 @@ class TermView:
     def __init__(self, stage, key, term, feat, s, partner, o, x, f, delayed):
         self._stage, self._key, self._term = stage, key, term
         self._feat, self._s, self._partner, self._o = feat, s, partner, o
-        self._x, self._delayed = x, delayed
+        self._x, self._delayed, self._f = x, delayed, f
         self.force = f[o]
 
     @property
@@ -155,13 +155,19 @@ class TermView:
         """Displacement of the partner channel [m]."""
         return self._feat['displacement'][self._partner]
 
-    def load(self) -> np.ndarray:
-        """First-order low-pass of the channel's force at the term's ``state_lowpass_hz``."""
+    def load(self, partner: bool = False) -> np.ndarray:
+        """
+        First-order low-pass of the channel's force at the term's ``state_lowpass_hz``.
+
+        ``partner``: of the partner output channel instead (load-state coupling).
+        """
+        force = self._f[self._partner] if partner else self.force
+        key = self._key + (partner,)
         b, a = signal.butter(1, self._term.state_lowpass_hz, fs=self._stage.fs_hz)
-        zi = self._stage._load_zi.get(self._key)
+        zi = self._stage._load_zi.get(key)
         if zi is None:
-            zi = signal.lfilter_zi(b, a) * self.force[0]
-        y, self._stage._load_zi[self._key] = signal.lfilter(b, a, self.force, zi=zi)
+            zi = signal.lfilter_zi(b, a) * force[0]
+        y, self._stage._load_zi[key] = signal.lfilter(b, a, force, zi=zi)
         return y
 
     def delayed(self, delay_s: float) -> np.ndarray:
@@ -232,7 +238,12 @@ class PhysicsStage:
                 if name not in out_idx:
                     raise ConfigError(f'{term.physics}: output channel {name!r} not in '
                                       f'{list(self.output_channels)}')
-            for name in term.sources + term.partners:
+            partner_idx = out_idx if term.partners_are_outputs else in_idx
+            for name in term.partners:
+                if name not in partner_idx:
+                    raise ConfigError(f'{term.physics}: partner channel {name!r} not in '
+                                      f'{list(partner_idx)}')
+            for name in term.sources:
                 if name not in in_idx:
                     raise ConfigError(f'{term.physics}: input channel {name!r} not in '
                                       f'{list(self.input_channels)}')
@@ -245,7 +256,7 @@ class PhysicsStage:
                 banks[key] = FeatureBank(self.fs_hz, *key, n_channels=len(self.input_channels))
             self._plan.append((term, kind, [out_idx[c] for c in term.channels],
                                [in_idx[c] for c in term.sources],
-                               [in_idx[c] for c in term.partners]))
+                               [partner_idx[c] for c in term.partners]))
         self._banks = banks
         self._rest = None
         if rest_inputs is not None:

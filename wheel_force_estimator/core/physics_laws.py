@@ -140,6 +140,17 @@ def anti_roll_bar_force(disp_m, partner_disp_m, stiffness_n_per_m):
     return stiffness_n_per_m * (np.asarray(disp_m) - np.asarray(partner_disp_m))
 
 
+def load_roll_force(load_n, partner_load_n, gain):
+    """
+    Left-right coupling seen through the predicted loads: ``g/2 * (F_this - F_other)``.
+
+    A bar the model leaves out changes the axle's share of the roll moment, so the axle's
+    left-right load difference is ``(1 + g)`` times the predicted one below the roll mode;
+    half of the change goes to each side, with opposite signs.
+    """
+    return 0.5 * gain * (np.asarray(load_n) - np.asarray(partner_load_n))
+
+
 def time_delay_force(force_n, delayed_force_n):
     """Force and acceleration streams offset: ``F(t - d) - F(t)`` (d > 0: force lags)."""
     return np.asarray(delayed_force_n) - np.asarray(force_n)

@@ -21,204 +21,34 @@ import dataclasses
 from dataclasses import dataclass
 import math
 import types
-from typing import Any, Callable, Dict, Mapping, Optional, Tuple
+from typing import Callable, Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
 from wheel_force_estimator.core import physics_laws as law
 from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.physics_params import AntiRollBarParams
+from wheel_force_estimator.core.physics_params import BacklashParams
+from wheel_force_estimator.core.physics_params import CoulombFrictionParams
+from wheel_force_estimator.core.physics_params import CubicStiffnessParams
+from wheel_force_estimator.core.physics_params import DamperAsymmetryParams
+from wheel_force_estimator.core.physics_params import DampingErrorParams
+from wheel_force_estimator.core.physics_params import finite_number
+from wheel_force_estimator.core.physics_params import LiftOffParams
+from wheel_force_estimator.core.physics_params import LoadBacklashParams
+from wheel_force_estimator.core.physics_params import LoadLinearParams
+from wheel_force_estimator.core.physics_params import LoadRollParams
+from wheel_force_estimator.core.physics_params import LoadStopParams
+from wheel_force_estimator.core.physics_params import MassErrorParams
+from wheel_force_estimator.core.physics_params import SaturationParams
+from wheel_force_estimator.core.physics_params import StiffnessErrorParams
+from wheel_force_estimator.core.physics_params import StopParams
+from wheel_force_estimator.core.physics_params import TermParams
+from wheel_force_estimator.core.physics_params import TimeDelayParams
 
 QUANTITIES = law.QUANTITIES
 STATES = law.STATES
 VOCABULARY = law.VOCABULARY
-
-
-def _finite(value, name):
-    if isinstance(value, (bool, np.bool_)):
-        return float(value)
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as err:
-        raise ConfigError(f'{name} must be a number, got {value!r}') from err
-    if not math.isfinite(v):
-        raise ConfigError(f'{name} must be finite, got {value!r}')
-    return v
-
-
-def _field(minimum=None, strict=False, choices=None, reason=''):
-    """Field with range metadata checked by :class:`TermParams` (``reason`` ends the error)."""
-    return dataclasses.field(metadata={'min': minimum, 'strict': strict, 'choices': choices,
-                                       'reason': reason})
-
-
-@dataclass(frozen=True)
-class TermParams:
-    """
-    Base of the typed parameters: every field a finite number in SI units, range-checked.
-
-    Raises
-    ------
-    ConfigError
-        A field that is not a finite number, out of its range or not one of its choices; the
-        message starts with the field name.
-
-    """
-
-    def __post_init__(self):
-        for f in dataclasses.fields(self):
-            value = _finite(getattr(self, f.name), f.name)
-            meta = f.metadata
-            low, choices = meta.get('min'), meta.get('choices')
-            if choices is not None and value not in choices:
-                raise ConfigError(f'{f.name} must be one of {", ".join(map(str, choices))}, '
-                                  f'got {getattr(self, f.name)!r}')
-            if low is not None and (value <= low if meta['strict'] else value < low):
-                raise ConfigError(f'{f.name} must be {">" if meta["strict"] else ">="} {low}'
-                                  f'{meta["reason"]}, got {value}')
-            object.__setattr__(self, f.name, f.type(value))
-
-    @classmethod
-    def names(cls) -> Tuple[str, ...]:
-        """Return the parameter names, in declaration order."""
-        return tuple(f.name for f in dataclasses.fields(cls))
-
-    @classmethod
-    def from_mapping(cls, data: Mapping[str, Any]) -> 'TermParams':
-        """
-        Parse ``{name: number}``; exactly :meth:`names` must be present.
-
-        Raises
-        ------
-        ConfigError
-            Missing or unknown names, or a field out of range.
-
-        """
-        if sorted(data) != sorted(cls.names()):
-            raise ConfigError(f'parameters must be {list(cls.names())}, got {sorted(data)}')
-        return cls(**{k: data[k] for k in cls.names()})
-
-    def as_dict(self) -> Dict[str, float]:
-        """Return ``{name: float}`` (the JSON form; flags and orders as 0.0/1.0/2.0)."""
-        return {k: float(getattr(self, k)) for k in self.names()}
-
-
-@dataclass(frozen=True)
-class StopParams(TermParams):
-    """Progressive stop on the wheel displacement (bump or rebound)."""
-
-    gap_m: float = _field(0.0)
-    stiffness_n_per_m: float = _field()
-    exponent: float = _field(1.0)
-
-
-@dataclass(frozen=True)
-class LoadStopParams(TermParams):
-    """Progressive stop on the predicted load (secant ``gain`` at 1 kN beyond the threshold)."""
-
-    threshold_n: float = _field()
-    gain: float = _field()
-    exponent: float = _field(1.0)
-
-
-@dataclass(frozen=True)
-class CubicStiffnessParams(TermParams):
-    """Symmetric hardening ``k3 x**3``."""
-
-    stiffness_n_per_m3: float = _field()
-
-
-@dataclass(frozen=True)
-class LoadLinearParams(TermParams):
-    """A gain on the predicted load around ``center_n`` (cubic or linear, by kind)."""
-
-    center_n: float = _field()
-    gain: float = _field()
-
-
-@dataclass(frozen=True)
-class DamperAsymmetryParams(TermParams):
-    """Compression minus rebound damping rate."""
-
-    compression_minus_rebound_n_s_per_m: float = _field()
-
-
-@dataclass(frozen=True)
-class CoulombFrictionParams(TermParams):
-    """Friction level and its regularising velocity."""
-
-    friction_n: float = _field()
-    velocity_scale_mps: float = _field(0.0, strict=True)
-
-
-@dataclass(frozen=True)
-class BacklashParams(TermParams):
-    """Clearance of half-width ``gap_m`` in a spring; ``hysteretic`` = play operator."""
-
-    gap_m: float = _field(0.0)
-    stiffness_n_per_m: float = _field()
-    hysteretic: bool = _field(choices=(0.0, 1.0))
-
-
-@dataclass(frozen=True)
-class LoadBacklashParams(TermParams):
-    """Clearance seen in the predicted load (``threshold_n`` = rate times gap)."""
-
-    center_n: float = _field()
-    threshold_n: float = _field()
-    gain: float = _field()
-
-
-@dataclass(frozen=True)
-class LiftOffParams(TermParams):
-    """Unilateral contact: load floor and gain."""
-
-    threshold_n: float = _field()
-    gain: float = _field()
-
-
-@dataclass(frozen=True)
-class AntiRollBarParams(TermParams):
-    """Cross-corner rate on the relative displacement of the two wheels of an axle."""
-
-    stiffness_n_per_m: float = _field()
-
-
-@dataclass(frozen=True)
-class TimeDelayParams(TermParams):
-    """Delay of the force stream behind the acceleration stream."""
-
-    delay_s: float = _field(0.0, reason=' (a force that leads the acceleration needs '
-                                        'look-ahead; shift the force stamps instead)')
-
-
-@dataclass(frozen=True)
-class SaturationParams(TermParams):
-    """Clip level of the recorded input, force per unit clip feature, integration order."""
-
-    limit: float = _field(0.0, strict=True)
-    force_n: float = _field()
-    integration: int = _field(choices=(0.0, 1.0, 2.0))
-
-
-@dataclass(frozen=True)
-class MassErrorParams(TermParams):
-    """Missing mass."""
-
-    mass_kg: float = _field()
-
-
-@dataclass(frozen=True)
-class StiffnessErrorParams(TermParams):
-    """Missing stiffness."""
-
-    stiffness_n_per_m: float = _field()
-
-
-@dataclass(frozen=True)
-class DampingErrorParams(TermParams):
-    """Missing damping."""
-
-    damping_n_s_per_m: float = _field()
 
 
 @dataclass(frozen=True)
@@ -237,7 +67,8 @@ class TermKind:
     force : callable
         ``force(params, view) -> ndarray (n,)`` [N] added to the output channel.
     needs_partner : bool
-        The term needs one partner input channel per output channel.
+        The term needs one partner channel per output channel: an input channel for the
+        motion state, the other side's output channel for the load state.
     history_samples : callable, optional
         ``(params, fs_hz) -> int``: past force samples the law needs (delay line).
 
@@ -304,6 +135,9 @@ _KINDS = (
              lambda p, v: law.load_cubic_force(v.load(), p.center_n, p.gain)),
     TermKind('backlash', 'load', LoadBacklashParams,
              lambda p, v: law.load_backlash_force(v.load(), p.center_n, p.threshold_n, p.gain)),
+    TermKind('anti_roll_bar', 'load', LoadRollParams,
+             lambda p, v: law.load_roll_force(v.load(), v.load(partner=True), p.gain),
+             needs_partner=True),
     TermKind('mass_error', 'load', LoadLinearParams,
              lambda p, v: law.load_linear_force(v.load(), p.center_n, p.gain)),
     TermKind('stiffness_error', 'load', LoadLinearParams,
@@ -376,7 +210,9 @@ class PhysicsTerm:
     partners : tuple of str
         ``anti_roll_bar`` only: the other-side input channel for each output channel.  One
         term on ``(lf_fz, rf_fz)`` with sources ``(lf_az, rf_az)`` and partners
-        ``(rf_az, lf_az)`` applies ``+k (x_l - x_r)`` left and ``-k (x_l - x_r)`` right.
+        ``(rf_az, lf_az)`` applies ``+k (x_l - x_r)`` left and ``-k (x_l - x_r)`` right.  In
+        the load state the partners are the other side's OUTPUT channels (``(rf_fz, lf_fz)``):
+        ``+g/2 (F_l - F_r)`` left, ``-g/2 (F_l - F_r)`` right, loads low-passed.
     input_quantity : str
         What the input channels record: ``'acceleration'`` (spindle IMUs), ``'velocity'`` or
         ``'displacement'``; sets the feature filters.
@@ -412,7 +248,8 @@ class PhysicsTerm:
     def __post_init__(self):
         kind = term_kind(self.physics, self.state)
         name = self.physics
-        if self.state == 'load' and not _finite(self.state_lowpass_hz, 'state_lowpass_hz') > 0:
+        corner = finite_number(self.state_lowpass_hz, 'state_lowpass_hz')
+        if self.state == 'load' and not corner > 0:
             raise ConfigError(f'{name}: state_lowpass_hz must be > 0 for the load state')
         channels = tuple(str(c) for c in self.channels)
         if not channels or len(set(channels)) != len(channels):
@@ -446,7 +283,7 @@ class PhysicsTerm:
             raise ConfigError(f'{name}.integration {params.integration} is more than '
                               f'{self.input_quantity} inputs allow')
         for field_name in ('highpass_hz', 'lowpass_hz'):
-            if _finite(getattr(self, field_name), field_name) < 0.0:
+            if finite_number(getattr(self, field_name), field_name) < 0.0:
                 raise ConfigError(f'{name}: {field_name} must be >= 0')
         object.__setattr__(self, 'channels', channels)
         object.__setattr__(self, 'params', params)
@@ -465,6 +302,11 @@ class PhysicsTerm:
     def key(self) -> str:
         """Return the registry key: ``physics`` or ``physics:load``."""
         return self.kind.key
+
+    @property
+    def partners_are_outputs(self) -> bool:
+        """Return True when :attr:`partners` name output channels (load-state coupling)."""
+        return self.state == 'load' and bool(self.partners)
 
     @property
     def filter_key(self) -> Tuple[str, float, float]:
