@@ -27,7 +27,8 @@ def small_model(n_in=2, n_out=3, n_taps=16, fs_hz=64.0, seed=0):
         fir_taps=rng.normal(size=(n_out, n_in, n_taps)), fir_delay_samples=n_taps // 2,
         static_force_n=rng.normal(size=n_out), static_accel_mps2=rng.normal(size=n_in),
         estimator='h1', fit={'segment_length': n_taps}, created='2026-11-22T00:00:00+00:00',
-        physics=({'physics': 'bump_stop', 'channels': ['out0'], 'parameters': {'gap_m': 0.03}},))
+        physics=({'physics': 'bump_stop', 'channels': ['out0'], 'sources': ['in0'],
+                  'parameters': {'gap_m': 0.03, 'stiffness_n_per_m': 1e5, 'exponent': 2.0}},))
 
 
 def _rewrite(src, dst, **changes):
@@ -138,6 +139,58 @@ def test_bad_meta(tmp_path):
     broken = _rewrite(path, tmp_path / 'b4.npz', meta=np.array(json.dumps(meta_m)))
     with pytest.raises(ModelFileError, match='meta.sample_rate_hz'):
         load_model(broken)
+
+
+def _term(physics='bump_stop', **changes):
+    term = {'physics': physics, 'channels': ['out0'], 'sources': ['in0'],
+            'parameters': {'gap_m': 0.03, 'stiffness_n_per_m': 1e5, 'exponent': 2.0}}
+    term.update(changes)
+    return term
+
+
+@pytest.mark.parametrize('term, match', [
+    # Bug caught: a range check lost in the typed parameters (negative gap loads silently).
+    (_term(parameters={'gap_m': -0.03, 'stiffness_n_per_m': 1e5, 'exponent': 2.0}),
+     r'term 1 \(bump_stop\): bump_stop\.gap_m must be >= 0'),
+    (_term(parameters={'gap_m': 0.03, 'stiffness_n_per_m': 'stiff', 'exponent': 2.0}),
+     r'term 1 \(bump_stop\): bump_stop\.stiffness_n_per_m must be a number'),
+    (_term(parameters={'gap_m': 0.03}), r'term 1 \(bump_stop\).*parameters must be'),
+    (_term('time_delay', parameters={'delay_s': -0.001}),
+     r'term 1 \(time_delay\): time_delay\.delay_s must be >= 0'),
+    (_term(channels=['out7']), r"term 1 \(bump_stop\): output channel 'out7'"),
+    (_term(sources=['in9']), r"term 1 \(bump_stop\): input channel 'in9'"),
+    (_term('warp_drive'), r'term 1 \(warp_drive\).*not one of'),
+])
+def test_bad_physics_section_names_the_term_and_field(tmp_path, term, match):
+    path = save_model(small_model(), tmp_path / 'm.npz')
+    with np.load(path, allow_pickle=False) as npz:
+        meta = json.loads(str(npz['meta']))
+    meta['physics'] = [meta['physics'][0], term]
+    broken = _rewrite(path, tmp_path / 'bad.npz', meta=np.array(json.dumps(meta)))
+    with pytest.raises(ModelFileError, match=match):
+        load_model(broken)
+
+
+def test_old_physics_section_loads_as_typed_terms(tmp_path):
+    # A section as written before the typed terms (flags as floats, no optional keys).
+    old = [{'physics': 'backlash', 'channels': ['out1'], 'sources': ['in1'],
+            'parameters': {'gap_m': 5e-4, 'stiffness_n_per_m': 1e4, 'hysteretic': 1.0},
+            'input_quantity': 'acceleration', 'highpass_hz': 0.5, 'lowpass_hz': 0.0},
+           {'physics': 'mass_error', 'channels': ['out2'], 'sources': ['in0'],
+            'parameters': {'center_n': 100.0, 'gain': 0.05}, 'state': 'load',
+            'state_lowpass_hz': 1.0}]
+    path = save_model(small_model(), tmp_path / 'm.npz')
+    with np.load(path, allow_pickle=False) as npz:
+        meta = json.loads(str(npz['meta']))
+    meta['physics'] = old
+    model = load_model(_rewrite(path, tmp_path / 'old.npz', meta=np.array(json.dumps(meta))))
+    backlash, mass = model.physics_terms
+    assert backlash.params.hysteretic is True and backlash.params.gap_m == 5e-4
+    assert mass.key == 'mass_error:load' and mass.params.gain == 0.05
+    # Written back unchanged: the JSON format did not move.
+    assert backlash.to_dict() == old[0]
+    assert [t.to_dict() for t in model.physics_terms] == list(model.with_physics(
+        model.physics_terms).physics)
 
 
 def test_non_finite_and_bad_values_rejected():

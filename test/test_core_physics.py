@@ -121,6 +121,8 @@ def _terms():
         ph.PhysicsTerm('tire_lift_off', ('lr_fz',), {'threshold_n': 0.0, 'gain': 1.0}),
         ph.PhysicsTerm('anti_roll_bar', ('lf_fz', 'rf_fz'), {'stiffness_n_per_m': 2e4},
                        partners=('rf_az', 'lf_az')),
+        ph.PhysicsTerm('anti_roll_bar', ('lr_fz', 'rr_fz'), {'gain': 0.2},
+                       partners=('rr_fz', 'lr_fz'), state='load', state_lowpass_hz=2.0),
         ph.PhysicsTerm('time_delay', ('lf_fy', 'rr_fz'), {'delay_s': 3.3 / FS}),
         ph.PhysicsTerm('sensor_saturation', ('lf_fz',),
                        {'limit': 25.0, 'force_n': 40.0, 'integration': 2.0}),
@@ -235,9 +237,9 @@ def test_stage_rejects_unknown_channels_and_negative_delay():
     term = ph.PhysicsTerm('mass_error', ('xx_fz',), {'mass_kg': 1.0}, sources=('lf_az',))
     with pytest.raises(ConfigError, match='xx_fz'):
         ph.PhysicsStage([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
-    late = ph.PhysicsTerm('time_delay', ('lf_fz',), {'delay_s': -0.01})
-    with pytest.raises(ConfigError, match='look-ahead'):
-        ph.PhysicsStage([late], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    # A force that leads the acceleration needs look-ahead: refused when the term is built.
+    with pytest.raises(ConfigError, match='time_delay.delay_s.*look-ahead'):
+        ph.PhysicsTerm('time_delay', ('lf_fz',), {'delay_s': -0.01})
 
 
 def test_predictor_applies_physics_like_the_batch_stage():
@@ -253,7 +255,10 @@ def test_predictor_applies_physics_like_the_batch_stage():
                      fir_taps=taps, fir_delay_samples=10, static_force_n=np.full(12, 3000.0),
                      static_accel_mps2=np.full(12, 9.81), estimator='h1')
     accel, _ = _signals(n=3000)
-    terms = [t for t in _terms() if t.physics != 'time_delay']
+    # Without the delay line and the load state, which start from the first force sample the
+    # stage sees (the predictor's stage sees its look-ahead of held rest first); both are
+    # covered by test_predictor_streams_every_term_like_one_block.
+    terms = [t for t in _terms() if t.physics != 'time_delay' and t.state == 'motion']
     linear = predict_forces(model, accel)
     augmented = predict_forces(model.with_physics([t.to_dict() for t in terms]), accel)
     expected = ph.apply_physics(terms, FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, linear,
@@ -264,6 +269,59 @@ def test_predictor_applies_physics_like_the_batch_stage():
     # integrators hold their steady state only to rounding: <= 2e-3 N (measured) on terms of
     # 1e4 N in the first samples, 1e-7 N after 1 s; 1e-2 N bounds that.
     np.testing.assert_allclose(augmented, expected, rtol=1e-9, atol=1e-2)
+
+
+def test_predictor_streams_every_term_like_one_block():
+    from wheel_force_estimator.core.model import FrfModel
+    from wheel_force_estimator.core.predict import predict_forces
+    nf, nt = 65, 128
+    taps = np.zeros((12, 12, nt))
+    taps[np.arange(12), np.arange(12), 10] = 30.0
+    model = FrfModel(fs_hz=FS, input_channels=INPUT_CHANNELS, output_channels=OUTPUT_CHANNELS,
+                     f_hz=np.linspace(0.0, FS / 2, nf), h=np.zeros((nf, 12, 12), complex),
+                     coherence_ordinary=np.zeros((nf, 12, 12)),
+                     coherence_multiple=np.zeros((nf, 12)), cond_sxx=np.ones(nf),
+                     fir_taps=taps, fir_delay_samples=10, static_force_n=np.full(12, 3000.0),
+                     static_accel_mps2=np.full(12, 9.81), estimator='h1')
+    accel, _ = _signals(n=3000)
+    # Every kind, including the cross-corner roll bar and the delay line of time_delay,
+    # through the Predictor that predict, evaluate and the node share.
+    augmented = model.with_physics(_terms())
+    whole = predict_forces(augmented, accel, block_size=3000)
+    # Bug caught: state (delay line, play operator, filters) lost between blocks.
+    for block in (1, 37, 256):
+        np.testing.assert_allclose(predict_forces(augmented, accel, block_size=block), whole,
+                                   rtol=0.0, atol=1e-6)
+    assert not np.allclose(whole, predict_forces(model, accel))
+
+
+def test_load_driven_roll_coupling_is_antisymmetric_and_streams():
+    np.testing.assert_allclose(ph.load_roll_force([1000.0, 0.0], [0.0, 1000.0], 0.2),
+                               [100.0, -100.0])
+    term = ph.PhysicsTerm('anti_roll_bar', ('lf_fz', 'rf_fz'), {'gain': 0.3},
+                          partners=('rf_fz', 'lf_fz'), state='load', state_lowpass_hz=2.0)
+    accel, force = _signals()
+    batch = ph.apply_physics([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force)
+    lf, rf = OUTPUT_CHANNELS.index('lf_fz'), OUTPUT_CHANNELS.index('rf_fz')
+    b, a = signal.butter(1, 2.0, fs=FS)
+
+    def low(x):
+        return signal.lfilter(b, a, x, zi=signal.lfilter_zi(b, a) * x[0])[0]
+    added = batch - force
+    # Known answer: half the gain times the low-passed left-right load difference, with
+    # opposite signs (bug caught: both sides pushed the same way, or the partner's input read).
+    np.testing.assert_allclose(added[lf], 0.15 * (low(force[lf]) - low(force[rf])), atol=1e-9)
+    np.testing.assert_allclose(added[rf], -added[lf], atol=1e-9)
+    assert np.count_nonzero(np.delete(added, [lf, rf], 0)) == 0
+    stage = ph.PhysicsStage([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    parts = [stage.process(accel[:, i:i + 333], force[:, i:i + 333]) for i in range(0, 6000, 333)]
+    assert np.array_equal(np.concatenate(parts, axis=1), batch)
+    assert ph.PhysicsTerm.from_dict(json.loads(json.dumps(term.to_dict()))) == term
+    with pytest.raises(ConfigError, match="partner channel 'rf_az'"):
+        ph.PhysicsStage([ph.PhysicsTerm('anti_roll_bar', ('lf_fz',), {'gain': 0.3},
+                                        partners=('rf_az',), state='load',
+                                        state_lowpass_hz=2.0)],
+                        FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
 
 
 def test_load_driven_backlash_hand_values_and_stage():

@@ -2,6 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """Candidate rules: sign of load-driven terms, lift-off, roll pairs, linear-rate tolerance."""
 import numpy as np
+import pytest
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
@@ -125,3 +126,41 @@ def test_a_damping_change_inside_the_tolerance_is_drift_and_outside_it_is_named(
     strict = Selector([Piece(ctx, residual, load + residual, 0, 'lf_fz')],
                       SelectionConfig(linear_tolerance=0.0)).run([BY_KEY['damping_error']])
     assert [a.hypothesis.physics for a in strict.accepted] == ['damping_error']
+
+
+def test_known_mass_error_and_time_delay_become_term_parameters():
+    from wheel_force_estimator.core.physics import PhysicsTerm
+    from wheel_force_estimator.diagnosis.hypotheses import shift_signal
+    from wheel_force_estimator.diagnosis.hypotheses import term_parameters
+    stiffness, damping, mass = 20000.0, 2000.0, 15.0
+    disp, vel, acc = _linear_motion()
+    load = stiffness * disp + damping * vel + mass * acc
+    rng = np.random.default_rng(5)
+    ctx = ChannelContext(disp, vel, acc, acc, load, None, FS_HZ)
+
+    def accepted(residual, key):
+        piece = Piece(ctx, residual, load + residual, 0, 'lf_fz')
+        found = Selector([piece], SelectionConfig()).run([BY_KEY[key]]).accepted
+        assert [a.hypothesis.key for a in found] == [key]
+        a = found[0]
+        params = term_parameters(a.hypothesis, a.shape, a.coefficient, FS_HZ)
+        PhysicsTerm(key, ('lf_fz',), params)  # a valid term of the registry
+        return params
+
+    # 1.2 kg missing (8 % of the reference's 15 kg), noise at 1 % of that force: the
+    # least-squares mass scatters by ~1e-4 relative; 1 % catches a unit or factor error.
+    extra = 1.2 * acc
+    params = accepted(extra + rng.normal(0.0, 0.01 * np.std(extra), acc.size), 'mass_error')
+    assert params['mass_kg'] == pytest.approx(1.2, rel=0.01)
+    # Force stream 3 samples late (a grid point): the delay is read back exactly, in s.
+    late = shift_signal(load, 3.0) - load
+    params = accepted(late + rng.normal(0.0, 0.01 * np.std(late), acc.size), 'time_delay')
+    assert params == {'delay_s': 3.0 / FS_HZ}
+
+
+def test_every_candidate_is_a_registered_term_kind():
+    from wheel_force_estimator.core.physics import TERM_KINDS
+    from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
+    from wheel_force_estimator.diagnosis.hypotheses import LOAD_LINEAR
+    # One registry: every candidate the diagnosis ranks can be written as a model term.
+    assert {h.key for h in HYPOTHESES + (LOAD_LINEAR,)} <= set(TERM_KINDS)

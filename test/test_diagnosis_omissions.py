@@ -98,3 +98,21 @@ def test_same_law_and_amplitude_dependent_stiffening_are_not_linear_omissions():
     assert debug['body_fz'] > 0.06
     assert debug['body_calm'] < 0.5 * debug['body_rough']
     assert found == [], debug
+
+
+def test_known_mass_error_gain_is_read_back_into_the_term():
+    from wheel_force_estimator.diagnosis.features import ChannelContext
+    from wheel_force_estimator.diagnosis.hypotheses import load_state
+
+    def heavier(pred):
+        # A 7 % heavier car as the term models it: 7 % more of the load below 1 Hz.
+        return 0.07 * np.array([load_state(ChannelContext(*(row,) * 5, None, FS), 1.0)
+                                for row in pred])
+    found, _ = _diagnose(*_pair(heavier))
+    assert [f.physics for f in found] == ['mass_error']
+    gains = {t.parameters['gain'] for t in found[0].terms}
+    corners = {t.state_lowpass_hz for t in found[0].terms}
+    # Same law and filter as the synthetic error: the corner is found on the grid and the
+    # shared least-squares gain is 0.07 up to the centring on the record mean (< 0.5 %).
+    assert corners == {1.0} and len(gains) == 1
+    assert gains.pop() == pytest.approx(0.07, rel=0.005)

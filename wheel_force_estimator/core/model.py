@@ -39,12 +39,14 @@ import zipfile
 
 import numpy as np
 
+from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ModelFileError
 from wheel_force_estimator.core.live_estimator import CausalEstimator
 from wheel_force_estimator.core.live_estimator import check_live
 from wheel_force_estimator.core.live_estimator import live_arrays
 from wheel_force_estimator.core.live_estimator import live_from_contents
 from wheel_force_estimator.core.live_estimator import live_meta
+from wheel_force_estimator.core.physics_terms import PhysicsTerm
 
 SCHEMA_VERSION = 2
 # Versions this code reads: 1 has no live estimators.
@@ -107,7 +109,10 @@ class FrfModel:
     created : str
         ISO 8601 creation time (UTC).
     physics : tuple of dict
-        Physics terms added by diagnosis (``PhysicsTerm.to_dict()``), applied after the FIR.
+        Physics terms added by diagnosis (``PhysicsTerm.to_dict()``), applied after the FIR;
+        parsed and validated when the model is built (:attr:`physics_terms`); a bad term
+        raises :class:`ModelFileError` naming its index, physics and field, or a channel the
+        model does not have.
     live : tuple of CausalEstimator
         Live (causal) estimators, one per look-ahead (``fit`` designs them); empty for
         schema 1 files.
@@ -191,10 +196,44 @@ class FrfModel:
                 raise ModelFileError(f'model field {name!r}: expected an object')
             object.__setattr__(self, name, dict(getattr(self, name)))
         physics = self.physics
-        if isinstance(physics, (str, bytes)) or not all(isinstance(p, Mapping) for p in physics):
+        if isinstance(physics, (str, bytes, Mapping)) or not all(
+                isinstance(p, (Mapping, PhysicsTerm)) for p in physics):
             raise ModelFileError("model field 'physics': expected a list of objects")
-        object.__setattr__(self, 'physics', tuple(dict(p) for p in physics))
+        terms = []
+        for i, item in enumerate(physics):
+            if isinstance(item, PhysicsTerm):
+                terms.append(item)
+                continue
+            try:
+                terms.append(PhysicsTerm.from_dict(item))
+            except ConfigError as err:
+                raise ModelFileError(f"model field 'physics': term {i} "
+                                     f"({item.get('physics', '?')!s}): {err}") from err
+        for i, term in enumerate(terms):
+            for name in term.channels:
+                if name not in self.output_channels:
+                    raise ModelFileError(
+                        f"model field 'physics': term {i} ({term.physics}): output channel "
+                        f'{name!r} is not one of the model outputs {list(self.output_channels)}')
+            partners = () if term.partners_are_outputs else term.partners
+            for name in term.partners if term.partners_are_outputs else ():
+                if name not in self.output_channels:
+                    raise ModelFileError(
+                        f"model field 'physics': term {i} ({term.physics}): partner channel "
+                        f'{name!r} is not one of the model outputs {list(self.output_channels)}')
+            for name in term.sources + partners:
+                if name not in self.input_channels:
+                    raise ModelFileError(
+                        f"model field 'physics': term {i} ({term.physics}): input channel "
+                        f'{name!r} is not one of the model inputs {list(self.input_channels)}')
+        object.__setattr__(self, 'physics', tuple(
+            t.to_dict() if isinstance(t, PhysicsTerm) else dict(t) for t in physics))
         object.__setattr__(self, 'live', check_live(self.live, no, ni))
+
+    @property
+    def physics_terms(self) -> Tuple[PhysicsTerm, ...]:
+        """Return the ``physics`` section as typed terms (validated when the model was built)."""
+        return tuple(PhysicsTerm.from_dict(p) for p in self.physics)
 
     @property
     def n_taps(self) -> int:
@@ -202,8 +241,13 @@ class FrfModel:
         return int(self.fir_taps.shape[2])
 
     def with_physics(self, terms) -> 'FrfModel':
-        """Return a copy carrying the given physics term dicts (replacing any present)."""
-        return dataclasses.replace(self, physics=tuple(dict(t) for t in terms))
+        """
+        Return a copy carrying the given terms (replacing any present).
+
+        ``terms`` are :class:`PhysicsTerm` objects or their ``to_dict()`` form; they are
+        validated like the ``physics`` section of a model file.
+        """
+        return dataclasses.replace(self, physics=tuple(terms))
 
     def meta(self) -> Dict[str, Any]:
         """Return the JSON ``meta`` entry of the model file."""

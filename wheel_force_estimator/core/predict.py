@@ -152,9 +152,7 @@ class Predictor:
         self._recent = np.empty((len(model.input_channels), 0))
         if model.physics:
             from wheel_force_estimator.core.physics import PhysicsStage
-            from wheel_force_estimator.core.physics import PhysicsTerm
-            terms = [PhysicsTerm.from_dict(t) for t in model.physics]
-            self._physics = PhysicsStage(terms, model.fs_hz, model.input_channels,
+            self._physics = PhysicsStage(model.physics_terms, model.fs_hz, model.input_channels,
                                          model.output_channels)
             self._accel_delay = _DelayLine(self._static_accel, self.delay_samples)
 

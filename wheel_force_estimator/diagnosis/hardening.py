@@ -128,7 +128,7 @@ def add_omissions(findings, real, sim, reference, channels, sources, config,
             # Any per-channel physics found on these channels competes too (a friction
             # also adds body-band force in phase with the load).
             rivals = set(STIFFENING) | {
-                t.physics if t.state == 'motion' else f'{t.physics}:{t.state}'
+                t.key
                 for g in findings for t in g.terms
                 if t.physics not in LINEAR_COMPANIONS and set(t.channels) & set(group)}
             hardening = max(pooled(group, k) for k in sorted(rivals & set(BY_KEY)))

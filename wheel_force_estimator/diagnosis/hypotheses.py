@@ -353,8 +353,11 @@ def describe_shape(physics: str, params: Mapping[str, float],
         return f'{abs(params["friction_n"]):.4g} N friction level'
     if physics == 'time_delay':
         return f'force lags the motion by {params["delay_s"] * 1e3:.2f} ms'
-    if physics == 'tire_lift_off':
+    if physics == 'tire_lift_off' and 'threshold_n' in params:
         return f'load floor {params["threshold_n"]:.4g} N'
+    if physics == 'tire_lift_off' and 'n_flights' in params:
+        return (f'{params["n_flights"]:.0f} free flights ({100 * params["flight_fraction"]:.2f} '
+                f'% of the samples), outboard mass {params["outboard_mass_kg"]:.1f} kg')
     if physics == 'sensor_saturation':
         return f'input clipped at +/-{params["limit"]:.4g}'
     return ', '.join(f'{k} = {v:.4g}' for k, v in params.items())

@@ -62,6 +62,9 @@ class Finding:
     rmse_after_pct : mapping str -> float
         Holdout RMSE % of its channels with this and all earlier findings applied (empty
         without holdout data).
+    time_windows_s : tuple of (float, float)
+        Where the effect acts in the real recordings (motion findings, :mod:`motion`);
+        written to the JSON only when not empty.
 
     """
 
@@ -73,6 +76,7 @@ class Finding:
     terms: Tuple[PhysicsTerm, ...] = ()
     null_fraction: float = 0.0
     rmse_after_pct: Mapping[str, float] = field(default_factory=dict)
+    time_windows_s: Tuple[Tuple[float, float], ...] = ()
 
     def __post_init__(self):
         if self.physics not in VOCABULARY:
@@ -81,15 +85,20 @@ class Finding:
         object.__setattr__(self, 'channels', tuple(self.channels))
         object.__setattr__(self, 'parameters', dict(self.parameters))
         object.__setattr__(self, 'terms', tuple(self.terms))
+        object.__setattr__(self, 'time_windows_s',
+                           tuple((float(a), float(b)) for a, b in self.time_windows_s))
 
     def to_dict(self) -> Dict:
         """Return the DESIGN.md ``findings`` entry."""
-        return {'physics': self.physics, 'channels': list(self.channels),
-                'parameters': {k: _round(v, 6) for k, v in self.parameters.items()},
-                'explained_fraction': _round(self.explained_fraction, 3),
-                'null_fraction': _round(self.null_fraction, 3),
-                'rmse_after_pct': {k: _round(v) for k, v in self.rmse_after_pct.items()},
-                'evidence': self.evidence}
+        out = {'physics': self.physics, 'channels': list(self.channels),
+               'parameters': {k: _round(v, 6) for k, v in self.parameters.items()},
+               'explained_fraction': _round(self.explained_fraction, 3),
+               'null_fraction': _round(self.null_fraction, 3),
+               'rmse_after_pct': {k: _round(v) for k, v in self.rmse_after_pct.items()},
+               'evidence': self.evidence}
+        if self.time_windows_s:
+            out['time_windows_s'] = [[round(a, 3), round(b, 3)] for a, b in self.time_windows_s]
+        return out
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,8 @@ from wheel_force_estimator.diagnosis.hypotheses import LINEAR_COMPANIONS
 from wheel_force_estimator.diagnosis.hypotheses import term_parameters
 from wheel_force_estimator.diagnosis.locate import locate_channel
 from wheel_force_estimator.diagnosis.locate import regime_ratios
+from wheel_force_estimator.diagnosis.motion import merge_motion
+from wheel_force_estimator.diagnosis.motion import motion_findings
 from wheel_force_estimator.diagnosis.prepared import axis
 from wheel_force_estimator.diagnosis.prepared import group_pieces
 from wheel_force_estimator.diagnosis.prepared import pieces
@@ -460,6 +462,8 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
         fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},
                             {c: outcomes[c].cv_after_pct for c in channels},
                             'cross_validation', None, hp)
+    # Motion findings (clip, tyre in the air): no terms, so after the holdout gate.
+    findings = merge_motion(findings, motion_findings(real, sim, sources))
     named = {(c, f.physics) for f in findings for c in f.channels}
     rejected = tuple(text.rejection(ch, outcomes[ch].rejected) for ch in channels
                      if outcomes[ch].rejected is not None and outcomes[ch].rejected[0].gain > 0
