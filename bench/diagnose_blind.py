@@ -44,6 +44,7 @@ import time
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
 from wheel_force_estimator.diagnosis import MotionRecording
@@ -184,7 +185,7 @@ def run_sim(seeds, duration_scale, effects, sizes, holdout_scale):
         seed_rows = []
         nominal = simulate('proving_ground', (), seed, duration_scale)
         sim = [_rec(nominal, 'sim')]
-        ref = FrfReference.fit(sim, 'sim', None)
+        ref = FrfReference.fit(sim, 'sim', FitConfig())  # as the diagnosis fits the sim
         for effect in effects:
             if effect not in NULLS and effect not in EFFECT_NAMES:
                 continue

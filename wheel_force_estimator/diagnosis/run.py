@@ -28,7 +28,6 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.physics import PhysicsTerm
-from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis import text
 from wheel_force_estimator.diagnosis.agreement import agreed_findings
 from wheel_force_estimator.diagnosis.agreement import AgreementConfig
@@ -42,10 +41,6 @@ from wheel_force_estimator.diagnosis.hardening import hardening_winner
 from wheel_force_estimator.diagnosis.hardening import HARDENINGS
 from wheel_force_estimator.diagnosis.hardening import pooled_gain
 from wheel_force_estimator.diagnosis.hardening import settle_hardening
-from wheel_force_estimator.diagnosis.holdout import evaluate_scores
-from wheel_force_estimator.diagnosis.holdout import holdout_gate
-from wheel_force_estimator.diagnosis.holdout import METRIC
-from wheel_force_estimator.diagnosis.holdout import split_holdout
 from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
 from wheel_force_estimator.diagnosis.hypotheses import BY_NAME
 from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
@@ -63,11 +58,9 @@ from wheel_force_estimator.diagnosis.reference import FrfReference
 from wheel_force_estimator.diagnosis.reference import RegressionReference
 from wheel_force_estimator.diagnosis.result import DiagnosisResult
 from wheel_force_estimator.diagnosis.result import Finding
-from wheel_force_estimator.diagnosis.result import FitComparison
 from wheel_force_estimator.diagnosis.selection import SelectionConfig
 from wheel_force_estimator.diagnosis.selection import Selector
-from wheel_force_estimator.diagnosis.written import backfitted_model
-from wheel_force_estimator.diagnosis.written import choose
+from wheel_force_estimator.diagnosis.written import compare
 
 
 @dataclass(frozen=True)
@@ -453,8 +446,9 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     if mode == 'sim':
         findings = settle_hardening(findings, builder, prep, sim_prep, channels, config, pooled)
     findings = _ranked(findings, prep, channels, hp, fs_hz, structural, pooled)
-    findings, fit, model = _compare(findings, real, reference, mode, holdout, outcomes,
-                                    channels, sources, partners, config)
+    findings, fit, model = compare(findings, real, reference, mode, holdout, outcomes,
+                                   channels, sources, partners, config,
+                                   lambda recs: _real_linear(recs, config).model)
     named = {(c, f.physics) for f in findings for c in f.channels}
     rejected = tuple(text.rejection(ch, outcomes[ch].rejected) for ch in channels
                      if outcomes[ch].rejected is not None and outcomes[ch].rejected[0].gain > 0
@@ -463,81 +457,3 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     summary = text.summary(findings, fit, rejected)
     return DiagnosisResult(tuple(mismatch), tuple(findings), fit, tuple(summary),
                            f'{reference.name} ({reference.kind})', rejected, model, reference)
-
-
-#: ``fit.model`` of the reference written unchanged, per diagnosis mode.
-UNCHANGED = {'sim': 'sim_frf', 'model': 'model', 'linear': 'real_linear'}
-#: ``fit.model`` of the reference FRF plus the findings' terms, per mode.
-AUGMENTED = {'sim': 'sim_frf+physics', 'model': 'model+physics', 'linear': 'real_frf+physics'}
-
-
-def _compare(findings, real, reference, mode, holdout, outcomes, channels, sources, partners,
-             config):
-    """
-    Gate the findings, choose the written model, score before / real_linear / after.
-
-    Returns ``(findings, FitComparison, written model or None)``.
-    """
-    rec0 = real[0]
-    fs_hz = rec0.fs_hz
-    hp = config.selection.highpass_hz
-    metric = METRIC[rec0.input_quantity]
-    ref_model = reference.model if isinstance(reference, FrfReference) else None
-    notes = []
-    lin_model = ref_model if mode == 'linear' else None
-    if lin_model is None:
-        try:
-            lin_model = _real_linear(real, config).model
-        except DiagnosisError as err:
-            notes.append(f'no real-data linear model: {err}')
-    gated = []
-    split = split_holdout(holdout) if holdout else None
-    if split is not None:
-        gate_prep = prepare(split.whole, reference, sources, partners, config)
-        masks = split.gate_masks(gate_prep.spans)
-        if masks is None or any(m.any() for m in masks):
-            findings, gated = holdout_gate(findings, gate_prep, channels, hp, fs_hz, masks)
-        else:
-            notes.append('holdout too short: its gate half lies within the filter settling '
-                         'time, no finding was gated')
-    with_terms = [f for f in findings if f.terms]
-    terms = [t.to_dict() for f in with_terms for t in f.terms]
-    candidates = {}
-    if not with_terms:
-        if ref_model is not None:
-            candidates[UNCHANGED[mode]] = ref_model
-        elif lin_model is not None:
-            candidates['real_linear'] = lin_model
-    else:
-        if ref_model is not None:
-            candidates[AUGMENTED[mode]] = ref_model.with_physics(list(ref_model.physics) + terms)
-        if lin_model is not None:
-            skip = settle_samples(fs_hz, rec0.input_quantity, config.features)
-            candidates['real_frf+physics'], _ = backfitted_model(
-                findings, real, lin_model, lambda recs: _real_linear(recs, config).model,
-                hp, skip)
-            candidates['real_linear'] = lin_model
-    named = sorted({c for f in with_terms for c in f.channels})
-    gate_scores = {}
-    if split is None or len(candidates) < 2:
-        choice = next(iter(candidates), None)
-    else:
-        choice, gate_scores = choose(candidates, split.gate, named, metric)
-    model = candidates.get(choice)
-    if split is None:
-        fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},
-                            {c: outcomes[c].cv_after_pct for c in channels},
-                            'cross_validation', None, hp, model=choice or '',
-                            notes=tuple(notes))
-        return findings, fit, model
-    before = evaluate_scores(reference.predict, split.report, metric)
-    real_lin = (evaluate_scores(lambda r: predict_forces(lin_model, r.inputs), split.report,
-                                metric) if lin_model is not None else None)
-    after = (evaluate_scores(lambda r: predict_forces(model, r.inputs), split.report, metric)
-             if model is not None else dict(before))
-    findings = [replace(f, rmse_after_pct={c: after[c] for c in f.channels}) for f in findings]
-    fit = FitComparison(before, after, 'holdout', real_lin,
-                        1.0 if metric == 'rmse_hp1_pct' else 0.0, model=choice or '',
-                        report_on=split.report_on, gate=gate_scores, notes=tuple(notes),
-                        gated=tuple(gated))
-    return findings, fit, model

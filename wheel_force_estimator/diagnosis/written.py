@@ -29,10 +29,18 @@ import numpy as np
 import scipy.optimize
 
 from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.diagnosis.features import settle_samples
 from wheel_force_estimator.diagnosis.holdout import evaluate_scores
+from wheel_force_estimator.diagnosis.holdout import holdout_gate
+from wheel_force_estimator.diagnosis.holdout import METRIC
+from wheel_force_estimator.diagnosis.holdout import split_holdout
+from wheel_force_estimator.diagnosis.prepared import prepare
+from wheel_force_estimator.diagnosis.reference import FrfReference
+from wheel_force_estimator.diagnosis.result import FitComparison
 
 #: Parameter each physics' force is proportional to (motion state), so a strength factor can be
 #: carried into the model; terms of other physics keep the strength they were fitted with.
@@ -196,3 +204,84 @@ def choose(candidates: Mapping[str, object], gate: Sequence, channels: Sequence[
               for name, model in candidates.items()}
     best = min(scores, key=lambda n: (scores[n], list(candidates).index(n)))
     return best, scores
+
+
+#: ``fit.model`` of the reference written unchanged, per diagnosis mode.
+UNCHANGED = {'sim': 'sim_frf', 'model': 'model', 'linear': 'real_linear'}
+#: ``fit.model`` of the reference FRF plus the findings' terms, per mode.
+AUGMENTED = {'sim': 'sim_frf+physics', 'model': 'model+physics', 'linear': 'real_frf+physics'}
+
+
+def compare(findings, real, reference, mode, holdout, outcomes, channels, sources, partners,
+            config, real_fit):
+    """
+    Gate the findings, choose the written model, score before / real_linear / after.
+
+    ``mode`` is ``'sim'``, ``'model'`` or ``'linear'`` (reference fitted on ``real``);
+    ``outcomes`` the per-channel selections (cross-validation figures without holdout);
+    ``real_fit(recordings) -> FrfModel`` fits with the design of ``wheel-force fit``.
+    Returns ``(findings, FitComparison, written model or None)``.
+    """
+    rec0 = real[0]
+    fs_hz = rec0.fs_hz
+    hp = config.selection.highpass_hz
+    metric = METRIC[rec0.input_quantity]
+    ref_model = reference.model if isinstance(reference, FrfReference) else None
+    notes = []
+    lin_model = ref_model if mode == 'linear' else None
+    if lin_model is None and (holdout or ref_model is None):
+        try:
+            lin_model = real_fit(real)
+        except DiagnosisError as err:
+            notes.append(f'no real-data linear model: {err}')
+    gated = []
+    split = split_holdout(holdout) if holdout else None
+    if split is not None:
+        gate_prep = prepare(split.whole, reference, sources, partners, config)
+        masks = split.gate_masks(gate_prep.spans)
+        if masks is None or any(m.any() for m in masks):
+            findings, gated = holdout_gate(findings, gate_prep, channels, hp, fs_hz, masks)
+        else:
+            notes.append('holdout too short: its gate half lies within the filter settling '
+                         'time, no finding was gated')
+    with_terms = [f for f in findings if f.terms]
+    terms = [t.to_dict() for f in with_terms for t in f.terms]
+    candidates = {}
+    if not with_terms:
+        if ref_model is not None:
+            candidates[UNCHANGED[mode]] = ref_model
+        elif lin_model is not None:
+            candidates['real_linear'] = lin_model
+    else:
+        if ref_model is not None:
+            candidates[AUGMENTED[mode]] = ref_model.with_physics(list(ref_model.physics) + terms)
+        if lin_model is not None and (split is not None or not candidates):
+            # Without a holdout nothing can choose: the reference + terms is written.
+            skip = settle_samples(fs_hz, rec0.input_quantity, config.features)
+            candidates['real_frf+physics'], _ = backfitted_model(
+                findings, real, lin_model, real_fit, hp, skip)
+            candidates['real_linear'] = lin_model
+    named = sorted({c for f in with_terms for c in f.channels})
+    gate_scores = {}
+    if split is None or len(candidates) < 2:
+        choice = next(iter(candidates), None)
+    else:
+        choice, gate_scores = choose(candidates, split.gate, named, metric)
+    model = candidates.get(choice)
+    if split is None:
+        fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},
+                            {c: outcomes[c].cv_after_pct for c in channels},
+                            'cross_validation', None, hp, model=choice or '',
+                            notes=tuple(notes))
+        return findings, fit, model
+    before = evaluate_scores(reference.predict, split.report, metric)
+    real_lin = (evaluate_scores(lambda r: predict_forces(lin_model, r.inputs), split.report,
+                                metric) if lin_model is not None else None)
+    after = (evaluate_scores(lambda r: predict_forces(model, r.inputs), split.report, metric)
+             if model is not None else dict(before))
+    findings = [replace(f, rmse_after_pct={c: after[c] for c in f.channels}) for f in findings]
+    fit = FitComparison(before, after, 'holdout', real_lin,
+                        1.0 if metric == 'rmse_hp1_pct' else 0.0, model=choice or '',
+                        report_on=split.report_on, gate=gate_scores, notes=tuple(notes),
+                        gated=tuple(gated))
+    return findings, fit, model
