@@ -84,6 +84,23 @@ def test_hardening_rig_is_named_and_evaluate_reproduces_every_reported_figure(tm
     assert load_model(model).physics[0]['physics'] == 'cubic_stiffness'
 
 
+def test_linear_rig_gives_no_finding_and_the_plain_fit_is_written():
+    # Bug caught: the real-data FIR reference leaving a residual the candidates mistake for
+    # physics (a false alarm on a linear system), or a written model that changes without one.
+    rng = np.random.default_rng(21)
+    recs = []
+    for k in range(4):
+        x = _motion(rng, int(60 * FS_HZ))
+        recs.append(MotionRecording(f'lin{k}', FS_HZ, x[None], _rig_force(x, rng, 0.0)[None],
+                                    ('x',), ('f',), 'displacement'))
+    result = diagnose(recs[:2], None, recs[2:])
+    assert result.findings == (), result.summary
+    assert result.fit.model == 'real_linear'
+    assert result.fit.after == result.fit.real_linear == result.fit.before
+    # a linear FIR represents this rig: the plain fit is good on the report file
+    assert result.fit.real_linear['f'] < 10.0
+
+
 def _three_input(seed, n, cubic_on=0):
     """Three displacements; output o is driven by input DRIVER[o] (not by position)."""
     rng = np.random.default_rng(seed)
