@@ -46,7 +46,7 @@ def _prepared(strength, seed=0, n=int(120 * FS_HZ)):
         predictions.append(load)
         targets.append(load + term + noise)
     return Prepared((None,), [np.array(targets)], [np.array(predictions)], [contexts], [0.0],
-                    [np.array(predictions)])
+                    [np.array(predictions)], [(0, n)])
 
 
 def _outcomes(prep, config):

@@ -1,15 +1,19 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """Generic recordings (CSV / MAT / NPZ / JSON) and the real friction and MR damper datasets."""
+import dataclasses
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.io
+import scipy.signal
 
+from wheel_force_estimator.core.design import product_fit_config
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.diagnosis import diagnose
+from wheel_force_estimator.diagnosis import DiagnosisConfig
 from wheel_force_estimator.diagnosis.generic import load_generic
 from wheel_force_estimator.diagnosis.generic import parse_spec
 
@@ -99,26 +103,32 @@ def test_generic_errors(tmp_path):
 
 
 def test_generic_synthetic_friction_is_named(tmp_path):
-    # Displacement-driven Coulomb friction plus a linear spring and noise: without a
-    # simulation the linear law is fitted on the real data, and only the nonlinear physics
-    # may be reported.
+    # Displacement-driven Coulomb friction plus a linear spring and noise, broadband motion:
+    # without a simulation the reference is the MIMO FIR `fit` makes on the real data, and
+    # only what it cannot represent may be reported.
     rng = np.random.default_rng(4)
     fs = 200.0
+    b, a = scipy.signal.butter(2, [0.3, 4.0], 'bandpass', fs=fs)
     recs = []
-    for k, (freq, amp) in enumerate(((0.5, 0.02), (1.0, 0.01), (0.7, 0.015))):
-        t = np.arange(int(30 * fs)) / fs
-        x = amp * np.sin(2 * np.pi * freq * t) + 0.002 * np.sin(2 * np.pi * 3.1 * t)
+    for k in range(4):
+        x = scipy.signal.lfilter(b, a, rng.standard_normal(int(60 * fs)))
+        x *= 0.01 / x.std()
         v = np.gradient(x, 1 / fs)
-        force = 2e4 * x + 300.0 * np.tanh(v / 0.002) + 15.0 * rng.standard_normal(t.size)
+        force = 2e4 * x + 300.0 * np.tanh(v / 0.002) + 15.0 * rng.standard_normal(x.size)
         np.savez(tmp_path / f'r{k}.npz', x=x, f=force)
         inp = [parse_spec('x:displacement:m', 'input')]
         recs.append(load_generic(tmp_path / f'r{k}.npz', inp,
                                  [parse_spec('f:force:N', 'output')], fs))
     result = diagnose(recs[:2], None, recs[2:])
     assert result.findings[0].physics == 'coulomb_friction'
-    # 300 N friction; the fit shares it with a hysteretic loop candidate at most.
-    assert result.findings[0].parameters['friction_n'] == pytest.approx(300.0, rel=0.2)
-    assert result.fit.after['f'] < 0.5 * result.fit.before['f']
+    # The FIR absorbs part of the friction as equivalent damping; the term carries the rest
+    # (measured 143 N of the 300 N): it must be the right sign and order of magnitude.
+    assert 50.0 < result.findings[0].parameters['friction_n'] < 400.0
+    # The written model (real-data FIR + friction) beats the plain fit on the report file
+    # (measured 51.8 % -> 47.6 %).
+    assert result.fit.model == 'real_frf+physics'
+    assert result.fit.after['f'] < result.fit.real_linear['f'] - 2.0
+    assert result.fit.real_linear == result.fit.before
 
 
 def _friction(name):
@@ -126,28 +136,51 @@ def _friction(name):
                         [parse_spec('data[2]:force:kip', 'output')], 1024.0)
 
 
-@pytest.mark.skipif(not FRICTION.is_dir(), reason=f'real dataset folder {FRICTION} is absent')
-def test_friction_damper_names_friction_or_backlash():
-    # Coble et al., Dataset-Friction-Damper-with-Backlash (CC BY-SA 4.0), 30 lb band tension.
+#: Fit settings for the short sine tests of the real dampers: a 256-sample Welch segment (a
+#: params file's ``wheel_force_fit: segment_length: 256``); the default 1024 samples are 10 s at
+#: the MR damper's 100 Hz, most of its 15 s records.
+SHORT = DiagnosisConfig(fit=dataclasses.replace(product_fit_config(), segment_length=256))
+
+
+def _friction_sets():
     real = [_friction(n) for n in ('1Hz30lbtension0.5amplitude.json',
                                    '1Hz30lbtension1.5amplitude.json',
                                    '2Hz30lbtension0.5amplitude.json')]
-    holdout = [_friction('1Hz30lbtension1amplitude.json')]
-    result = diagnose(real, None, holdout)
-    named = {f.physics for f in result.findings}
-    assert named & {'coulomb_friction', 'backlash'}, result.summary
-    # Measured at the time of writing: 56.6 % -> about 20 %; require a clear improvement.
-    assert result.fit.after['data[2]'] < 0.6 * result.fit.before['data[2]']
-    assert result.fit.linear_real == result.fit.before
+    holdout = [_friction('1Hz30lbtension1amplitude.json'),
+               _friction('0.5Hz30lbtension1amplitude.json')]
+    return real, holdout
+
+
+@pytest.mark.skipif(not FRICTION.is_dir(), reason=f'real dataset folder {FRICTION} is absent')
+def test_friction_damper_against_the_real_data_fir():
+    # Coble et al., Dataset-Friction-Damper-with-Backlash (CC BY-SA 4.0), 30 lb band tension.
+    # The reference is the FIR `fit` makes on the real sine tests (measured 71.6 % on the
+    # 0.5 Hz holdout file with the default design, nothing named).  With the short segment
+    # the lost motion is named and the written model (FIR + backlash) reports 69.9 -> 28.0 %
+    # (`evaluate` of it on the 0.5 Hz file).
+    real, holdout = _friction_sets()
+    plain = diagnose(real, None, holdout)
+    assert plain.fit.real_linear == plain.fit.before
+    short = diagnose(real, None, holdout, SHORT)
+    assert {f.physics for f in short.findings} & {'coulomb_friction', 'backlash'}
+    assert short.fit.model == 'real_frf+physics'
+    assert short.fit.after['data[2]'] < 0.6 * short.fit.real_linear['data[2]']
 
 
 @pytest.mark.skipif(not MR.is_dir(), reason=f'real dataset folder {MR} is absent')
-def test_mr_damper_names_a_saturating_force():
-    # labcontrol-data/mr-damper (MIT): same MR current in runs 4.2 (fit) and 4.4 (holdout).
+def test_mr_damper_is_too_short_for_the_real_data_fir():
+    # labcontrol-data/mr-damper (MIT): 15 s at 100 Hz per run.  The static law of earlier
+    # versions named friction (38.7 -> 17.8 %); against the FIR `fit` makes, the default
+    # design leaves too little of the record for cross-validation (refused, reason given) and
+    # the short segment finds nothing beyond noise (measured 126 %: a sine test does not
+    # identify an FIR between its frequencies).
     def load(name):
         return load_generic(MR / name, [parse_spec('x_F[0]:displacement:mm', 'input')],
                             [parse_spec('x_F[2]:force:N', 'output')], 100.0)
-    result = diagnose([load('data_simulation_4.2_MRdamper.mat')], None,
-                      [load('data_simulation_4.4_MRdamper.mat')])
-    assert result.findings[0].physics == 'coulomb_friction', result.summary
-    assert result.fit.after['x_F[2]'] < 0.7 * result.fit.before['x_F[2]']
+    real = [load('data_simulation_4.2_MRdamper.mat')]
+    hold = [load('data_simulation_4.4_MRdamper.mat')]
+    with pytest.raises(DiagnosisError, match='too little data to cross-validate'):
+        diagnose(real, None, hold)
+    result = diagnose(real, None, hold, SHORT)
+    assert result.fit.real_linear == result.fit.before
+    assert result.fit.model in ('real_linear', 'real_frf+physics')

@@ -65,20 +65,6 @@ def test_only_vertical_channels_get_a_roll_partner():
             assert partner is None
 
 
-def test_holdout_blocks_split_every_record_in_two_disjoint_halves():
-    from types import SimpleNamespace
-
-    from wheel_force_estimator.diagnosis.holdout import alternate_blocks
-    prep = SimpleNamespace(targets=[np.zeros((2, 5000)), np.zeros((2, 700))])
-    gate, report = alternate_blocks(prep, 100.0, block_s=4.0)
-    for g, r, t in zip(gate, report, prep.targets):
-        assert g.shape == r.shape == (t.shape[1],)
-        assert not np.any(g & r) and np.all(g | r)
-        assert g.any() and r.any()
-    # 5000 samples at 100 Hz in 4 s blocks: 12 blocks, alternating, gate first.
-    assert gate[0][0] and not gate[0][417] and gate[0][834]
-
-
 def _linear_motion(n=60 * 256, seed=3):
     """Wheel motion with exact derivatives: 24 sines, 1.5-15 Hz, random phases."""
     rng = np.random.default_rng(seed)

@@ -37,7 +37,7 @@ def values(**changes):
 def test_shipped_params_file_is_the_code_defaults():
     """One source of defaults: the YAML must say exactly what the code declares."""
     import yaml
-    from wheel_force_estimator.cli.common import CLI_FIT_DEFAULTS
+    from wheel_force_estimator.core.design import PRODUCT_FIT_DEFAULTS
     from wheel_force_estimator.cli.common import default_config_path
     from wheel_force_estimator.core.pipeline import FitConfig
     doc = yaml.safe_load(default_config_path().read_text())
@@ -49,7 +49,7 @@ def test_shipped_params_file_is_the_code_defaults():
         assert node[spec.name] == spec.default, spec.name
     fit = doc['wheel_force_fit']['ros__parameters']
     defaults = dataclasses.asdict(FitConfig())
-    defaults.update(CLI_FIT_DEFAULTS)
+    defaults.update(PRODUCT_FIT_DEFAULTS)
     defaults['f_max_hz'] = defaults['f_max_hz'] or 0.0      # the file writes None as 0
     assert fit == defaults
 

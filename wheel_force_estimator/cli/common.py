@@ -25,12 +25,6 @@ _FIT_KEYS = {
     'coherence_floor': float, 'long_segment_length': int, 'crossover_hz': float,
     'long_regularisation': float,
 }
-# What `wheel-force fit` uses when neither the params file nor the command line says
-# otherwise (the library's FitConfig() keeps the single-resolution paper method): the
-# two-resolution fit measured better on held-out simulated data on every Fz and most Fx/Fy
-# channels (bench/bench_accuracy.py, README).  Every other default (long_regularisation
-# 5e-2 included, the value those measurements used) is FitConfig's own.
-CLI_FIT_DEFAULTS = {'long_segment_length': 8192, 'crossover_hz': 2.0}
 
 
 def add_namespace_argument(parser: argparse.ArgumentParser) -> None:
@@ -108,8 +102,11 @@ def load_fit_config(path=None, **overrides):
         Unreadable file, unknown key or a value of the wrong type (file and key named).
 
     """
+    # What `wheel-force fit` uses when neither the params file nor the command line says
+    # otherwise: one home, the fit design shared with the diagnosis.
+    from wheel_force_estimator.core.design import PRODUCT_FIT_DEFAULTS
     from wheel_force_estimator.core.pipeline import FitConfig
-    values = dict(CLI_FIT_DEFAULTS)
+    values = dict(PRODUCT_FIT_DEFAULTS)
     values.update(_fit_section(path))
     values.update({k: v for k, v in overrides.items() if v is not None})
     if values.get('f_max_hz') == 0.0:

@@ -13,23 +13,30 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``diagnose``."""
     p = subparsers.add_parser(
         'diagnose', help='sim-vs-real diagnosis: locate the mismatch, name the missing physics',
-        description="Predict the real forces with the simulation's FRF (--sim) or a model "
-                    '(--model), locate the residual (bands, time windows, operating regime), '
-                    'rank candidate physics by the residual they explain on held-out data '
-                    'against a time-shifted-feature null, and compare before/after on '
-                    'holdout recordings.  Generic recordings (CSV/MAT/NPZ/JSON) are read with '
-                    '--input/--output role specs and --fs; without --sim a linear law is '
-                    'fitted on the real data and only nonlinear physics are sought.')
+        description="Predict the real forces with the simulation's FRF (--sim), a model "
+                    '(--model, any declared input quantity) or - without either - the best '
+                    'linear dynamic model fitted on the real data (the MIMO FIR `fit` makes), '
+                    'locate the residual (bands, time windows, operating regime), rank '
+                    'candidate physics by the residual they explain on held-out data against a '
+                    'time-shifted-feature null, and score the reference, the plain fit on the '
+                    'real data and the written model on the report half of the holdout exactly '
+                    'as `evaluate` does.  Generic recordings (CSV/MAT/NPZ/JSON) are read with '
+                    '--input/--output role specs and --fs.')
     p.add_argument('--real', nargs='+', required=True, metavar='FILE',
                    help='real recordings (bags, or generic files with --input/--output)')
     ref = p.add_mutually_exclusive_group()
     ref.add_argument('--sim', nargs='+', metavar='FILE', help='simulation recordings')
     ref.add_argument('--model', metavar='MODEL', help='model file (.npz) as the reference')
     p.add_argument('--holdout', nargs='+', default=[], metavar='FILE',
-                   help='real recordings kept out of fitting, for the before/after comparison')
+                   help='real recordings kept out of fitting: with two or more files the 1st, '
+                        '3rd, ... decide (gate, written model) and the 2nd, 4th, ... report '
+                        '(`evaluate OUT_MODEL` on those reproduces fit.after); one file is '
+                        'cut into halves (first decides, second reports)')
     p.add_argument('--json', required=True, metavar='FILE', help='write the diagnosis here')
     p.add_argument('--out-model', metavar='MODEL',
-                   help='write the augmented model (reference FRF + fitted physics terms)')
+                   help='write the best model: reference or real-data FRF + fitted physics '
+                        'terms, or the plain real-data fit, as the gate half prefers '
+                        '(fit.model in the JSON says which)')
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     p.add_argument('--config', metavar='YAML', help='params file (topic names, fit settings)')
     add_namespace_argument(p)
@@ -94,31 +101,34 @@ def _bags(args):
 def command(args: argparse.Namespace) -> int:
     """Run ``diagnose``; return the exit code."""
     from wheel_force_estimator.cli.common import generic_request
-    generic = bool(args.input or args.output or args.fs is not None)
-    if not generic and not (args.sim or args.model):
-        raise UsageError('bags need a reference: --sim BAG... or --model MODEL')
-    if args.out_model and not (args.sim or args.model):
-        raise UsageError('--out-model needs an FRF reference (--sim or --model)')
     request = generic_request(args, args.real, args.sim, args.holdout)
 
+    from wheel_force_estimator.cli.common import explicit_fit_keys
+    from wheel_force_estimator.cli.common import load_fit_config
     from wheel_force_estimator.core.model import load_model
     from wheel_force_estimator.core.model import save_model
     from wheel_force_estimator.diagnosis.features import FeatureConfig
     from wheel_force_estimator.diagnosis.run import diagnose
     from wheel_force_estimator.diagnosis.run import DiagnosisConfig
 
+    reference = None
+    if args.model:
+        reference = load_model(args.model)
+        if request is not None:
+            from wheel_force_estimator.cli.evaluate import check_generic_model
+            check_generic_model(reference, args.model, request)
     real, sim, holdout = _bags(args) if request is None else _generic(request, args)
     if args.out_model and real and real[0].input_quantity == 'displacement' and (
             request is None):
         raise UsageError('--out-model: the travel diagnosis fits travel -> vertical force, '
                          'which predict cannot apply to spindle accelerations; add --no-travel')
-    reference = load_model(args.model) if args.model else sim
+    reference = reference if args.model else sim
     features = FeatureConfig() if args.highpass_hz is None else FeatureConfig(args.highpass_hz)
-    fit = None
-    if request is None:
-        from wheel_force_estimator.cli.common import load_fit_config
-        fit = load_fit_config(args.config)
-    config = DiagnosisConfig(features=features, fit=fit, linear=args.linear)
+    # One fit design with `wheel-force fit`: same params file, same short-record rule.
+    fallback = (request is not None
+                and 'long_segment_length' not in explicit_fit_keys(args.config))
+    config = DiagnosisConfig(features=features, fit=load_fit_config(args.config),
+                             linear=args.linear, fit_fallback=fallback)
     result = diagnose(real, reference, holdout, config)
     path = result.write_json(args.json)
     for m in result.mismatch[:4]:
@@ -132,9 +142,10 @@ def command(args: argparse.Namespace) -> int:
     if args.out_model:
         if result.model is None:
             from wheel_force_estimator.core.errors import DiagnosisError
-            raise DiagnosisError('the reference is not an FRF model; no augmented model '
-                                 'can be written')
-        print(f'augmented model: {save_model(result.model, args.out_model)}')
+            raise DiagnosisError('no FRF model to write: the reference is not one and the real '
+                                 'recordings could not be fitted (see the notes above)')
+        print(f'written model ({result.fit.model}): '
+              f'{save_model(result.model, args.out_model)}')
     if args.report:
         from wheel_force_estimator.diagnosis.plots import write_report
         print(f'report: {write_report(args.report, result, real, holdout)}')

@@ -20,7 +20,7 @@ import argparse
 import dataclasses
 import functools
 from pathlib import Path
-from typing import List, Optional, Tuple
+from typing import Tuple
 
 from wheel_force_estimator.cli.common import add_generic_arguments
 from wheel_force_estimator.cli.common import add_namespace_argument
@@ -69,117 +69,66 @@ class _TrainingData:
     """What the fit is computed from, whichever kind of recording it came from."""
 
     segments: list
-    skipped: List[str]
     n_read: int
     n_recordings: int
     fs_hz: float
     input_channels: Tuple[str, ...]
     output_channels: Tuple[str, ...]
-    units: dict
+    input_quantity: str
     fit_info: dict
 
 
-def _too_short(source: str, n: int, segment_length: int) -> Optional[str]:
-    if n >= segment_length:
-        return None
-    return f'{source}: {n} samples < segment length {segment_length}'
-
-
-def _bag_data(args, config) -> _TrainingData:
+def _bag_data(args) -> _TrainingData:
     from wheel_force_estimator import INPUT_CHANNELS
     from wheel_force_estimator import OUTPUT_CHANNELS
     from wheel_force_estimator.core.pipeline import TrainingSegment
 
     recordings = read_recordings(args.recordings, topic_config(args),
                                  require_wft=True)
-    segments, skipped, n_read = [], [], 0
-    for rec in recordings:
-        for i, seg in enumerate(rec.segments):
-            n_read += seg.stamp_ns.size
-            source = f'{rec.path}#{i}'
-            reason = _too_short(source, seg.stamp_ns.size, config.segment_length)
-            if reason:
-                skipped.append(reason)
-            else:
-                segments.append(TrainingSegment(seg.accel_mps2, seg.force_n, source))
-    return _TrainingData(segments, skipped, n_read, len(recordings), nominal_fs_hz(recordings),
-                         INPUT_CHANNELS, OUTPUT_CHANNELS, {'input': 'm/s^2', 'output': 'N'},
+    segments = [TrainingSegment(seg.accel_mps2, seg.force_n, f'{rec.path}#{i}')
+                for rec in recordings for i, seg in enumerate(rec.segments)]
+    return _TrainingData(segments, sum(s.accel_mps2.shape[1] for s in segments),
+                         len(recordings), nominal_fs_hz(recordings), INPUT_CHANNELS,
+                         OUTPUT_CHANNELS, 'acceleration',
                          {'bags': [str(Path(b)) for b in args.recordings]})
 
 
-def _generic_data(request, paths, config) -> _TrainingData:
+def _generic_data(request, paths) -> _TrainingData:
     from wheel_force_estimator.core.pipeline import TrainingSegment
-    from wheel_force_estimator.daqio import SI_UNITS
 
     recordings = request.read(paths)
-    segments, skipped = [], []
-    for rec in recordings:
-        reason = _too_short(rec.path, rec.n_samples, config.segment_length)
-        if reason:
-            skipped.append(reason)
-        else:
-            segments.append(TrainingSegment(rec.inputs, rec.outputs, rec.path))
+    segments = [TrainingSegment(rec.inputs, rec.outputs, rec.path) for rec in recordings]
     info = {'recordings': [str(Path(p)) for p in paths],
             'input_quantity': request.input_quantity,
             'declared_inputs': [s.text for s in request.inputs],
             'declared_outputs': [s.text for s in request.outputs]}
-    return _TrainingData(segments, skipped, sum(r.n_samples for r in recordings),
-                         len(recordings), request.fs_hz, request.input_channels,
-                         request.output_channels,
-                         {'input': SI_UNITS[request.input_quantity], 'output': 'N'}, info)
-
-
-def _check_lengths(data: _TrainingData, config) -> None:
-    """Refuse a fit where no record holds one Welch segment, naming the longest."""
-    from wheel_force_estimator.core.errors import InsufficientDataError
-    if data.segments:
-        return
-    detail = '; '.join(data.skipped[:3]) + (' ...' if len(data.skipped) > 3 else '')
-    raise InsufficientDataError(
-        f'no recording holds one Welch segment of {config.segment_length} samples '
-        f'({config.segment_length / data.fs_hz:g} s at {data.fs_hz:g} Hz): {detail}; pass '
-        f'--segment-length N (N <= the record length) for a coarser frequency grid')
-
-
-def _short_record_fallback(config, data: _TrainingData, explicit) -> Tuple[object, str]:
-    """Return the config to fit with and a note (empty when nothing was changed)."""
-    if not config.long_segment_length or 'long_segment_length' in explicit:
-        return config, ''
-    longest = max(s.accel_mps2.shape[1] for s in data.segments)
-    if longest >= config.long_segment_length:
-        return config, ''
-    note = (f'note: no record holds the {config.long_segment_length}-sample long segment of '
-            f'the default two-resolution fit ({config.long_segment_length / data.fs_hz:g} s '
-            f'at {data.fs_hz:g} Hz; longest: {longest} samples); fitted with one resolution '
-            f'(segment {config.segment_length}). --long-segment-length 0 silences this note.')
-    return dataclasses.replace(config, long_segment_length=0), note
+    return _TrainingData(segments, sum(r.n_samples for r in recordings), len(recordings),
+                         request.fs_hz, request.input_channels, request.output_channels,
+                         request.input_quantity, info)
 
 
 def command(args: argparse.Namespace) -> int:
     """Run ``fit``; return the exit code."""
+    from wheel_force_estimator.core.design import fit_design
     from wheel_force_estimator.core.model import save_model
     from wheel_force_estimator.core.pipeline import coherence_summary
-    from wheel_force_estimator.core.pipeline import fit_model
 
     request = generic_request(args, args.recordings)
     settings = {'estimator': args.estimator, 'segment_length': args.segment_length,
                 'regularisation': args.regularisation, 'f_min_hz': args.f_min_hz,
                 'long_segment_length': args.long_segment_length}
     config = load_fit_config(args.config, **settings)
-    note = ''
-    data = (_bag_data(args, config) if request is None
-            else _generic_data(request, args.recordings, config))
-    _check_lengths(data, config)
-    if request is not None:
-        config, note = _short_record_fallback(config, data,
-                                              explicit_fit_keys(args.config, **settings))
     config = _with_live(config, args)
-    model = fit_model(data.segments, data.fs_hz, config, data.input_channels,
-                      data.output_channels, fit_info=data.fit_info)
-    model = dataclasses.replace(model, units=data.units)
+    data = _bag_data(args) if request is None else _generic_data(request, args.recordings)
+    # Bags keep the long-segment refusal; generic records fall back unless the user chose it.
+    fallback = (request is not None
+                and 'long_segment_length' not in explicit_fit_keys(args.config, **settings))
+    fitted = fit_design(data.segments, data.fs_hz, config, data.input_channels,
+                        data.output_channels, data.input_quantity, data.fit_info, fallback)
+    model = fitted.model
     path = save_model(model, args.out_model)
     summary = coherence_summary(model)
-    _print_summary(model, summary, config, data, note)
+    _print_summary(model, summary, fitted, data)
     if args.report:
         from wheel_force_estimator.cli import live
         from wheel_force_estimator.report.builders import write_fit_report
@@ -205,12 +154,13 @@ def _with_live(config, args):
                                                        + SWEEP_LOOK_AHEADS_S))
 
 
-def _print_summary(model, summary, config, data: _TrainingData, note: str) -> None:
-    used = sum(s.accel_mps2.shape[1] for s in data.segments)
-    print(f'recordings: {data.n_recordings}   segments used: {len(data.segments)}   '
+def _print_summary(model, summary, fitted, data: _TrainingData) -> None:
+    config, note = fitted.config, fitted.note
+    used = sum(s.accel_mps2.shape[1] for s in fitted.used)
+    print(f'recordings: {data.n_recordings}   segments used: {len(fitted.used)}   '
           f'samples used: {used} of {data.n_read} ({used / data.fs_hz:.1f} s)   '
           f'sample rate: {data.fs_hz:g} Hz')
-    for line in data.skipped:
+    for line in fitted.skipped:
         print(f'  not used (too short for one Welch segment): {line}')
     if note:
         print(note)

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import re
 from typing import Dict, Optional, Sequence, Tuple
 
+from wheel_force_estimator.core.design import INPUT_UNITS
 from wheel_force_estimator.core.errors import RecordingError
 from wheel_force_estimator.core.physics import QUANTITIES
 
@@ -28,8 +29,7 @@ UNITS: Dict[str, Dict[str, float]] = {
                      'in/s^2': _INCH, 'in/s2': _INCH, 'g': 9.80665},
     'force': {'N': 1.0, 'kN': 1e3, 'lbf': _LBF, 'lb': _LBF, 'kip': 1e3 * _LBF},
 }
-SI_UNITS: Dict[str, str] = {'displacement': 'm', 'velocity': 'm/s', 'acceleration': 'm/s^2',
-                            'force': 'N'}
+SI_UNITS: Dict[str, str] = {**INPUT_UNITS, 'force': 'N'}
 #: Motion quantities an input may declare (the physics features' quantities).
 INPUT_QUANTITIES = QUANTITIES
 ROLES = ('input', 'output')
@@ -144,7 +144,10 @@ def check_specs(inputs: Sequence[ChannelSpec],
         raise RecordingError('declare at least one --input and one --output channel')
     quantities = sorted({s.quantity for s in inputs})
     if len(quantities) != 1:
-        raise RecordingError(f'all inputs must share one quantity, got {quantities}')
+        named = '; '.join(f'{q}: ' + ', '.join(s.label for s in inputs if s.quantity == q)
+                          for q in quantities)
+        raise RecordingError(f'all inputs must share one quantity (one FRF input unit), got '
+                             f'{named}')
     if quantities[0] not in INPUT_QUANTITIES or any(s.quantity != 'force' for s in outputs):
         raise RecordingError('inputs must be motion and outputs force channels')
     for role, specs in (('input', inputs), ('output', outputs)):

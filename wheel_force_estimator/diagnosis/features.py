@@ -56,19 +56,23 @@ class FeatureConfig:
         return hp, self.lowpass_hz or fs_hz / 8.0
 
 
-def pairing(output_channels: Sequence[str], input_channels: Sequence[str]
+def pairing(output_channels: Sequence[str], input_channels: Sequence[str], recordings=()
             ) -> Tuple[Tuple[str, ...], Tuple[Optional[str], ...]]:
     """
     Source input channel and other-side partner input channel of every output channel.
 
     Vehicle names pair ``lf_fz`` with ``lf_az`` (partner ``rf_az``; only vertical channels get
-    a partner: a roll bar couples vertical motion); other recordings pair
-    outputs with inputs by position, or every output with a single input.
+    a partner: a roll bar couples vertical motion); a single input drives every output.  Any
+    other recording (several inputs, names that say nothing) pairs each output with the input
+    that explains the most of it linearly on its own: the largest output-power-weighted mean
+    coherence ``sum_f coh_io(f) Pyy(f) / sum_f Pyy(f)`` over ``recordings``, i.e. the fraction
+    of the output's dynamic variance that input alone accounts for.  Names and positions are
+    not trusted: a rig's channel order is whatever the DAQ export says.
 
     Raises
     ------
     DiagnosisError
-        When no pairing rule fits the channel names and counts.
+        Several inputs, names that do not pair, and no recordings to measure coherence on.
 
     """
     inputs = tuple(input_channels)
@@ -84,13 +88,36 @@ def pairing(output_channels: Sequence[str], input_channels: Sequence[str]
             other = f'{PARTNER_CORNER.get(corner, "")}_{axis}'
             partners.append(other if other in inputs and axis.endswith('z') else None)
         return sources, tuple(partners)
-    if len(inputs) == len(output_channels):
-        return inputs, (None,) * len(inputs)
     if len(inputs) == 1:
         return inputs * len(output_channels), (None,) * len(output_channels)
-    raise DiagnosisError(
-        f'cannot tell which input drives which output: inputs {list(inputs)}, outputs '
-        f'{list(output_channels)} (give one input per output, in order, or a single input)')
+    if not recordings:
+        raise DiagnosisError(
+            f'cannot tell which input drives which output: inputs {list(inputs)}, outputs '
+            f'{list(output_channels)}, and no recordings to measure their coherence on')
+    share = explained_shares(recordings)
+    return (tuple(inputs[int(np.argmax(row))] for row in share),
+            (None,) * len(output_channels))
+
+
+def explained_shares(recordings) -> np.ndarray:
+    """
+    Output-power-weighted mean coherence of every (output, input) pair, shape (n_out, n_in).
+
+    Welch segments of up to 1024 samples per record (shortened for short records), the DC
+    line left out; records pooled with weights equal to their output power.
+    """
+    from scipy import signal
+    num = den = 0.0
+    for rec in recordings:
+        x = np.asarray(rec.inputs, dtype=np.float64)
+        y = np.asarray(rec.outputs, dtype=np.float64)
+        nperseg = int(min(1024, max(8, x.shape[1] // 4)))
+        _, pyy = signal.welch(y, rec.fs_hz, nperseg=nperseg)
+        coh = np.stack([np.stack([signal.coherence(x[i], y[o], rec.fs_hz, nperseg=nperseg)[1]
+                                  for i in range(x.shape[0])]) for o in range(y.shape[0])])
+        num = num + np.sum(coh[:, :, 1:] * pyy[:, None, 1:], axis=2)
+        den = den + np.sum(pyy[:, 1:], axis=1)[:, None]
+    return num / np.maximum(den, 1e-300)
 
 
 def motion_features(inputs: np.ndarray, fs_hz: float, input_quantity: str,

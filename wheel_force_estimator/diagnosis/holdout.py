@@ -1,46 +1,136 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Holdout comparisons of a diagnosis: RMSE per channel, the augmented model, the holdout gate.
+Holdout comparisons of a diagnosis: the gate/report split, scores, the holdout gate.
 
 ``prep`` arguments are the prepared records of :mod:`diagnosis.prepared` (``recordings``,
 ``targets``, ``predictions`` and ``full_predictions`` of the reference, settling removed).
 
-The holdout recordings are cut into alternate time blocks (:func:`alternate_blocks`): the
-gate that drops findings which make unseen data worse decides on one half, and every
-before/after figure is computed on the other half only, so no reported number comes from
-data that took part in a decision.
+The holdout is split in two (:func:`split_holdout`) so that a user can reproduce every reported
+figure with ``wheel-force evaluate``: with two or more holdout files (bags or generic files),
+whole files alternate - the 1st, 3rd, ... decide (the gate that drops findings which make unseen
+data worse, and the choice of the model ``--out-model`` writes), the 2nd, 4th, ... report.  A
+single holdout file is cut into contiguous halves per gap-free segment (first half gate, second
+half report); its figures are then those of ``evaluate`` on the second halves.  Every reported
+figure (:func:`evaluate_scores`) is ``core.evaluation.evaluate_segments`` of the whole report
+records predicted through ``core.predict.predict_forces`` - the path ``wheel-force evaluate``
+runs - so no reported number comes from data that took part in a decision.
 """
+from dataclasses import dataclass
 from dataclasses import replace
-from typing import Dict, List
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator.core.evaluation import EvalSegment
+from wheel_force_estimator.core.evaluation import evaluate_segments
 from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.metrics import rmse_pct
 from wheel_force_estimator.core.physics import apply_physics
 from wheel_force_estimator.diagnosis import text
+from wheel_force_estimator.diagnosis.recording import MotionRecording
 
 
-#: Length of the alternate holdout blocks (gate / report) [s].
-HOLDOUT_BLOCK_S = 4.0
-
-
-def alternate_blocks(prep, fs_hz: float, block_s: float = HOLDOUT_BLOCK_S):
+@dataclass(frozen=True)
+class HoldoutSplit:
     """
-    Return ``(gate, report)``: per record, boolean sample masks of alternate time blocks.
+    The holdout cut into the half that decides and the half that reports.
 
-    A record is cut into ``max(2, n // block)`` equal blocks; even blocks go to the gate,
-    odd ones to the report (so every record contributes to both).
+    Attributes
+    ----------
+    gate, report : tuple of MotionRecording
+        Records of each half.
+    report_on : tuple of str
+        What ``wheel-force evaluate`` must be given to reproduce the reported figures (files,
+        or ``FILE (second half: samples A..B)`` for a single holdout file).
+    whole : tuple of MotionRecording
+        The records the gate's features are computed on (whole records, so their filters
+        settle before the gate half starts).
+    gate_ends : tuple of int or None
+        Per record of ``whole``, the sample where the gate half ends (None: all of it).
+
     """
-    gate, report = [], []
-    for target in prep.targets:
-        n = target.shape[1]
-        n_blocks = max(2, n // max(int(round(block_s * fs_hz)), 1))
-        block = (np.arange(n) * n_blocks) // n
-        gate.append(block % 2 == 0)
-        report.append(block % 2 == 1)
-    return gate, report
+
+    gate: Tuple[MotionRecording, ...]
+    report: Tuple[MotionRecording, ...]
+    report_on: Tuple[str, ...]
+    whole: Tuple[MotionRecording, ...] = ()
+    gate_ends: Optional[Tuple[int, ...]] = None
+
+    def gate_masks(self, spans) -> Optional[List[np.ndarray]]:
+        """Masks of the gate samples over prepared spans of :attr:`whole` (None = all)."""
+        if self.gate_ends is None:
+            return None
+        return [np.arange(a, b) < end for (a, b), end in zip(spans, self.gate_ends)]
+
+
+def source_file(rec: MotionRecording) -> str:
+    """Return the file a record came from (bag segments are named ``PATH#i``)."""
+    path, sep, index = rec.name.rpartition('#')
+    return path if sep and index.isdigit() else rec.name
+
+
+def _halves(rec: MotionRecording) -> Tuple[MotionRecording, MotionRecording]:
+    n = rec.n_samples
+    cut = n // 2
+    out = []
+    for lo, hi, what in ((0, cut, 'first'), (cut, n, 'second')):
+        t0 = rec.start_s + lo / rec.fs_hz
+        t1 = rec.start_s + hi / rec.fs_hz
+        out.append(replace(rec, name=f'{rec.name} ({what} half: samples {lo}..{hi})',
+                           inputs=rec.inputs[:, lo:hi], outputs=rec.outputs[:, lo:hi],
+                           start_s=t0, events=tuple(e for e in rec.events if t0 <= e[0] < t1)))
+    return out[0], out[1]
+
+
+def split_holdout(holdout: Sequence[MotionRecording]) -> HoldoutSplit:
+    """
+    Split holdout records into gate and report halves (see the module notes).
+
+    Whole files alternate when there are two or more (1st, 3rd, ... gate; 2nd, 4th, ...
+    report); a single file is cut into contiguous halves per segment.
+    """
+    files = list(dict.fromkeys(source_file(r) for r in holdout))
+    if len(files) >= 2:
+        report_files = files[1::2]
+        gate = tuple(r for r in holdout if source_file(r) not in report_files)
+        report = tuple(r for r in holdout if source_file(r) in report_files)
+        return HoldoutSplit(gate, report, tuple(report_files), gate)
+    halves = [_halves(r) for r in holdout]
+    return HoldoutSplit(tuple(h[0] for h in halves), tuple(h[1] for h in halves),
+                        tuple(h[1].name for h in halves), tuple(holdout),
+                        tuple(h[0].n_samples for h in halves))
+
+
+#: Metric of the reported figures per input quantity: an acceleration FRF cannot follow
+#: quasi-static load (the spindle acceleration of a steady load transfer is ~0), so vehicle
+#: figures are the paper's 1 Hz high-passed RMSE; displacement and velocity inputs see the
+#: quasi-static motion, and rig tests often run below 1 Hz, so their figures are unfiltered.
+METRIC = {'acceleration': 'rmse_hp1_pct', 'velocity': 'rmse_pct', 'displacement': 'rmse_pct'}
+
+
+def evaluate_scores(predict: Callable[[MotionRecording], np.ndarray],
+                    recordings: Sequence[MotionRecording], metric: str) -> Dict[str, float]:
+    """
+    RMSE % per channel exactly as ``wheel-force evaluate`` computes it for these records.
+
+    Parameters
+    ----------
+    predict : callable
+        ``predict(recording) -> force [N]`` of the whole record (``predict_forces`` of a
+        model for every reported figure).
+    recordings : sequence of MotionRecording
+        Whole records (no settling removed: ``evaluate`` does not remove any).
+    metric : str
+        ``'rmse_pct'`` or ``'rmse_hp1_pct'`` (:data:`METRIC`).
+
+    """
+    rec0 = recordings[0]
+    segments = [EvalSegment(np.asarray(r.outputs), predict(r),
+                            np.arange(r.n_samples, dtype=np.int64), r.name) for r in recordings]
+    ev = evaluate_segments(segments, rec0.fs_hz, rec0.output_channels)
+    values = ev.rmse_hp1_pct if metric == 'rmse_hp1_pct' else ev.rmse_pct
+    return dict(zip(rec0.output_channels, (float(v) for v in values)))
 
 
 def rmse_by_channel(targets, predictions, channels, highpass_hz=0.0, fs_hz=1.0,
@@ -71,97 +161,7 @@ def _with_terms(prep, terms) -> List[np.ndarray]:
 
 def augmented(prep, terms) -> List[np.ndarray]:
     """Return the reference prediction plus the physics stage, over the trimmed records."""
-    return [y[:, -target.shape[1]:] for y, target in zip(_with_terms(prep, terms), prep.targets)]
-
-
-def _unit_forces(findings, prep) -> List[List[np.ndarray]]:
-    """Per finding, per record: the force its terms add to the prediction (full records)."""
-    return [[y - pred for y, pred in zip(_with_terms(prep, f.terms), prep.full_predictions)]
-            for f in findings]
-
-
-def _strengths(units, prep, hp: float) -> np.ndarray:
-    """
-    Least-squares strength factor per finding on the residual of ``prep``'s reference.
-
-    ``units`` are the findings' :func:`_unit_forces` on ``prep``.  Channels are weighted by
-    their force RMS (like the RMSE %); residual and contributions are high-passed like the
-    metric.
-    """
-    fs_hz = prep.recordings[0].fs_hz
-    a_rows, b_rows = [], []
-    for i, (y, p) in enumerate(zip(prep.targets, prep.predictions)):
-        cols = [u[i][:, -y.shape[1]:] for u in units]
-        r = y - p
-        t = y
-        if hp > 0.0:
-            cols = [highpass(c, fs_hz, hp, 'term contribution') if np.any(c) else c
-                    for c in cols]
-            r = highpass(r, fs_hz, hp, 'refit residual')
-            t = highpass(y, fs_hz, hp, 'refit target')
-        w = 1.0 / np.maximum(np.sqrt(np.mean(t ** 2, axis=1, keepdims=True)), 1e-300)
-        a_rows.append(np.stack([(c * w).ravel() for c in cols], axis=1))
-        b_rows.append((r * w).ravel())
-    beta, *_ = np.linalg.lstsq(np.concatenate(a_rows), np.concatenate(b_rows), rcond=None)
-    return beta
-
-
-def _added_force(units, beta, prep) -> List[np.ndarray]:
-    """Per record of ``prep``: the force the findings add with strengths ``beta`` (full)."""
-    return [sum((b * u[i] for b, u in zip(beta, units)), np.zeros_like(pred))
-            for i, pred in enumerate(prep.full_predictions)]
-
-
-def backfitted(findings, real, holdout, reference, fit_linear, prepare, hp: float,
-               iterations: int = 2):
-    """
-    Fit the best linear FRF on the real data and the findings' strengths jointly.
-
-    A linear FRF fitted on the real forces absorbs the linearised part of a nonlinear effect;
-    fitting the terms on its residual then counts that part twice.  Backfitting removes it:
-    the FRF is refitted on the real forces minus the terms' force, the strengths (one factor
-    per finding, shapes kept) on the residual of that FRF, ``iterations`` times.  The result
-    is an FRF plus physics terms, like any augmented model.
-
-    Parameters
-    ----------
-    findings : sequence of Finding
-        Findings with terms (others are ignored).
-    real, holdout : sequence of MotionRecording
-        Recordings to fit on / to predict.
-    reference : object
-        The linear fit on ``real`` as recorded (the starting point).
-    fit_linear : callable
-        ``fit_linear(recordings) -> reference`` (the best linear fit on real data).
-    prepare : callable
-        ``prepare(recordings, reference) -> Prepared``.
-    hp : float
-        High-pass of the strength fit [Hz] (0 = none).
-    iterations : int
-        FRF refits after the first.
-
-    Returns
-    -------
-    (targets, predictions) : lists of numpy.ndarray
-        Of the prepared holdout records (settling removed).
-
-    """
-    findings = [f for f in findings if f.terms]
-    real_prep = prepare(real, reference)
-    units = _unit_forces(findings, real_prep)
-    beta = _strengths(units, real_prep, hp) if findings else np.zeros(0)
-    for _ in range(iterations if findings else 0):
-        added = _added_force(units, beta, real_prep)
-        corrected = [replace(rec, outputs=np.asarray(rec.outputs) - a)
-                     for rec, a in zip(real, added)]
-        reference = fit_linear(corrected)
-        real_prep = prepare(real, reference)
-        units = _unit_forces(findings, real_prep)
-        beta = _strengths(units, real_prep, hp)
-    hold_prep = prepare(holdout, reference)
-    added = _added_force(_unit_forces(findings, hold_prep), beta, hold_prep)
-    preds = [p + a[:, -p.shape[1]:] for p, a in zip(hold_prep.predictions, added)]
-    return hold_prep.targets, preds
+    return [y[:, a:b] for y, (a, b) in zip(_with_terms(prep, terms), prep.spans)]
 
 
 #: Largest rise of the holdout RMSE [points of %] a finding's terms may cause (mean over its
@@ -173,7 +173,8 @@ def holdout_gate(findings, hold, channels, hp, fs_hz, mask):
     """
     Drop findings whose terms make the holdout worse (backward elimination).
 
-    Judged on the samples of ``mask`` only (the gate half of :func:`alternate_blocks`).  A
+    Judged on the samples of ``mask`` (all when None) of ``hold``, the gate half of
+    :func:`split_holdout`.  A
     finding is dropped when it raises the RMSE by more than :data:`MAX_HOLDOUT_HARM_PCT`
     points on average over its channels (its parameters are shared, so it stands or falls on
     all of them); the most harmful goes first.

@@ -8,7 +8,7 @@ import numpy as np
 from scipy import signal
 
 from wheel_force_estimator.core.errors import DiagnosisError
-from wheel_force_estimator.core.physics import apply_physics
+from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.features import motion_features
 from wheel_force_estimator.diagnosis.features import pairing
@@ -39,9 +39,10 @@ def _pyplot():
 
 def _predictions(result, rec):
     before = result.baseline.predict(rec)
-    after = apply_physics(result.terms, rec.fs_hz, rec.input_channels, rec.output_channels,
-                          rec.inputs, before, rest_inputs=rec.inputs.mean(axis=1))
-    return before, after
+    if result.model is None:
+        return before, before
+    # The written model through the path `predict` and `evaluate` take.
+    return before, predict_forces(result.model, rec.inputs)
 
 
 def _time_plot(plt, path, rec, o, before, after, windows):
@@ -53,7 +54,7 @@ def _time_plot(plt, path, rec, o, before, after, windows):
     fig, ax = plt.subplots(figsize=(10, 4))
     ax.plot(t[sel], rec.outputs[o][sel], 'k', lw=1.2, label='real')
     ax.plot(t[sel], before[o][sel], 'C1', lw=0.9, label='reference (before)')
-    ax.plot(t[sel], after[o][sel], 'C2', lw=0.9, label='augmented (after)')
+    ax.plot(t[sel], after[o][sel], 'C2', lw=0.9, label='written model (after)')
     ax.set_xlabel('time [s]')
     ax.set_ylabel(f'{rec.output_channels[o]} [N]')
     ax.set_title(f'{rec.name}: {rec.output_channels[o]}')
@@ -84,8 +85,12 @@ def _regime_plot(plt, path, rec, o, before, finding):
     term = finding.terms[0] if finding.terms else None
     hp = term.highpass_hz if term else FeatureConfig().highpass_hz
     feats = motion_features(rec.inputs, rec.fs_hz, rec.input_quantity, FeatureConfig(hp or 0.2))
-    sources, _ = pairing(rec.output_channels, rec.input_channels)
-    s = rec.input_channels.index(sources[o])
+    channel = rec.output_channels[o]
+    if term is not None and channel in term.channels:
+        source = term.sources[term.channels.index(channel)]
+    else:
+        source = pairing(rec.output_channels, rec.input_channels, (rec,))[0][o]
+    s = rec.input_channels.index(source)
     key, label = _STATE.get(finding.physics, ('displacement', 'displacement [m]'))
     state = {'level': rec.inputs[s], 'load': before[o]}.get(key)
     if state is None:
@@ -101,7 +106,7 @@ def _regime_plot(plt, path, rec, o, before, finding):
     centres = [x[idx == i].mean() for i in range(25) if np.any(idx == i)]
     means = [r[idx == i].mean() for i in range(25) if np.any(idx == i)]
     ax.plot(centres, means, 'C3o-', ms=4, label='binned mean')
-    ax.set_xlabel(f'{sources[o]} {label}')
+    ax.set_xlabel(f'{source} {label}')
     ax.set_ylabel(f'{rec.output_channels[o]} residual [N]')
     ax.set_title(f'{finding.physics}: the regime that reveals it')
     ax.legend(loc='best')
@@ -174,14 +179,11 @@ def _markdown(result, rec, images) -> str:
         lines += ['None beyond noise.', '']
     lines += ['', '## Not accepted', ''] + [f'- {r}' for r in result.rejected]
     fit = result.fit
-    extra = [(name, values) for name, values in (
-        ('best linear on real %', fit.linear_real),
-        ('best linear on real + physics %', fit.augmented_real)) if values]
-    lines += ['', f'## Fit ({fit.data})', '', '| channel | before % | after % |'
-              + ''.join(f' {name} |' for name, _ in extra),
-              '|---|---|---|' + '---|' * len(extra)]
+    lin = fit.real_linear or {}
+    lines += ['', f'## Fit ({fit.data}, {fit.metric}; written model: {fit.model or "none"})',
+              '', '| channel | before % | real_linear % | after % |', '|---|---|---|---|']
     for ch, b in fit.before.items():
-        lines.append(f'| {ch} | {b:.1f} | {fit.after[ch]:.1f} |'
-                     + ''.join(f' {values[ch]:.1f} |' for _, values in extra))
+        lines.append(f'| {ch} | {b:.1f} | '
+                     + (f'{lin[ch]:.1f}' if ch in lin else '-') + f' | {fit.after[ch]:.1f} |')
     lines += ['', f'Plots from {rec.name}:', ''] + [f'![{i}]({i})' for i in images]
     return '\n'.join(lines) + '\n'

@@ -21,7 +21,12 @@ from wheel_force_estimator.diagnosis.selection import Piece
 
 @dataclass
 class Prepared:
-    """Reference prediction and features of the real recordings, settling time removed."""
+    """
+    Reference prediction and features of the real recordings, settling time removed.
+
+    ``spans[i] = (start, stop)``: the samples of record ``i`` kept in ``targets``,
+    ``predictions`` and ``contexts`` (``full_predictions`` cover the whole record).
+    """
 
     recordings: Tuple[MotionRecording, ...]
     targets: List[np.ndarray]
@@ -29,6 +34,22 @@ class Prepared:
     contexts: list
     starts_s: List[float]
     full_predictions: List[np.ndarray]
+    spans: List[Tuple[int, int]]
+
+
+def edge_samples(reference) -> int:
+    """
+    Return the samples at each end of a record where the reference's FIR reaches beyond it.
+
+    A two-sided FIR of look-ahead ``d`` needs ``d`` samples before and after each output; at
+    the ends of a record the predictor fills them with the static level, a transient that
+    says nothing about the physics (largest on sine tests, whose FRF is undetermined between
+    the tested frequencies).  The residual the diagnosis analyses leaves them out (at most a
+    quarter of a record at each end, see :func:`prepare`); reported figures (``evaluate``)
+    keep every sample.
+    """
+    model = getattr(reference, 'model', None)
+    return int(getattr(model, 'fir_delay_samples', 0) or 0)
 
 
 def prepare(recordings, reference, sources, partners, config) -> Prepared:
@@ -42,21 +63,28 @@ def prepare(recordings, reference, sources, partners, config) -> Prepared:
 
     """
     rec0 = recordings[0]
-    skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
-    prep = Prepared(tuple(recordings), [], [], [], [], [])
+    settle = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
+    prep = Prepared(tuple(recordings), [], [], [], [], [], [])
     for rec in recordings:
-        if rec.n_samples <= skip + config.selection.min_block_samples:
+        # A FIR as long as the record (the two-resolution fit on a short record) may not
+        # take more than half of it: the transient is largest right at the ends.
+        edge = min(edge_samples(reference), rec.n_samples // 4)
+        skip = max(settle, edge)
+        stop = rec.n_samples - edge
+        if stop - skip <= config.selection.min_block_samples:
             raise DiagnosisError(
                 f'{rec.name}: {rec.n_samples} samples ({rec.duration_s:.2f} s); the feature '
-                f'filters need {skip / rec.fs_hz:.2f} s to settle, too little data remains')
+                f'filters need {skip / rec.fs_hz:.2f} s to settle and the reference FIR '
+                f'{edge / rec.fs_hz:.2f} s at each end, too little data remains')
         pred = reference.predict(rec)
         ctxs = channel_contexts(rec.inputs, rec.input_channels, rec.fs_hz, rec.input_quantity,
                                 pred, sources, partners, config.features)
-        prep.targets.append(np.asarray(rec.outputs)[:, skip:])
-        prep.predictions.append(pred[:, skip:])
-        prep.contexts.append([trim(c, skip) for c in ctxs])
+        prep.targets.append(np.asarray(rec.outputs)[:, skip:stop])
+        prep.predictions.append(pred[:, skip:stop])
+        prep.contexts.append([trim(c, skip, stop) for c in ctxs])
         prep.starts_s.append(rec.start_s + skip / rec.fs_hz)
         prep.full_predictions.append(pred)
+        prep.spans.append((skip, stop))
     return prep
 
 
@@ -66,9 +94,9 @@ def axis(channel: str) -> str:
     return name if sep else channel
 
 
-def trim(ctx, skip):
-    """Return ``ctx`` without its first ``skip`` samples."""
-    return replace(ctx, **{k: (None if getattr(ctx, k) is None else getattr(ctx, k)[skip:])
+def trim(ctx, skip, stop=None):
+    """Return ``ctx`` without its first ``skip`` samples (and from ``stop`` on)."""
+    return replace(ctx, **{k: (None if getattr(ctx, k) is None else getattr(ctx, k)[skip:stop])
                            for k in ('disp', 'vel', 'acc', 'level', 'load', 'partner_disp')})
 
 

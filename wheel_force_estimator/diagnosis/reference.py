@@ -3,12 +3,13 @@
 """
 The linear prediction a diagnosis starts from ("what the simulation can explain").
 
-- :class:`FrfReference`: the product's MIMO FRF model, fitted on the simulation's recordings
-  (``--sim``) or loaded (``--model``), applied to the real accelerations.
+- :class:`FrfReference`: the product's MIMO FRF model (any declared input quantity), fitted
+  on the simulation's recordings (``--sim``), loaded (``--model``), or - without either -
+  fitted on the real recordings themselves with the design of ``wheel-force fit``.
 - :class:`RegressionReference`: a per-channel linear force-from-motion law
-  ``F = F0 + k x + c v + m a`` on the same band-limited features the physics terms use, for
-  generic recordings (displacement / velocity inputs, short sinusoidal tests) where a Welch FRF
-  is not identifiable.
+  ``F = F0 + k x + c v + m a`` on the same band-limited features the physics terms use, only
+  on request (``--linear regression`` with ``--sim``) and as a benchmark baseline; never the
+  default reference.
 """
 from typing import Sequence
 
@@ -33,9 +34,21 @@ class FrfReference:
         self.name = name
 
     @classmethod
-    def fit(cls, recordings: Sequence[MotionRecording], name: str, fit_config=None):
+    def fit(cls, recordings: Sequence[MotionRecording], name: str, fit_config=None,
+            short_record_fallback: bool = False):
         """
-        Fit the FRF on recordings (all segments pooled, Welch per segment).
+        Fit the FRF on recordings with the product's design (``wheel-force fit``).
+
+        Parameters
+        ----------
+        recordings : sequence of MotionRecording
+            One Welch-averaged segment each.
+        name : str
+            What they are (``'sim'``, ``'real'``), in messages and the model's ``fit``.
+        fit_config : FitConfig, optional
+            Settings; None = what ``wheel-force fit`` uses without a params file.
+        short_record_fallback : bool
+            One resolution when no record holds the long segment (generic recordings).
 
         Raises
         ------
@@ -43,36 +56,41 @@ class FrfReference:
             When the recordings cannot be fitted (too short, singular), with the reason.
 
         """
-        from wheel_force_estimator.core.pipeline import FitConfig
-        from wheel_force_estimator.core.pipeline import fit_model
+        from wheel_force_estimator.core.design import fit_design
+        from wheel_force_estimator.core.design import product_fit_config
         from wheel_force_estimator.core.pipeline import TrainingSegment
-        config = fit_config or FitConfig()
+        config = fit_config or product_fit_config()
         rec0 = recordings[0]
         segments = [TrainingSegment(r.inputs, r.outputs, r.name) for r in recordings]
         try:
-            model = fit_model(segments, rec0.fs_hz, config, rec0.input_channels,
-                              rec0.output_channels, fit_info={'diagnosis': name})
+            fitted = fit_design(segments, rec0.fs_hz, config, rec0.input_channels,
+                                rec0.output_channels, rec0.input_quantity,
+                                {'diagnosis': name}, short_record_fallback)
         except WheelForceError as err:
             raise DiagnosisError(f'cannot fit the linear FRF on the {name} recordings: '
                                  f'{err}') from err
-        return cls(model, name)
+        return cls(fitted.model, name)
 
     def check(self, rec: MotionRecording):
-        """Refuse a recording whose channels or rate differ from the model's."""
+        """Refuse a recording whose channels, rate or input quantity differ from the model's."""
+        from wheel_force_estimator.daqio import quantity_of_unit
         m = self.model
         if rec.input_channels != m.input_channels or rec.output_channels != m.output_channels:
             raise DiagnosisError(f'{rec.name}: channels {list(rec.input_channels)} -> '
                                  f'{list(rec.output_channels)} differ from those of the '
-                                 f'{self.name} model')
+                                 f'{self.name} model ({list(m.input_channels)} -> '
+                                 f'{list(m.output_channels)}); nothing is renamed')
         if abs(rec.fs_hz - m.fs_hz) > 1e-6 * m.fs_hz:
             raise DiagnosisError(f'{rec.name}: sampled at {rec.fs_hz:g} Hz but the {self.name} '
                                  f'model at {m.fs_hz:g} Hz; nothing is resampled')
-        if rec.input_quantity != 'acceleration':
-            raise DiagnosisError(f'{rec.name}: an FRF model needs acceleration inputs, got '
-                                 f'{rec.input_quantity}')
+        unit = m.units.get('input', 'm/s^2')
+        if quantity_of_unit(unit) != rec.input_quantity:
+            raise DiagnosisError(f'{rec.name}: inputs are {rec.input_quantity} but the '
+                                 f'{self.name} model takes {quantity_of_unit(unit) or "unknown"} '
+                                 f'({unit})')
 
     def predict(self, rec: MotionRecording) -> np.ndarray:
-        """Total force [N] time-aligned with ``rec``."""
+        """Total force [N] time-aligned with ``rec`` (the path ``evaluate`` takes)."""
         from wheel_force_estimator.core.predict import predict_forces
         self.check(rec)
         return predict_forces(self.model, rec.inputs)
@@ -84,7 +102,8 @@ class RegressionReference:
     kind = 'regression'
 
     def __init__(self, coefficients: np.ndarray, config: FeatureConfig, name: str,
-                 input_channels, output_channels, input_quantity: str, fs_hz: float):
+                 input_channels, output_channels, input_quantity: str, fs_hz: float,
+                 sources):
         self.coefficients = coefficients
         self.config = config
         self.name = name
@@ -92,7 +111,7 @@ class RegressionReference:
         self.output_channels = tuple(output_channels)
         self.input_quantity = input_quantity
         self.fs_hz = fs_hz
-        self.sources, _ = pairing(self.output_channels, self.input_channels)
+        self.sources = tuple(sources)
 
     @staticmethod
     def _design(rec: MotionRecording, config: FeatureConfig, sources):
@@ -109,7 +128,7 @@ class RegressionReference:
     def fit(cls, recordings: Sequence[MotionRecording], config: FeatureConfig, name: str):
         """Fit on recordings, leaving out each record's filter settling time."""
         rec0 = recordings[0]
-        sources, _ = pairing(rec0.output_channels, rec0.input_channels)
+        sources, _ = pairing(rec0.output_channels, rec0.input_channels, recordings)
         skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config)
         rows = [[] for _ in sources]
         ys = [[] for _ in sources]
@@ -127,7 +146,7 @@ class RegressionReference:
             sol, *_ = np.linalg.lstsq(a / scale, y, rcond=None)
             coefs.append(sol / scale)
         return cls(np.array(coefs), config, name, rec0.input_channels, rec0.output_channels,
-                   rec0.input_quantity, rec0.fs_hz)
+                   rec0.input_quantity, rec0.fs_hz, sources)
 
     def predict(self, rec: MotionRecording) -> np.ndarray:
         """Total force [N] time-aligned with ``rec``."""

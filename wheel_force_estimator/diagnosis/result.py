@@ -104,39 +104,75 @@ class Finding:
 @dataclass(frozen=True)
 class FitComparison:
     """
-    RMSE % per channel of the reference (before) and the augmented model (after).
+    RMSE % per channel of the reference, the best linear model on the real data, the written model.
 
-    ``highpass_hz`` > 0: both signals high-passed first (``rmse_hp`` of the paper).
-    ``linear_real``: the best linear model fitted on the real recordings themselves;
-    ``augmented_real``: that model and the named physics terms fitted jointly (backfitting:
-    strengths refitted, shapes kept) - what the named physics add to the best linear fit.
-    With ``data == 'holdout'`` every figure is measured on the half of the holdout blocks the
-    holdout gate never saw (:func:`diagnosis.holdout.alternate_blocks`).
+    With ``data == 'holdout'`` every figure is what ``wheel-force evaluate`` reports for that
+    model on the report half of the holdout (:func:`diagnosis.holdout.split_holdout`, named in
+    ``report_on``), the ``metric`` field of ``evaluate --json`` (``rmse_hp1_pct`` for
+    acceleration inputs, ``rmse_pct`` otherwise: ``highpass_hz`` 1 or 0).  With
+    ``'cross_validation'`` (no holdout) ``before``/``after`` are the reference and the
+    reference plus terms on the selection's held-out time blocks.
+
+    Attributes
+    ----------
+    before : mapping str -> float
+        The simulation's FRF (or ``--model``, or the reference fitted on the real data).
+    after : mapping str -> float
+        The model ``--out-model`` writes (``model`` says which).
+    data : str
+        ``'holdout'`` or ``'cross_validation'``.
+    real_linear : mapping str -> float or None
+        The best linear dynamic model fitted on the real training data with the design of
+        ``wheel-force fit`` (None when the real records cannot be fitted, or without holdout).
+    highpass_hz : float
+        1.0 when the figures are 1 Hz high-passed, else 0.
+    model : str
+        Which model is written: ``sim_frf``, ``model``, ``real_linear`` (unchanged reference
+        or plain fit) or ``sim_frf+physics``, ``model+physics``, ``real_frf+physics``.
+    report_on : tuple of str
+        What to give ``wheel-force evaluate`` to reproduce the figures.
+    gate : mapping str -> float
+        Mean RMSE % over the findings' channels of every candidate on the gate half (empty
+        when there was no choice).
+    notes : tuple of str
+        Why a figure is missing.
+    gated : tuple of str
+        Findings the holdout gate dropped, and why.
+
     """
 
     before: Mapping[str, float]
     after: Mapping[str, float]
     data: str
-    linear_real: Optional[Mapping[str, float]] = None
+    real_linear: Optional[Mapping[str, float]] = None
     highpass_hz: float = 0.0
-    augmented_real: Optional[Mapping[str, float]] = None
+    model: str = ''
+    report_on: Tuple[str, ...] = ()
+    gate: Mapping[str, float] = field(default_factory=dict)
+    notes: Tuple[str, ...] = ()
+    gated: Tuple[str, ...] = ()
 
     def __post_init__(self):
         if self.data not in ('holdout', 'cross_validation'):
             raise DiagnosisError(f'fit data must be holdout or cross_validation, got '
                                  f'{self.data!r}')
+        object.__setattr__(self, 'gate', dict(self.gate))
+        object.__setattr__(self, 'report_on', tuple(self.report_on))
+
+    @property
+    def metric(self) -> str:
+        """Return the ``evaluate --json`` field the figures are."""
+        return f'rmse_hp{self.highpass_hz:g}_pct' if self.highpass_hz > 0.0 else 'rmse_pct'
 
     def to_dict(self) -> Dict:
-        """Return the DESIGN.md ``fit`` entry (plus ``linear_real`` / ``augmented_real``)."""
-        out = {'before': {k: _round(v) for k, v in self.before.items()},
-               'after': {k: _round(v) for k, v in self.after.items()},
-               'data': self.data,
-               'metric': (f'rmse_hp{self.highpass_hz:g}_pct' if self.highpass_hz > 0.0
-                          else 'rmse_pct')}
-        if self.linear_real is not None:
-            out['linear_real'] = {k: _round(v) for k, v in self.linear_real.items()}
-        if self.augmented_real is not None:
-            out['augmented_real'] = {k: _round(v) for k, v in self.augmented_real.items()}
+        """Return the DESIGN.md ``fit`` entry (plus metric, report_on, gate)."""
+        out = {'before': {k: _round(v) for k, v in self.before.items()}}
+        if self.real_linear is not None:
+            out['real_linear'] = {k: _round(v) for k, v in self.real_linear.items()}
+        out.update({'after': {k: _round(v) for k, v in self.after.items()},
+                    'model': self.model, 'data': self.data, 'metric': self.metric,
+                    'report_on': list(self.report_on),
+                    'gate': {k: _round(v) for k, v in self.gate.items()}})
         return out
 
 
@@ -160,7 +196,7 @@ class DiagnosisResult:
     rejected : tuple of str
         Why the best remaining candidates were not accepted, per channel.
     model : FrfModel or None
-        The augmented model (reference FRF + physics terms) when the reference is an FRF.
+        The model ``--out-model`` writes (``fit.model`` says which); None when no FRF exists.
     baseline : object or None
         The reference predictor (``.predict(recording)``), for reports.
 
@@ -188,7 +224,8 @@ class DiagnosisResult:
                 'summary': list(self.summary),
                 'reference': self.reference,
                 'rejected': list(self.rejected),
-                'physics_terms': [t.to_dict() for t in self.terms]}
+                'physics_terms': (list(self.model.physics) if self.model is not None
+                                  else [t.to_dict() for t in self.terms])}
 
     def write_json(self, path) -> Path:
         """

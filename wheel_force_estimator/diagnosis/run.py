@@ -3,15 +3,19 @@
 """
 Sim-vs-real diagnosis: locate the mismatch, name the physics left out, prove the gain.
 
-1. The reference (the simulation's FRF, a given model, or - for generic recordings without a
-   simulation - a linear law fitted on the real data) predicts the real forces; the residual is
-   what it cannot explain.
+1. The reference (the simulation's FRF, a given model, or - without either - the best linear
+   dynamic model on the real data, the MIMO FIR ``wheel-force fit`` makes) predicts the real
+   forces; the residual is what it cannot explain.
 2. Per channel the residual is located in frequency, time and operating regime.
 3. Candidate physics are ranked by the residual they explain on held-out time blocks and
    accepted only against a time-shifted-feature null (:mod:`diagnosis.selection`).
 4. A physics accepted on several channels with compatible parameters becomes one finding with
    shared parameters; every finding carries the :class:`PhysicsTerm` s of the augmented model.
-5. Reference and augmented model are compared on holdout recordings (or held-out blocks).
+5. The gate half of the holdout drops findings that make unseen data worse and chooses the
+   model ``--out-model`` writes (:mod:`diagnosis.written`); the report half scores the
+   reference (``before``), the best linear model on the real data (``real_linear``) and the
+   written model (``after``) exactly as ``wheel-force evaluate`` would
+   (:mod:`diagnosis.holdout`).
 """
 from dataclasses import dataclass
 from dataclasses import field
@@ -37,11 +41,6 @@ from wheel_force_estimator.diagnosis.hardening import hardening_winner
 from wheel_force_estimator.diagnosis.hardening import HARDENINGS
 from wheel_force_estimator.diagnosis.hardening import pooled_gain
 from wheel_force_estimator.diagnosis.hardening import settle_hardening
-from wheel_force_estimator.diagnosis.holdout import alternate_blocks
-from wheel_force_estimator.diagnosis.holdout import augmented
-from wheel_force_estimator.diagnosis.holdout import backfitted
-from wheel_force_estimator.diagnosis.holdout import holdout_gate
-from wheel_force_estimator.diagnosis.holdout import rmse_by_channel
 from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
 from wheel_force_estimator.diagnosis.hypotheses import BY_NAME
 from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
@@ -61,9 +60,9 @@ from wheel_force_estimator.diagnosis.reference import FrfReference
 from wheel_force_estimator.diagnosis.reference import RegressionReference
 from wheel_force_estimator.diagnosis.result import DiagnosisResult
 from wheel_force_estimator.diagnosis.result import Finding
-from wheel_force_estimator.diagnosis.result import FitComparison
 from wheel_force_estimator.diagnosis.selection import SelectionConfig
 from wheel_force_estimator.diagnosis.selection import Selector
+from wheel_force_estimator.diagnosis.written import compare
 
 
 @dataclass(frozen=True)
@@ -82,7 +81,14 @@ class DiagnosisConfig:
         ``'regression'`` (per-channel ``F0 + k x + c v + m a``) or ``'auto'`` (FRF for
         acceleration inputs).
     fit : object
-        ``core.pipeline.FitConfig`` for FRF fits (None = defaults).
+        ``core.pipeline.FitConfig`` for FRF fits.  None: the simulation's FRF with the
+        library's single-resolution ``FitConfig()`` (what the detection rules were measured
+        with), every fit on the real data with the design ``wheel-force fit`` uses
+        (:func:`core.design.product_fit_config`).
+    fit_fallback : bool
+        Real-data fits may fall back to one resolution for records shorter than the long
+        Welch segment, as ``wheel-force fit`` does for generic recordings (the CLI passes
+        False for bags and when the long segment was chosen explicitly).
     merge_ratio : float
         A physics found on several channels becomes one shared-parameter finding when the
         shared fit removes at least this fraction of what the per-channel fits remove.
@@ -102,6 +108,7 @@ class DiagnosisConfig:
     selection: SelectionConfig = field(default_factory=SelectionConfig)
     linear: str = 'auto'
     fit: object = None
+    fit_fallback: bool = True
     merge_ratio: float = 0.85
     range_ratio: float = 10.0
     residual_highpass_hz: Optional[float] = None
@@ -115,24 +122,32 @@ class DiagnosisConfig:
 
 
 def _fit_linear(recordings, config, name, rec0):
+    """Fit the linear reference on simulation recordings (``config.linear``)."""
+    from wheel_force_estimator.core.pipeline import FitConfig
     kind = config.linear
     if kind == 'auto':
         kind = 'frf' if rec0.input_quantity == 'acceleration' else 'regression'
     if kind == 'frf':
-        return FrfReference.fit(recordings, name, config.fit)
+        return FrfReference.fit(recordings, name, config.fit or FitConfig())
     return RegressionReference.fit(recordings, config.features, name)
+
+
+def _real_linear(recordings, config, name='real'):
+    """Fit the best linear dynamic model on real recordings: ``wheel-force fit``'s design."""
+    return FrfReference.fit(recordings, name, config.fit, config.fit_fallback)
 
 
 def _reference(real, sim_or_model, config):
     """Return ``(reference, companions, mode, sim recordings)``."""
-    rec0 = real[0]
+    from wheel_force_estimator.core.model import FrfModel
     if sim_or_model is None:
-        return (RegressionReference.fit(real, config.features, 'real (linear fit)'),
+        return (_real_linear(real, config, 'real (linear fit)'),
                 tuple(BY_NAME[n] for n in LINEAR_COMPANIONS), 'linear', ())
     if isinstance(sim_or_model, (FrfReference, RegressionReference)):
         return sim_or_model, (), 'model', ()
-    if hasattr(sim_or_model, 'fir_taps'):
+    if isinstance(sim_or_model, FrfModel):
         return FrfReference(sim_or_model, 'model'), (), 'model', ()
+    rec0 = real[0]
     sim = tuple(sim_or_model)
     check_compatible(sim, 'sim')
     check_compatible((rec0,) + sim, 'real and sim')
@@ -378,10 +393,10 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     fs_hz = rec0.fs_hz
     hp = config.residual_highpass_hz
     if hp is None:
-        hp = 1.0 if reference.kind == 'frf' else 0.0
+        hp = 1.0 if reference.kind == 'frf' and rec0.input_quantity == 'acceleration' else 0.0
     config = replace(config, selection=replace(config.selection, highpass_hz=hp))
     channels = rec0.output_channels
-    sources, partners = pairing(channels, rec0.input_channels)
+    sources, partners = pairing(channels, rec0.input_channels, real)
     prep = prepare(real, reference, sources, partners, config)
     sim_prep = prepare(sim, reference, sources, partners, config) if sim else None
     mismatch = sorted((locate_channel(ch, [t[o] for t in prep.targets],
@@ -433,46 +448,16 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     if mode == 'sim':
         findings = settle_hardening(findings, builder, prep, sim_prep, channels, config, pooled)
     findings = _ranked(findings, prep, channels, hp, fs_hz, structural, pooled)
-    terms = [t for f in findings for t in f.terms]
-    gated = []
-    if holdout:
-        hold = prepare(holdout, reference, sources, partners, config)
-        gate, report = alternate_blocks(hold, fs_hz)
-        findings, gated = holdout_gate(findings, hold, channels, hp, fs_hz, gate)
-        terms = [t for f in findings for t in f.terms]
-        before = rmse_by_channel(hold.targets, hold.predictions, channels, hp, fs_hz, report)
-        after = rmse_by_channel(hold.targets, augmented(hold, terms), channels, hp, fs_hz,
-                                report)
-        findings = [replace(f, rmse_after_pct={c: after[c] for c in f.channels})
-                    for f in findings]
-        if mode == 'linear':
-            linear_real, augmented_real = before, after
-        else:
-            lin = real_linear or _fit_linear(real, config, 'real', rec0)
-            hold_lin = prepare(holdout, lin, sources, partners, config)
-            linear_real = rmse_by_channel(hold_lin.targets, hold_lin.predictions, channels,
-                                          hp, fs_hz, report)
-            targets, predictions = backfitted(
-                findings, real, holdout, lin,
-                lambda recs: _fit_linear(recs, config, 'real', rec0),
-                lambda recs, ref: prepare(recs, ref, sources, partners, config), hp)
-            augmented_real = rmse_by_channel(targets, predictions, channels, hp, fs_hz, report)
-        fit = FitComparison(before, after, 'holdout', linear_real, hp, augmented_real)
-    else:
-        fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},
-                            {c: outcomes[c].cv_after_pct for c in channels},
-                            'cross_validation', None, hp)
+    findings, fit, model = compare(findings, real, reference, mode, holdout, outcomes,
+                                   channels, sources, partners, config,
+                                   lambda recs: _real_linear(recs, config).model)
     # Motion findings (clip, tyre in the air): no terms, so after the holdout gate.
     findings = merge_motion(findings, motion_findings(real, sim, sources))
     named = {(c, f.physics) for f in findings for c in f.channels}
     rejected = tuple(text.rejection(ch, outcomes[ch].rejected) for ch in channels
                      if outcomes[ch].rejected is not None and outcomes[ch].rejected[0].gain > 0
                      and (ch, outcomes[ch].rejected[0].hypothesis.physics) not in named)
-    rejected = tuple(gated) + rejected
+    rejected = tuple(fit.gated) + rejected
     summary = text.summary(findings, fit, rejected)
-    model = None
-    if isinstance(reference, FrfReference):
-        model = reference.model.with_physics(list(reference.model.physics)
-                                             + [t.to_dict() for t in terms])
     return DiagnosisResult(tuple(mismatch), tuple(findings), fit, tuple(summary),
                            f'{reference.name} ({reference.kind})', rejected, model, reference)

@@ -55,17 +55,20 @@ def summary(findings, fit, rejected: Sequence[str]) -> List[str]:
                      'residual on held-out data, and clearly more than it does on unrelated '
                      '(time-shifted) features, beyond the tolerance of a linear rate (see '
                      '"rejected").')
-    if fit.linear_real is not None and findings:
-        beaten = [c for f in findings for c in f.channels
-                  if c in fit.after and fit.after[c] < fit.linear_real[c]]
-        lines.append(f'Augmented model vs best linear FRF fitted on the real data: better on '
-                     f'{len(set(beaten))} of {len({c for f in findings for c in f.channels})} '
-                     f'affected channels {where}.')
-    if fit.augmented_real is not None and fit.linear_real is not None and findings:
-        affected = {c for f in findings if f.terms for c in f.channels}
-        beaten = [c for c in affected if fit.augmented_real[c] < fit.linear_real[c]]
+    if fit.model:
+        lines.append(f'Written model: {fit.model}' + (
+            ' (chosen on the gate half of the holdout; mean RMSE over the named channels: '
+            + ', '.join(f'{k} {v:.2f} %' for k, v in fit.gate.items()) + ')'
+            if fit.gate else '') + '.')
+    if fit.real_linear is not None and findings:
+        affected = sorted({c for f in findings if f.terms for c in f.channels})
+        beaten = [c for c in affected if fit.after[c] < fit.real_linear[c]]
         if affected:
-            lines.append(f'Best linear FRF fitted on the real data plus the named physics '
-                         f'(fitted jointly) vs that FRF alone: better on '
-                         f'{len(beaten)} of {len(affected)} modelled channels {where}.')
+            lines.append(f'Written model vs the best linear model fitted on the real data '
+                         f'(a plain `wheel-force fit`): better on {len(beaten)} of '
+                         f'{len(affected)} modelled channels {where}.')
+    if fit.report_on:
+        lines.append('Reported figures = `wheel-force evaluate` of each model on: '
+                     + ', '.join(fit.report_on) + f' ({fit.metric}).')
+    lines.extend(fit.notes)
     return lines

@@ -1,0 +1,139 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The product's fit design: what ``wheel-force fit`` makes from recordings, in one place.
+
+``wheel-force fit`` and the diagnosis's "best linear model fitted on the real data" (its
+``real_linear`` figure, the reference of a diagnosis without ``--sim``/``--model``, the real-data
+FRF of the written model) call :func:`fit_design`, so the two can never drift apart:
+
+- segments shorter than one Welch segment are left out (and listed), none usable is refused;
+- the two-resolution fit (:data:`PRODUCT_FIT_DEFAULTS`) unless the settings say otherwise;
+- short records (rig and DAQ exports, often a few seconds): when no record holds the long
+  segment and the caller allows it (generic recordings, long segment not chosen by the user),
+  the fit falls back to one resolution and says so in ``note``; nothing is padded;
+- the model's ``units`` name the declared input quantity.
+"""
+import dataclasses
+from typing import Mapping, Optional, Sequence, Tuple
+
+from wheel_force_estimator.core.errors import InsufficientDataError
+from wheel_force_estimator.core.model import FrfModel
+from wheel_force_estimator.core.pipeline import fit_model
+from wheel_force_estimator.core.pipeline import FitConfig
+from wheel_force_estimator.core.pipeline import TrainingSegment
+
+#: What ``wheel-force fit`` uses when neither the params file nor the command line says
+#: otherwise (the library's ``FitConfig()`` keeps the single-resolution paper method): the
+#: two-resolution fit measured better on held-out simulated data on every Fz and most Fx/Fy
+#: channels (bench/bench_accuracy.py, README).  Every other default (``long_regularisation``
+#: 5e-2 included, the value those measurements used) is ``FitConfig``'s own.
+PRODUCT_FIT_DEFAULTS = {'long_segment_length': 8192, 'crossover_hz': 2.0}
+
+#: Unit written to a model's ``units['input']`` per input quantity (SI).
+INPUT_UNITS = {'acceleration': 'm/s^2', 'velocity': 'm/s', 'displacement': 'm'}
+
+
+def product_fit_config() -> FitConfig:
+    """Return the :class:`FitConfig` ``wheel-force fit`` uses without a params file."""
+    return FitConfig(**PRODUCT_FIT_DEFAULTS)
+
+
+@dataclasses.dataclass(frozen=True)
+class DesignedFit:
+    """
+    A model fitted with the product's design and how it was made.
+
+    Attributes
+    ----------
+    model : FrfModel
+        The fitted model (``units`` set).
+    config : FitConfig
+        The settings actually used (after a short-record fallback).
+    used : tuple of TrainingSegment
+        Segments that entered the fit.
+    skipped : tuple of str
+        Segments left out (too short for one Welch segment), with their lengths.
+    note : str
+        Why the settings differ from the ones asked for (empty when they do not).
+
+    """
+
+    model: FrfModel
+    config: FitConfig
+    used: Tuple[TrainingSegment, ...]
+    skipped: Tuple[str, ...]
+    note: str
+
+
+def _short_record_fallback(config: FitConfig, segments, fs_hz: float) -> Tuple[FitConfig, str]:
+    """Return the config to fit with and a note (empty when nothing was changed)."""
+    if not config.long_segment_length:
+        return config, ''
+    longest = max(s.accel_mps2.shape[1] for s in segments)
+    if longest >= config.long_segment_length:
+        return config, ''
+    note = (f'note: no record holds the {config.long_segment_length}-sample long segment of '
+            f'the default two-resolution fit ({config.long_segment_length / fs_hz:g} s '
+            f'at {fs_hz:g} Hz; longest: {longest} samples); fitted with one resolution '
+            f'(segment {config.segment_length}). --long-segment-length 0 silences this note.')
+    return dataclasses.replace(config, long_segment_length=0), note
+
+
+def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConfig,
+               input_channels: Sequence[str], output_channels: Sequence[str],
+               input_quantity: str = 'acceleration', fit_info: Optional[Mapping] = None,
+               short_record_fallback: bool = False) -> DesignedFit:
+    """
+    Fit a model as ``wheel-force fit`` does.
+
+    Parameters
+    ----------
+    segments : sequence of TrainingSegment
+        Gap-free segments (inputs in SI units of ``input_quantity``, forces [N]).
+    fs_hz : float
+        Sample rate [Hz].
+    config : FitConfig
+        Settings asked for (:func:`product_fit_config` for the defaults).
+    input_channels, output_channels : sequence of str
+        Channel names.
+    input_quantity : str
+        ``'acceleration'``, ``'velocity'`` or ``'displacement'`` (written to ``units``).
+    fit_info : mapping, optional
+        Provenance stored in the model's ``fit`` metadata.
+    short_record_fallback : bool
+        Allow the one-resolution fallback for records shorter than the long segment
+        (generic recordings whose long segment the user did not choose).
+
+    Returns
+    -------
+    DesignedFit
+
+    Raises
+    ------
+    InsufficientDataError
+        No segment holds one Welch segment (the longest ones named), or (without the
+        fallback) none holds the long segment.
+
+    """
+    used, skipped = [], []
+    for seg in segments:
+        n = seg.accel_mps2.shape[1]
+        if n >= config.segment_length:
+            used.append(seg)
+        else:
+            skipped.append(f'{seg.source}: {n} samples < segment length '
+                           f'{config.segment_length}')
+    if not used:
+        detail = '; '.join(skipped[:3]) + (' ...' if len(skipped) > 3 else '')
+        raise InsufficientDataError(
+            f'no recording holds one Welch segment of {config.segment_length} samples '
+            f'({config.segment_length / fs_hz:g} s at {fs_hz:g} Hz): {detail}; pass '
+            f'--segment-length N (N <= the record length) for a coarser frequency grid')
+    note = ''
+    if short_record_fallback:
+        config, note = _short_record_fallback(config, used, fs_hz)
+    model = fit_model(used, fs_hz, config, input_channels, output_channels, fit_info=fit_info)
+    model = dataclasses.replace(model, units={'input': INPUT_UNITS[input_quantity],
+                                              'output': 'N'})
+    return DesignedFit(model, config, tuple(used), tuple(skipped), note)

@@ -1,0 +1,287 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The model ``--out-model`` writes: candidates, the real-data FRF + physics, the choice.
+
+Candidates (those that exist for the run):
+
+- ``sim_frf+physics`` / ``model+physics``: the reference FRF (the simulation's, or the one given
+  with ``--model``) plus the findings' terms, as the selection fitted them;
+- ``real_frf+physics``: the FRF fitted on the real recordings with the design of
+  ``wheel-force fit`` (:func:`core.design.fit_design`) plus the findings' terms, fitted jointly
+  by backfitting (:func:`backfitted_model`);
+- ``real_linear``: that FRF alone, the model a plain ``wheel-force fit`` on the real
+  recordings gives.
+
+Rule (:func:`choose`): without a finding that carries a model term nothing changes - the
+reference is written as it is (``sim_frf``, ``model``, or ``real_linear`` when the reference
+is the real-data FRF).  With one, the candidate with the lowest mean RMSE over the findings'
+channels on the gate half of the holdout is written, whichever it is.  When that is
+``real_linear`` the named physics did not improve the best linear model on data they were not
+fitted on; writing them anyway would hand the user a model measured worse, so the plain fit is
+written and ``fit.model`` says so.  Every score runs through ``core.predict.predict_forces``,
+the path ``evaluate``, ``predict`` and the node take.
+"""
+from dataclasses import replace
+from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+import scipy.optimize
+
+from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import DiagnosisError
+from wheel_force_estimator.core.metrics import highpass
+from wheel_force_estimator.core.physics import PhysicsTerm
+from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.diagnosis.features import settle_samples
+from wheel_force_estimator.diagnosis.holdout import evaluate_scores
+from wheel_force_estimator.diagnosis.holdout import holdout_gate
+from wheel_force_estimator.diagnosis.holdout import METRIC
+from wheel_force_estimator.diagnosis.holdout import split_holdout
+from wheel_force_estimator.diagnosis.prepared import prepare
+from wheel_force_estimator.diagnosis.reference import FrfReference
+from wheel_force_estimator.diagnosis.result import FitComparison
+
+#: Parameter each physics' force is proportional to (motion state), so a strength factor can be
+#: carried into the model; terms of other physics keep the strength they were fitted with.
+#: (To move into the physics-term registry when terms become typed objects.)
+STRENGTH = {'bump_stop': 'stiffness_n_per_m', 'rebound_stop': 'stiffness_n_per_m',
+            'cubic_stiffness': 'stiffness_n_per_m3',
+            'damper_asymmetry': 'compression_minus_rebound_n_s_per_m',
+            'coulomb_friction': 'friction_n', 'backlash': 'stiffness_n_per_m',
+            'tire_lift_off': 'gain', 'anti_roll_bar': 'stiffness_n_per_m',
+            'sensor_saturation': 'force_n', 'mass_error': 'mass_kg',
+            'stiffness_error': 'stiffness_n_per_m', 'damping_error': 'damping_n_s_per_m'}
+#: Load-state terms: the force is proportional to ``gain``.
+LOAD_STRENGTH = 'gain'
+
+
+def strength_parameter(term: PhysicsTerm) -> Optional[str]:
+    """Return the parameter ``term``'s force is proportional to, or None."""
+    name = LOAD_STRENGTH if term.state == 'load' else STRENGTH.get(term.physics)
+    return name if name in term.parameters else None
+
+
+def scaled(term: PhysicsTerm, factor: float) -> PhysicsTerm:
+    """
+    Return ``term`` with its force multiplied by ``factor``.
+
+    Raises
+    ------
+    ConfigError
+        When the physics has no strength parameter.
+
+    """
+    name = strength_parameter(term)
+    if name is None:
+        raise ConfigError(f'{term.physics}: no strength parameter to scale')
+    params = dict(term.parameters)
+    params[name] = params[name] * float(factor)
+    return replace(term, parameters=params)
+
+
+def _predictions(model, recordings) -> List[np.ndarray]:
+    return [predict_forces(model, r.inputs) for r in recordings]
+
+
+def _term_dicts(terms) -> List[dict]:
+    return [t.to_dict() for t in terms]
+
+
+def _units(model, groups, recordings, base) -> List[List[np.ndarray]]:
+    """Per term group, per record: the force the group adds to ``model`` (Predictor path)."""
+    return [[y - b for y, b in zip(_predictions(model.with_physics(_term_dicts(g)), recordings),
+                                   base)] for g in groups]
+
+
+def _strengths(units, free, recordings, base, hp: float, skip: int) -> np.ndarray:
+    """
+    Non-negative least-squares strength per group (fixed groups at 1) on the residual.
+
+    Channels weighted by their force RMS (like the RMSE %), the first ``skip`` samples of
+    each record (filter settling) left out, everything high-passed at ``hp`` when > 0.
+    """
+    beta = np.ones(len(units))
+    idx = [i for i, f in enumerate(free) if f]
+    if not idx:
+        return beta
+    a_rows, b_rows = [], []
+    for k, (rec, pred) in enumerate(zip(recordings, base)):
+        y = np.asarray(rec.outputs, dtype=np.float64)
+        r = y - pred - sum((units[i][k] for i, f in enumerate(free) if not f),
+                           np.zeros_like(pred))
+        cols = [units[i][k] for i in idx]
+        t = y
+        if hp > 0.0:
+            fs = rec.fs_hz
+            cols = [highpass(c, fs, hp, 'term contribution') if np.any(c) else c for c in cols]
+            r = highpass(r, fs, hp, 'refit residual')
+            t = highpass(y, fs, hp, 'refit target')
+        w = 1.0 / np.maximum(np.sqrt(np.mean(t[:, skip:] ** 2, axis=1, keepdims=True)), 1e-300)
+        a_rows.append(np.stack([(c[:, skip:] * w).ravel() for c in cols], axis=1))
+        b_rows.append((r[:, skip:] * w).ravel())
+    q, rr = np.linalg.qr(np.concatenate(a_rows))
+    sol, _ = scipy.optimize.nnls(rr, q.T @ np.concatenate(b_rows))
+    beta[idx] = sol
+    return beta
+
+
+def backfitted_model(findings, real: Sequence, linear_model,
+                     refit: Callable[[Sequence], object], hp: float, skip: int,
+                     iterations: int = 2):
+    """
+    Fit the best linear FRF on the real data and the findings' strengths jointly.
+
+    A linear FRF fitted on the real forces absorbs the linearised part of a nonlinear
+    effect; adding the terms as they were fitted against another reference counts that part
+    twice.  Backfitting removes it: the strengths (one non-negative factor per finding, shapes
+    kept) are fitted on the residual of the FRF, the FRF is refitted on the real forces minus
+    the terms' force, ``iterations`` times.  Terms whose physics has no strength parameter
+    keep their strength; a finding whose factor comes out 0 leaves the model.
+
+    Parameters
+    ----------
+    findings : sequence of Finding
+        Findings (those without terms are ignored).
+    real : sequence of MotionRecording
+        The real training recordings.
+    linear_model : FrfModel
+        ``refit(real)``: the best linear model on the real recordings as recorded.
+    refit : callable
+        ``refit(recordings) -> FrfModel`` with the design of ``wheel-force fit``.
+    hp : float
+        High-pass of the strength fit [Hz] (0 = none).
+    skip : int
+        Samples left out at the start of each record (feature filter settling).
+    iterations : int
+        FRF refits.
+
+    Returns
+    -------
+    (FrfModel, tuple of float)
+        The model with the scaled terms, and the factor of every finding with terms.
+
+    """
+    groups = [tuple(f.terms) for f in findings if f.terms]
+    if not groups:
+        return linear_model, ()
+    free = [all(strength_parameter(t) is not None for t in g) for g in groups]
+    model = linear_model
+    base = _predictions(model, real)
+    units = _units(model, groups, real, base)
+    beta = _strengths(units, free, real, base, hp, skip)
+    for _ in range(iterations):
+        added = [sum((b * u[k] for b, u in zip(beta, units)), np.zeros_like(base[k]))
+                 for k in range(len(real))]
+        model = refit([replace(rec, outputs=np.asarray(rec.outputs) - a)
+                       for rec, a in zip(real, added)])
+        base = _predictions(model, real)
+        units = _units(model, groups, real, base)
+        beta = _strengths(units, free, real, base, hp, skip)
+    terms = []
+    for g, f, b in zip(groups, free, beta):
+        if f and b > 0.0:
+            terms.extend(scaled(t, b) for t in g)
+        elif not f:
+            terms.extend(g)
+    return model.with_physics(_term_dicts(terms)), tuple(float(b) for b in beta)
+
+
+def mean_score(model, recordings, channels, metric: str) -> Tuple[float, Dict[str, float]]:
+    """Mean RMSE % of ``model`` over ``channels`` (and all channels) on ``recordings``."""
+    scores = evaluate_scores(lambda r: predict_forces(model, r.inputs), recordings, metric)
+    return float(np.mean([scores[c] for c in channels])), scores
+
+
+def choose(candidates: Mapping[str, object], gate: Sequence, channels: Sequence[str],
+           metric: str) -> Tuple[str, Dict[str, float]]:
+    """
+    Return the name of the candidate with the lowest mean RMSE over ``channels`` on ``gate``.
+
+    Ties go to the earlier candidate.  Also returns every candidate's gate score.
+    """
+    scores = {name: mean_score(model, gate, channels, metric)[0]
+              for name, model in candidates.items()}
+    best = min(scores, key=lambda n: (scores[n], list(candidates).index(n)))
+    return best, scores
+
+
+#: ``fit.model`` of the reference written unchanged, per diagnosis mode.
+UNCHANGED = {'sim': 'sim_frf', 'model': 'model', 'linear': 'real_linear'}
+#: ``fit.model`` of the reference FRF plus the findings' terms, per mode.
+AUGMENTED = {'sim': 'sim_frf+physics', 'model': 'model+physics', 'linear': 'real_frf+physics'}
+
+
+def compare(findings, real, reference, mode, holdout, outcomes, channels, sources, partners,
+            config, real_fit):
+    """
+    Gate the findings, choose the written model, score before / real_linear / after.
+
+    ``mode`` is ``'sim'``, ``'model'`` or ``'linear'`` (reference fitted on ``real``);
+    ``outcomes`` the per-channel selections (cross-validation figures without holdout);
+    ``real_fit(recordings) -> FrfModel`` fits with the design of ``wheel-force fit``.
+    Returns ``(findings, FitComparison, written model or None)``.
+    """
+    rec0 = real[0]
+    fs_hz = rec0.fs_hz
+    hp = config.selection.highpass_hz
+    metric = METRIC[rec0.input_quantity]
+    ref_model = reference.model if isinstance(reference, FrfReference) else None
+    notes = []
+    lin_model = ref_model if mode == 'linear' else None
+    if lin_model is None and (holdout or ref_model is None):
+        try:
+            lin_model = real_fit(real)
+        except DiagnosisError as err:
+            notes.append(f'no real-data linear model: {err}')
+    gated = []
+    split = split_holdout(holdout) if holdout else None
+    if split is not None:
+        gate_prep = prepare(split.whole, reference, sources, partners, config)
+        masks = split.gate_masks(gate_prep.spans)
+        if masks is None or any(m.any() for m in masks):
+            findings, gated = holdout_gate(findings, gate_prep, channels, hp, fs_hz, masks)
+        else:
+            notes.append('holdout too short: its gate half lies within the filter settling '
+                         'time, no finding was gated')
+    with_terms = [f for f in findings if f.terms]
+    terms = [t.to_dict() for f in with_terms for t in f.terms]
+    candidates = {}
+    if not with_terms:
+        if ref_model is not None:
+            candidates[UNCHANGED[mode]] = ref_model
+        elif lin_model is not None:
+            candidates['real_linear'] = lin_model
+    else:
+        if ref_model is not None:
+            candidates[AUGMENTED[mode]] = ref_model.with_physics(list(ref_model.physics) + terms)
+        if lin_model is not None and (split is not None or not candidates):
+            # Without a holdout nothing can choose: the reference + terms is written.
+            skip = settle_samples(fs_hz, rec0.input_quantity, config.features)
+            candidates['real_frf+physics'], _ = backfitted_model(
+                findings, real, lin_model, real_fit, hp, skip)
+            candidates['real_linear'] = lin_model
+    named = sorted({c for f in with_terms for c in f.channels})
+    gate_scores = {}
+    if split is None or len(candidates) < 2:
+        choice = next(iter(candidates), None)
+    else:
+        choice, gate_scores = choose(candidates, split.gate, named, metric)
+    model = candidates.get(choice)
+    if split is None:
+        fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},
+                            {c: outcomes[c].cv_after_pct for c in channels},
+                            'cross_validation', None, hp, model=choice or '',
+                            notes=tuple(notes))
+        return findings, fit, model
+    before = evaluate_scores(reference.predict, split.report, metric)
+    real_lin = (evaluate_scores(lambda r: predict_forces(lin_model, r.inputs), split.report,
+                                metric) if lin_model is not None else None)
+    after = (evaluate_scores(lambda r: predict_forces(model, r.inputs), split.report, metric)
+             if model is not None else dict(before))
+    findings = [replace(f, rmse_after_pct={c: after[c] for c in f.channels}) for f in findings]
+    fit = FitComparison(before, after, 'holdout', real_lin,
+                        1.0 if metric == 'rmse_hp1_pct' else 0.0, model=choice or '',
+                        report_on=split.report_on, gate=gate_scores, notes=tuple(notes),
+                        gated=tuple(gated))
+    return findings, fit, model
