@@ -54,6 +54,20 @@ def ros_env(monkeypatch):
     return env
 
 
+@pytest.fixture
+def node_procs():
+    """Start nodes through this; any still running at teardown is stopped (no leftovers)."""
+    procs = []
+
+    def start(*args, **kwargs):
+        proc = start_node(*args, **kwargs)
+        procs.append(proc)
+        return proc
+    yield start
+    for proc in procs:
+        stop_node(proc)
+
+
 @pytest.fixture(scope='module')
 def model_and_file(tmp_path_factory):
     model = synthetic_model(fs_hz=FS_HZ, n_taps=96, delay_samples=40, seed=31)
@@ -122,7 +136,8 @@ def by_name(msg):
     return {s.name: (s, status_values(s)) for s in msg.status}
 
 
-def test_two_cars_in_one_graph_with_one_params_file(ros_env, model_and_file, tmp_path):
+def test_two_cars_in_one_graph_with_one_params_file(
+        ros_env, model_and_file, tmp_path, node_procs):
     model, path = model_and_file
     # The shipped file with two values changed: it must apply to both instances, also to
     # car2's node renamed with __node:= (that is what /** is for).
@@ -131,7 +146,7 @@ def test_two_cars_in_one_graph_with_one_params_file(ros_env, model_and_file, tmp
     assert 'damage_publish_period_s: 1.0 ' in text and 'unknown_torque: "zero"' in text
     text = text.replace('damage_publish_period_s: 1.0 ', 'damage_publish_period_s: 0.5 ')
     params.write_text(text.replace('unknown_torque: "zero"', 'unknown_torque: "nan"'))
-    procs = [start_node(path, ros_env, {'input_reliability': 'reliable'},
+    procs = [node_procs(path, ros_env, {'input_reliability': 'reliable'},
                         log_path=tmp_path / f'{car}.log', params_file=params,
                         ros_args=['-r', f'__ns:=/{car}'] + extra)
              for car, extra in (('car1', []), ('car2', ['-r', '__node:=rear_axle_wft']))]
@@ -178,10 +193,11 @@ def test_two_cars_in_one_graph_with_one_params_file(ros_env, model_and_file, tmp
         assert f'inputs /{car}/spindle/lf/imu' in log and f'/{car}/virtual_wft/damage' in log
 
 
-def test_sim_time_with_a_paused_clock_and_input_that_stops(ros_env, model_and_file, tmp_path):
+def test_sim_time_with_a_paused_clock_and_input_that_stops(
+        ros_env, model_and_file, tmp_path, node_procs):
     model, path = model_and_file
     log = tmp_path / 'node.log'
-    proc = start_node(path, ros_env, {'use_sim_time': True, 'input_reliability': 'reliable',
+    proc = node_procs(path, ros_env, {'use_sim_time': True, 'input_reliability': 'reliable',
                                       'damage_publish_period_s': 0.5}, log_path=log)
     n = 2048                                  # 4 s of data, played at 2x: 2 s
     stamps = sample_stamps(n)
@@ -221,13 +237,13 @@ def test_sim_time_with_a_paused_clock_and_input_that_stops(ros_env, model_and_fi
 
 
 def test_reliable_and_best_effort_depth_5_subscribers_get_everything_at_1x(
-        ros_env, model_and_file, tmp_path):
+        ros_env, model_and_file, tmp_path, node_procs):
     """Each subscriber in a process of its own, as ``ros2 topic echo`` would be."""
     import json
     import subprocess
     import sys
     _, path = model_and_file
-    proc = start_node(path, ros_env, {'input_reliability': 'reliable'},
+    proc = node_procs(path, ros_env, {'input_reliability': 'reliable'},
                       log_path=tmp_path / 'node.log')
     n = 1536                                  # 3 s at 1x
     stamps = sample_stamps(n)
@@ -255,11 +271,12 @@ def test_reliable_and_best_effort_depth_5_subscribers_get_everything_at_1x(
     assert stop_node(proc) == 0
 
 
-def test_input_topic_of_the_wrong_type_is_named_once(ros_env, model_and_file, tmp_path):
+def test_input_topic_of_the_wrong_type_is_named_once(
+        ros_env, model_and_file, tmp_path, node_procs):
     _, path = model_and_file
     log = tmp_path / 'node.log'
     # rf's input remapped onto the measured wrench topic (an easy mistake)
-    proc = start_node(path, ros_env, {'input_reliability': 'reliable'}, log_path=log,
+    proc = node_procs(path, ros_env, {'input_reliability': 'reliable'}, log_path=log,
                       ros_args=['-r', 'spindle/rf/imu:=wft/rf/wrench'])
     n = 1024
     stamps = sample_stamps(n)
@@ -295,12 +312,12 @@ def test_input_topic_of_the_wrong_type_is_named_once(ros_env, model_and_file, tm
 
 
 def test_sigterm_flushes_the_look_ahead_and_publishes_everything(
-        ros_env, model_and_file, tmp_path):
+        ros_env, model_and_file, tmp_path, node_procs):
     model, path = model_and_file
     log = tmp_path / 'node.log'
     # a stall flush would come only after 60 s: what arrives below is the shutdown's doing
-    proc = start_node(path, ros_env, {'input_reliability': 'reliable', 'flush_timeout_s': 60.0},
-                      log_path=log)
+    proc = node_procs(path, ros_env, {'input_reliability': 'reliable',
+                                      'flush_timeout_s': 60.0}, log_path=log)
     n = 1000                                  # not a multiple of the block: a partial block
     stamps = sample_stamps(n)
     accel = synthetic_accel(n, FS_HZ, seed=46)

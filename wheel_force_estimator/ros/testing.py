@@ -86,12 +86,24 @@ def sample_stamps(n_samples: int, fs_hz: float = 512.0,
     return start_ns + np.round(np.arange(n_samples) * (NS_PER_S / fs_hz)).astype(np.int64)
 
 
+#: Environment variable naming the DDS domain of test runs (else one is drawn at random).
+TEST_DOMAIN_VARIABLE = 'WFT_TEST_DOMAIN_ID'
+
+
 def isolated_ros_env(base: Optional[Mapping[str, str]] = None) -> Dict[str, str]:
-    """Return an environment for DDS participants private to this run (random domain)."""
+    """
+    Return an environment for DDS participants private to this run.
+
+    The domain is ``$WFT_TEST_DOMAIN_ID`` when set (give each of several concurrent test runs
+    on one machine its own: two random draws can meet, and then one run counts the other's
+    messages), else drawn at random.  Never the user's ``ROS_DOMAIN_ID``: that may be a live
+    graph.
+    """
     env = dict(os.environ if base is None else base)
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    chosen = env.get(TEST_DOMAIN_VARIABLE)
     # Domains 1..100 keep Fast DDS's port mapping clear of the Linux ephemeral port range.
-    env['ROS_DOMAIN_ID'] = str(random.SystemRandom().randint(1, 100))
+    env['ROS_DOMAIN_ID'] = chosen or str(random.SystemRandom().randint(1, 100))
     env.setdefault('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp')
     return env
 
