@@ -58,12 +58,17 @@ def write_bag(path, seconds, seed, storage='mcap', wft=True, road_gain=1.0, fs_h
     return path
 
 
+class _Cluster:
+    def __init__(self, client):
+        self.scheduler_address = client.scheduler.address
+
+
 @pytest.fixture(scope='module')
 def cluster():
-    from distributed import LocalCluster
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as c:
-        yield c
+    # the LocalCluster `fleet --workers 2` starts (allowed failures, one bag per worker, ...)
+    from wheel_force_estimator.fleet.engine import dask_client
+    with dask_client(None, 2) as client:
+        yield _Cluster(client)
 
 
 @pytest.fixture(scope='module')

@@ -11,9 +11,10 @@ on a filesystem every worker sees).
 
 A worker that dies (segfault, killed for memory) has its task retried elsewhere by Dask; a
 task that has killed ``ALLOWED_FAILURES + 1`` = 2 workers is given up (``KilledWorker``) and
-its bag marked failed.  The setting is applied to the scheduler this run starts; an existing
-cluster's scheduler uses its own ``distributed.scheduler.allowed-failures`` (set it to 1 in
-its Dask config to get the same rule).
+its bag marked failed; each worker is sent one bag at a time (``WORKER_SATURATION``), so only
+the bag that was running is blamed.  These settings apply to the scheduler this run starts;
+an existing cluster's scheduler uses its own ``distributed.scheduler.allowed-failures`` and
+``worker-saturation`` (set them to 1 and 1.0 in its Dask config for the same rule).
 """
 import contextlib
 import os
@@ -30,6 +31,11 @@ from wheel_force_estimator.fleet.task import process_bag
 
 #: Worker deaths a task may cause and still be retried (Dask's ``allowed-failures``).
 ALLOWED_FAILURES = 1
+#: Tasks a worker holds per thread (Dask's ``worker-saturation``; its default 1.1 sends a
+#: second bag to a 1-thread worker while the first runs).  Every task a dying worker holds
+#: counts as a suspect, so with 1.1 an innocent bag queued behind a crashing one is blamed
+#: too and can be given up with it; 1.0 blames only the bag that was running.
+WORKER_SATURATION = 1.0
 #: How long to try to reach an existing scheduler before giving up [s].
 CONNECT_TIMEOUT_S = 5.0
 #: How long a LocalCluster may take to start its workers [s] (generous: a loaded machine).
@@ -93,6 +99,7 @@ def dask_client(scheduler: Optional[str] = None, workers: Optional[int] = None):
     from distributed import LocalCluster
 
     with dask.config.set({'distributed.scheduler.allowed-failures': ALLOWED_FAILURES,
+                          'distributed.scheduler.worker-saturation': WORKER_SATURATION,
                           'distributed.comm.timeouts.connect': f'{CONNECT_TIMEOUT_S}s'}):
         if scheduler:
             try:
@@ -124,7 +131,7 @@ def describe_failure(exc: BaseException) -> str:
     from distributed import KilledWorker
     if isinstance(exc, KilledWorker):
         return (f'the bag killed {ALLOWED_FAILURES + 1} worker processes (a crash or out of '
-                f'memory); Dask gave up on it')
+                f'memory); Dask gave up on it: {exc}')
     return f'{type(exc).__name__}: {exc}'
 
 
