@@ -107,7 +107,7 @@ def test_model_layout_maps_channels_and_checks_rate_and_delay():
     ({'output_channels': OUTPUT_CHANNELS[:11] + ('rr_mx',)}, {}, 'model outputs'),
     ({'output_channels': OUTPUT_CHANNELS + ('lf_mx',)}, {}, 'all of'),
     ({'fs_hz': 1000.0}, {'sample_rate_hz': 512.0}, 'sample rate 1000 Hz differs'),
-    ({'delay_samples': 10}, {'live_look_ahead_s': 0.25}, "exceeds the model's look-ahead"),
+    ({'delay_samples': 10}, {'live_look_ahead_s': 0.25}, r"within \[0, 10\] \(the model's"),
 ])
 def test_model_layout_refuses_models_that_do_not_fit(kwargs, changes, match):
     with pytest.raises(ModelFileError, match=match):

@@ -61,11 +61,63 @@ class _DelayLine:
         return out
 
 
+def check_look_ahead(model: FrfModel, causal_delay_samples: Optional[int] = None):
+    """
+    Apply the one look-ahead rule without building a filter.
+
+    Parameters
+    ----------
+    model : FrfModel
+        The fitted model.
+    causal_delay_samples : int, optional
+        Look-ahead [samples]; ``None`` = the full two-sided offline filter.
+
+    Returns
+    -------
+    (str, CausalEstimator or None, str or None)
+        ``'offline'``, ``'live'`` or ``'cut'``; the live estimator for ``'live'``; the fallback
+        message for ``'cut'`` (the model has no live estimator).
+
+    Raises
+    ------
+    ConfigError
+        Negative look-ahead; a look-ahead the model's live estimators were not fitted for
+        (the available ones and a refit hint named); without live estimators, a look-ahead
+        beyond the offline FIR's.
+
+    """
+    fs = model.fs_hz
+    if causal_delay_samples is None or int(causal_delay_samples) == model.fir_delay_samples:
+        return 'offline', None, None
+    delay = int(causal_delay_samples)
+    if delay < 0:
+        raise ConfigError(f'look-ahead {causal_delay_samples} samples must be >= 0')
+    live = find_live(model.live, delay)
+    if live is not None:
+        return 'live', live, None
+    if model.live:
+        have = ', '.join(f'{e.look_ahead_samples} ({1e3 * e.look_ahead_samples / fs:.1f} ms)'
+                         for e in model.live)
+        raise ConfigError(
+            f'the model has live estimators for look-aheads of {have} samples, not for '
+            f'{delay} samples ({1e3 * delay / fs:.1f} ms); use one of those or refit with '
+            f'`wheel-force fit --live-look-ahead-s {delay / fs:g}`')
+    if delay > model.fir_delay_samples:
+        raise ConfigError(
+            f'causal delay {causal_delay_samples} samples must be within '
+            f"[0, {model.fir_delay_samples}] (the model's look-ahead)")
+    message = (f'the model has no live (causal) estimator (schema 1 or fitted without one): '
+               f'using the offline FIR cut to {delay} samples ({1e3 * delay / fs:.1f} ms) of '
+               f'look-ahead, which loses accuracy; refit with `wheel-force fit` to get the '
+               f'causal estimator')
+    return 'cut', None, message
+
+
 def select_filter(model: FrfModel, causal_delay_samples: Optional[int] = None):
     """
     Return the filter engine for a look-ahead and why it is not the designed one.
 
-    The one rule deciding what a look-ahead gets (see the module notes).
+    Built by the one rule :func:`check_look_ahead` (see the module notes).
 
     Parameters
     ----------
@@ -83,37 +135,16 @@ def select_filter(model: FrfModel, causal_delay_samples: Optional[int] = None):
     Raises
     ------
     ConfigError
-        Negative look-ahead; a look-ahead the model's live estimators were not fitted for
-        (the available ones and a refit hint named); without live estimators, a look-ahead
-        beyond the offline FIR's.
+        As :func:`check_look_ahead`.
 
     """
-    fs = model.fs_hz
-    full = FirFilter(np.asarray(model.fir_taps), model.fir_delay_samples, fs)
-    if causal_delay_samples is None or int(causal_delay_samples) == model.fir_delay_samples:
+    kind, live, message = check_look_ahead(model, causal_delay_samples)
+    if kind == 'live':
+        return CausalFilter(live, model.fs_hz), None
+    full = FirFilter(np.asarray(model.fir_taps), model.fir_delay_samples, model.fs_hz)
+    if kind == 'offline':
         return OverlapAddFilter(full), None
-    delay = int(causal_delay_samples)
-    if delay < 0:
-        raise ConfigError(f'look-ahead {causal_delay_samples} samples must be >= 0')
-    live = find_live(model.live, delay)
-    if live is not None:
-        return CausalFilter(live, fs), None
-    if model.live:
-        have = ', '.join(f'{e.look_ahead_samples} ({1e3 * e.look_ahead_samples / fs:.1f} ms)'
-                         for e in model.live)
-        raise ConfigError(
-            f'the model has live estimators for look-aheads of {have} samples, not for '
-            f'{delay} samples ({1e3 * delay / fs:.1f} ms); use one of those or refit with '
-            f'`wheel-force fit --live-look-ahead-s {delay / fs:g}`')
-    if delay > model.fir_delay_samples:
-        raise ConfigError(
-            f'causal delay {causal_delay_samples} samples must be within '
-            f"[0, {model.fir_delay_samples}] (the model's look-ahead)")
-    message = (f'the model has no live (causal) estimator (schema 1 or fitted without one): '
-               f'using the offline FIR cut to {delay} samples ({1e3 * delay / fs:.1f} ms) of '
-               f'look-ahead, which loses accuracy; refit with `wheel-force fit` to get the '
-               f'causal estimator')
-    return OverlapAddFilter(with_delay(full, delay)), message
+    return OverlapAddFilter(with_delay(full, int(causal_delay_samples))), message
 
 
 class Predictor:

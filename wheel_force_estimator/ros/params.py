@@ -28,6 +28,8 @@ from wheel_force_estimator.bagio import topics as topic_defaults
 from wheel_force_estimator.bagio.topics import TopicConfig
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ModelFileError
+from wheel_force_estimator.core.live_estimator import DEFAULT_LIVE_LOOK_AHEAD_S
+from wheel_force_estimator.core.predict import check_look_ahead
 from wheel_force_estimator.core.spindle import MOMENT_CHANNELS  # noqa: F401 (public here)
 from wheel_force_estimator.core.spindle import spindle_layout
 
@@ -85,9 +87,11 @@ PARAMETERS = (
           'accepted Imu header.frame_id per corner; other frames are dropped [frame ids]',
           constraints='[""] accepts any; otherwise ' + _FOUR + ' ("" = any)'),
     _Spec('block_size', 16, 'samples per Predictor call [samples]', int_range=(1, 8192)),
-    _Spec('live_look_ahead_s', 0.05, 'look-ahead of the live (causal) estimator [s]',
+    _Spec('live_look_ahead_s', DEFAULT_LIVE_LOOK_AHEAD_S,
+          'look-ahead of the live (causal) estimator [s]',
           float_range=(0.0, 60.0),
-          constraints="at most the model's look-ahead (fir_delay_samples / fs)"),
+          constraints='a look-ahead the model has a live estimator for (models without one: '
+                      "at most the offline FIR's look-ahead, fir_delay_samples / fs)"),
     _Spec('sn_slope', 5.0, 'Basquin exponent k of the pseudo damage [-]',
           float_range=(0.5, 50.0)),
     _Spec('damage_publish_period_s', 1.0,
@@ -281,11 +285,11 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
         raise ModelFileError(f'{where}: sample rate {fs:g} Hz differs from parameter '
                              f'sample_rate_hz = {params.sample_rate_hz:g} Hz')
     delay = int(round(params.live_look_ahead_s * fs))
-    if delay > model.fir_delay_samples:
-        raise ModelFileError(
-            f'{where}: live_look_ahead_s = {params.live_look_ahead_s:g} s ({delay} samples) '
-            f"exceeds the model's look-ahead of {model.fir_delay_samples} samples "
-            f'({model.fir_delay_samples / fs:g} s)')
+    try:    # the one look-ahead rule, shared with predict/evaluate --causal
+        check_look_ahead(model, delay)
+    except ConfigError as err:
+        raise ModelFileError(f'{where}: live_look_ahead_s = {params.live_look_ahead_s:g} s '
+                             f'({delay} samples): {err}') from err
     return ModelLayout(force_rows=layout.force_rows, torque_rows=layout.torque_rows,
                        causal_delay_samples=delay)
 
