@@ -3,6 +3,7 @@
 """fit / predict --causal / evaluate --causal through the real CLI on real rosbag2 files."""
 import json
 
+from known_system import known_system
 import numpy as np
 import pytest
 from scipy import signal
@@ -30,18 +31,9 @@ T0_NS = 1_750_000_000 * 10**9
 def write_bag(path, seconds, seed):
     """Write a bag of a known 12x12 system (coloured inputs through 2nd-order filters)."""
     n = int(seconds * FS_HZ)
-    rng = np.random.default_rng(seed)
-    b_in, a_in = signal.butter(2, 40 / (FS_HZ / 2))
-    x = signal.lfilter(b_in, a_in, rng.normal(size=(12, n)), axis=1)
-    y = np.zeros((12, n))
-    sys_rng = np.random.default_rng(99)
-    for o in range(12):
-        for i in range(12):
-            gain = sys_rng.normal() * (300.0 if o == i else 30.0)
-            b, a = signal.butter(2, sys_rng.uniform(5, 30) / (FS_HZ / 2))
-            y[o] += gain * signal.lfilter(b, a, x[i])
+    x, y = known_system(n, seed)
     stamps = T0_NS + PERIOD_NS * np.arange(n, dtype=np.int64)
-    write_recording(path, stamps, x + np.array([0.0, 0.0, 9.81] * 4)[:, None], y + 3000.0)
+    write_recording(path, stamps, x, y)
 
 
 @pytest.fixture(scope='module')

@@ -6,9 +6,9 @@ from pathlib import Path
 import subprocess
 import sys
 
+from known_system import known_system
 import numpy as np
 import pytest
-from scipy import signal
 
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import read_wrench_topics
@@ -22,21 +22,6 @@ from wheel_force_estimator.core.predict import predict_forces
 FS_HZ = 512.0
 PERIOD_NS = 1_953_125
 T0_NS = 1_750_000_000 * 10**9
-
-
-def known_system(n, seed):
-    """Independent coloured inputs (+ gravity on z) through random 2nd-order filters."""
-    rng = np.random.default_rng(seed)
-    b_in, a_in = signal.butter(2, 40 / (FS_HZ / 2))
-    x = signal.lfilter(b_in, a_in, rng.normal(size=(12, n)), axis=1)
-    y = np.zeros((12, n))
-    sys_rng = np.random.default_rng(99)
-    for o in range(12):
-        for i in range(12):
-            gain = sys_rng.normal() * (300.0 if o == i else 30.0)
-            b, a = signal.butter(2, sys_rng.uniform(5, 30) / (FS_HZ / 2))
-            y[o] += gain * signal.lfilter(b, a, x[i])
-    return x + np.array([0.0, 0.0, 9.81] * 4)[:, None], y + 3000.0
 
 
 def write_bag(path, seconds, seed, storage='mcap', events=()):

@@ -13,9 +13,9 @@ from pathlib import Path
 import shutil
 import time
 
+from known_system import known_system
 import numpy as np
 import pytest
-from scipy import signal
 
 from wheel_force_estimator.bagio import read_wrench_topics
 from wheel_force_estimator.bagio import TopicConfig
@@ -32,21 +32,6 @@ T0_NS = 1_750_000_000 * 10**9
 CHANNELS = ('lf_fx', 'lf_fy', 'lf_fz', 'rf_fx', 'rf_fy', 'rf_fz',
             'lr_fx', 'lr_fy', 'lr_fz', 'rr_fx', 'rr_fy', 'rr_fz')
 pytestmark = pytest.mark.timeout(600)
-
-
-def known_system(n, seed, road_gain=1.0):
-    """Coloured inputs (+ gravity on z) through fixed random 2nd-order paths, + static load."""
-    rng = np.random.default_rng(seed)
-    b_in, a_in = signal.butter(2, 40 / (FS_HZ / 2))
-    x = road_gain * signal.lfilter(b_in, a_in, rng.normal(size=(12, n)), axis=1)
-    y = np.zeros((12, n))
-    sys_rng = np.random.default_rng(99)
-    for o in range(12):
-        for i in range(12):
-            gain = sys_rng.normal() * (300.0 if o == i else 30.0)
-            b, a = signal.butter(2, sys_rng.uniform(5, 30) / (FS_HZ / 2))
-            y[o] += gain * signal.lfilter(b, a, x[i])
-    return x + np.array([0.0, 0.0, 9.81] * 4)[:, None], y + 3000.0
 
 
 def write_bag(path, seconds, seed, storage='mcap', wft=True, road_gain=1.0, fs_hz=FS_HZ,
