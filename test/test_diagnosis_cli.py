@@ -109,7 +109,12 @@ def test_bags_from_the_simulator_and_augmented_model(tmp_path):
     assert [f['physics'] for f in doc['findings']][:1] == ['damper_asymmetry']
     physics = load_model(model).physics
     # The written model is the one the gate half preferred; JSON and file agree on it.
-    assert doc['fit']['model'] in ('sim_frf+physics', 'real_frf+physics', 'real_linear')
-    assert bool(physics) == doc['fit']['model'].endswith('+physics')
+    # (or rows of several, each named in rows_from, with the terms of the rows it took)
+    sources = set(doc['fit'].get('rows_from', {}).values()) or {doc['fit']['model']}
+    assert doc['fit']['model'] in ('sim_frf+physics', 'real_frf+physics', 'real_linear',
+                                   'sim_frf', 'per_channel'), doc['fit']['model']
+    assert sources <= {'sim_frf+physics', 'real_frf+physics', 'real_linear', 'sim_frf'}
+    if not physics:
+        assert not any(s.endswith('+physics') for s in sources)
     if physics:
         assert physics[0]['physics'] == 'damper_asymmetry'

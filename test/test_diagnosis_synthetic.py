@@ -52,7 +52,8 @@ def test_only_writable_models_are_scored_as_after(results):
     # test_diagnosis_written.py.)
     for effect in EFFECTS:
         result, _ = results[effect]
-        assert result.fit.model in ('real_frf+physics', 'real_linear'), effect
+        assert result.fit.model in ('real_frf+physics', 'real_linear', 'per_channel'), effect
+        assert set(result.fit.rows_from.values()) <= {'real_frf+physics', 'real_linear'}
         if result.fit.model == 'real_linear':
             assert result.fit.after == result.fit.real_linear
 

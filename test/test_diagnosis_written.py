@@ -127,8 +127,12 @@ def test_three_input_recording_pairs_by_coherence_and_names_the_hardening():
     assert first.physics == 'cubic_stiffness' and first.channels == ('f0',)
     assert first.terms[0].sources == ('x2',)
     assert result.fit.after['f0'] < 0.7 * result.fit.real_linear['f0']
-    # channels without a finding keep the plain fit's figure: nothing else changed
-    assert result.fit.model == 'real_frf+physics'
+    # channels without a finding keep the plain fit's rows and figures: nothing else changed
+    assert result.fit.model == 'per_channel'
+    assert result.fit.rows_from == {'f0': 'real_frf+physics', 'f1': 'real_linear',
+                                    'f2': 'real_linear'}
+    for c in ('f1', 'f2'):
+        assert result.fit.after[c] == pytest.approx(result.fit.real_linear[c], abs=1e-9)
 
 
 def test_model_with_displacement_input_is_a_reference(tmp_path, capsys):

@@ -138,6 +138,9 @@ class FitComparison:
         Why a figure is missing.
     gated : tuple of str
         Findings the holdout gate dropped, and why.
+    rows_from : mapping str -> str
+        With ``model == 'per_channel'``: the candidate each output channel's row (and its
+        terms) comes from; empty otherwise.
 
     """
 
@@ -151,12 +154,14 @@ class FitComparison:
     gate: Mapping[str, float] = field(default_factory=dict)
     notes: Tuple[str, ...] = ()
     gated: Tuple[str, ...] = ()
+    rows_from: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self):
         if self.data not in ('holdout', 'cross_validation'):
             raise DiagnosisError(f'fit data must be holdout or cross_validation, got '
                                  f'{self.data!r}')
         object.__setattr__(self, 'gate', dict(self.gate))
+        object.__setattr__(self, 'rows_from', dict(self.rows_from))
         object.__setattr__(self, 'report_on', tuple(self.report_on))
 
     @property
@@ -173,6 +178,8 @@ class FitComparison:
                     'model': self.model, 'data': self.data, 'metric': self.metric,
                     'report_on': list(self.report_on),
                     'gate': {k: _round(v) for k, v in self.gate.items()}})
+        if self.rows_from:
+            out['rows_from'] = dict(self.rows_from)
         return out
 
 

@@ -313,6 +313,21 @@ class _Builder:
         return out
 
 
+def _without_duplicates(findings, structural):
+    """
+    Drop per-channel findings of a physics a whole-vehicle finding names on the same channels.
+
+    Both would carry a term for the same effect on the same channels (a roll bar as a
+    per-channel displacement-difference stiffness and as the cross-corner load term), so
+    the model would count it twice, and the holdout gate, judging each on top of the
+    other, finds either harmful.  The whole-vehicle form is kept: it passed a test across
+    all corners.
+    """
+    named = [(f.physics, set(f.channels)) for f in structural]
+    return [f for f in findings
+            if not any(f.physics == p and set(f.channels) & c for p, c in named)]
+
+
 def _ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
     """
     Order findings: effects seen in the raw inputs first, then by the residual they explain.
@@ -320,7 +335,10 @@ def _ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
     Findings of the whole-vehicle FRF comparisons (``structural``: ids of a left-right
     coupling, a wrong mass or spring rate) come before the per-channel ones: they passed a
     test across all corners and their side effects on other channels are often picked up
-    per channel by a stand-in candidate (a missing roll bar as lateral "damping").
+    per channel by a stand-in candidate (a missing roll bar as lateral "damping").  That test
+    names a physics, so every finding of that physics ranks with it: the holdout gate may
+    later keep the per-channel finding of the same physics and drop the whole-vehicle one,
+    and the name the whole-vehicle test supports must not fall behind a stand-in then.
 
     A physics' weight is the sum over its findings of the explained fraction times the
     squared relative residual of the channels (the drop of RMSE squared), so an effect found
@@ -346,8 +364,9 @@ def _ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
     if winner is not None:
         total[winner] = max(v for k, v in total.items()
                             if k in HARDENINGS) * (1.0 + 1e-9) + 1e-300
-    first = set(structural)
-    return sorted(findings, key=lambda f: (not BY_NAME[f.physics].priority, id(f) not in first,
+    first = {f.physics for f in findings if id(f) in set(structural)}
+    return sorted(findings, key=lambda f: (not BY_NAME[f.physics].priority,
+                                           f.physics not in first,
                                            -total[f.physics], -weight(f)))
 
 
@@ -443,7 +462,7 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
         findings, omitted = add_omissions(findings, real, sim, reference, channels, sources,
                                           config, pooled)
         added += omitted
-        findings = findings + added
+        findings = _without_duplicates(findings, added) + added
         structural = [id(f) for f in added]
     if mode == 'sim':
         findings = settle_hardening(findings, builder, prep, sim_prep, channels, config, pooled)

@@ -60,6 +60,12 @@ def summary(findings, fit, rejected: Sequence[str]) -> List[str]:
             ' (chosen on the gate half of the holdout; mean RMSE over the named channels: '
             + ', '.join(f'{k} {v:.2f} %' for k, v in fit.gate.items()) + ')'
             if fit.gate else '') + '.')
+        if fit.rows_from:
+            by_source: dict = {}
+            for c, n in fit.rows_from.items():
+                by_source.setdefault(n, []).append(c)
+            lines.append('Rows of the written model, each chosen on the gate half: ' + '; '.join(
+                f'{n} for {channel_list(cs)}' for n, cs in by_source.items()) + '.')
     if fit.real_linear is not None and findings:
         affected = sorted({c for f in findings if f.terms for c in f.channels})
         beaten = [c for c in affected if fit.after[c] < fit.real_linear[c]]

@@ -31,6 +31,8 @@ import scipy.optimize
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
+from wheel_force_estimator.core.model_rows import compatible
+from wheel_force_estimator.core.model_rows import compose_rows
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis.features import settle_samples
@@ -194,20 +196,95 @@ def mean_score(model, recordings, channels, metric: str) -> Tuple[float, Dict[st
 
 
 def choose(candidates: Mapping[str, object], gate: Sequence, channels: Sequence[str],
-           metric: str) -> Tuple[str, Dict[str, float]]:
+           metric: str) -> Tuple[str, Dict[str, float], Dict[str, Dict[str, float]]]:
     """
     Return the name of the candidate with the lowest mean RMSE over ``channels`` on ``gate``.
 
-    Ties go to the earlier candidate.  Also returns every candidate's gate score.
+    Ties go to the earlier candidate.  Also returns every candidate's gate score (mean over
+    ``channels``) and its per-channel gate scores.
     """
-    scores = {name: mean_score(model, gate, channels, metric)[0]
-              for name, model in candidates.items()}
+    per_channel = {name: mean_score(model, gate, channels, metric)[1]
+                   for name, model in candidates.items()}
+    scores = {name: float(np.mean([per_channel[name][c] for c in channels]))
+              for name in candidates}
     best = min(scores, key=lambda n: (scores[n], list(candidates).index(n)))
-    return best, scores
+    return best, scores, per_channel
+
+
+def linked_channels(candidates: Mapping[str, object], channels: Sequence[str]) -> List[List[str]]:
+    """
+    Return the groups of output channels that must come from one model.
+
+    Linked are the channels a physics term spans or couples.
+    A term's parameters are shared by all its channels, and a load-state term reads the
+    prediction of its partner outputs, so those channels are linked (union over every
+    candidate's terms); every other channel stands alone.
+    """
+    parent = {c: c for c in channels}
+
+    def root(c):
+        while parent[c] != c:
+            parent[c] = parent[parent[c]]
+            c = parent[c]
+        return c
+    for model in candidates.values():
+        for term in model.physics_terms:
+            linked = [c for c in tuple(term.channels) + tuple(term.partners) if c in parent]
+            for c in linked[1:]:
+                parent[root(c)] = root(linked[0])
+    groups: Dict[str, List[str]] = {}
+    for c in channels:
+        groups.setdefault(root(c), []).append(c)
+    return list(groups.values())
+
+
+def compose(candidates: Mapping[str, object], per_channel: Mapping[str, Mapping[str, float]],
+            channels: Sequence[str]) -> Tuple[Optional[object], Dict[str, str], str]:
+    """
+    Combine the candidates' rows: each linked group of channels from its best gate model.
+
+    Every output row of the FRF is its own fit (:mod:`core.model_rows`), so no channel needs
+    to take the model another channel prefers: a finding on the vertical channels may be best
+    served by the real-data FRF with its terms while the lateral channels, which the real
+    records fit worse (lower coherence), keep the simulation's rows.  Groups of
+    :func:`linked_channels` are chosen together (lowest mean gate RMSE over the group; ties to
+    the earlier candidate), and a candidate's terms come along with its rows; a group no term
+    touches chooses among the candidates without terms.
+
+    Returns ``(model, {channel: candidate}, note)``: the model is None when every group
+    chose the same candidate (that candidate is written whole) or when the rows cannot be
+    combined (``note`` says why).
+    """
+    names = list(candidates)
+    plain = [n for n in names if not candidates[n].physics] or names
+    touched = {c for n in names for t in candidates[n].physics_terms for c in t.channels}
+    pick: Dict[str, str] = {}
+    for group in linked_channels(candidates, channels):
+        # A row no term touches comes from a model without terms: the other candidates'
+        # rows there differ from those only by the backfit's refitting noise.
+        eligible = names if touched.intersection(group) else plain
+        best = min(eligible, key=lambda n: (float(np.mean([per_channel[n][c] for c in group])),
+                                            names.index(n)))
+        pick.update(dict.fromkeys(group, best))
+    if len(set(pick.values())) < 2:
+        return None, pick, ''
+    models = [candidates[n] for n in names]
+    ok, why = compatible(models)
+    if not ok:
+        return None, pick, f'rows not combined per channel: {why}'
+    terms = [t.to_dict() for n in names for t in candidates[n].physics_terms
+             if all(pick[c] == n for c in t.channels)]
+    base = max(names, key=lambda n: sum(v == n for v in pick.values()))
+    fit = dict(candidates[base].fit)
+    fit['rows_from'] = dict(pick)
+    model = compose_rows(models, [names.index(pick[c]) for c in channels], terms, fit)
+    return model, pick, ''
 
 
 #: ``fit.model`` of the reference written unchanged, per diagnosis mode.
 UNCHANGED = {'sim': 'sim_frf', 'model': 'model', 'linear': 'real_linear'}
+#: ``fit.model`` of a model combined per channel (``fit.rows_from`` names each row's source).
+PER_CHANNEL = 'per_channel'
 #: ``fit.model`` of the reference FRF plus the findings' terms, per mode.
 AUGMENTED = {'sim': 'sim_frf+physics', 'model': 'model+physics', 'linear': 'real_frf+physics'}
 
@@ -261,13 +338,28 @@ def compare(findings, real, reference, mode, holdout, outcomes, channels, source
             candidates['real_frf+physics'], _ = backfitted_model(
                 findings, real, lin_model, real_fit, hp, skip)
             candidates['real_linear'] = lin_model
+        if ref_model is not None and split is not None and mode != 'linear':
+            # the findings may help some channels and not others: the reference as it was
+            candidates[UNCHANGED[mode]] = ref_model
     named = sorted({c for f in with_terms for c in f.channels})
     gate_scores = {}
+    rows_from: Dict[str, str] = {}
     if split is None or len(candidates) < 2:
         choice = next(iter(candidates), None)
+        model = candidates.get(choice)
     else:
-        choice, gate_scores = choose(candidates, split.gate, named, metric)
-    model = candidates.get(choice)
+        choice, gate_scores, per_channel = choose(candidates, split.gate, named, metric)
+        model = candidates[choice]
+        combined, rows_from, note = compose(candidates, per_channel, channels)
+        if note:
+            notes.append(note)
+        if combined is not None:
+            choice, model = PER_CHANNEL, combined
+        else:
+            if not note:  # every group chose the same candidate
+                choice = next(iter(rows_from.values()))
+                model = candidates[choice]
+            rows_from = {}
     if split is None:
         fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},
                             {c: outcomes[c].cv_after_pct for c in channels},
@@ -283,5 +375,5 @@ def compare(findings, real, reference, mode, holdout, outcomes, channels, source
     fit = FitComparison(before, after, 'holdout', real_lin,
                         1.0 if metric == 'rmse_hp1_pct' else 0.0, model=choice or '',
                         report_on=split.report_on, gate=gate_scores, notes=tuple(notes),
-                        gated=tuple(gated))
+                        gated=tuple(gated), rows_from=rows_from)
     return findings, fit, model

@@ -1,0 +1,122 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+One model from the output rows of several: each force channel from the model that predicts it best.
+
+Every output row of a MIMO FRF is its own least-squares problem (the H1 estimate of row ``o``
+is ``S_yo,x S_xx^-1``; the FIR of row ``o`` touches no other output), so a model whose rows
+come from different fits of the same inputs predicts every channel exactly as the model the
+row came from.  Prediction runs the FIR taps only, so rows of shorter filters are embedded in
+the longest one with their lag zero aligned (the added taps are zeros: the same filter).  The
+FRF estimate and coherences of such a row are interpolated onto the longest filter's
+frequency lines (they are descriptions of the fit, not used to predict).  The static
+operating point is the one subtlety: a model subtracts its own mean input ``static_accel_mps2``
+before the filter, so a row taken from another model gets its static force corrected by the
+row's DC gain times the difference of the two operating points, which keeps its prediction of
+a constant input unchanged.
+"""
+from dataclasses import replace
+from typing import Mapping, Sequence, Tuple
+
+import numpy as np
+
+from wheel_force_estimator.core.errors import ConfigError
+
+
+def _interp(f_to, f_from, values):
+    """Linear interpolation along axis 0 (complex-safe) onto ``f_to``."""
+    flat = values.reshape(values.shape[0], -1)
+    cols = [np.interp(f_to, f_from, flat[:, j].real) for j in range(flat.shape[1])]
+    if np.iscomplexobj(values):
+        cols = [c + 1j * np.interp(f_to, f_from, flat[:, j].imag) for j, c in enumerate(cols)]
+    return np.stack(cols, axis=1).reshape((f_to.size,) + values.shape[1:])
+
+
+def _longest(models):
+    return max(models, key=lambda m: m.fir_taps.shape[2])
+
+
+def compatible(models: Sequence) -> Tuple[bool, str]:
+    """Return ``(True, '')`` when rows of ``models`` can be combined, else False and why."""
+    first = models[0]
+    base = _longest(models)
+    lead, tail = base.fir_delay_samples, base.fir_taps.shape[2] - base.fir_delay_samples
+    for m in models[1:]:
+        if m.fs_hz != first.fs_hz:
+            return False, f'sample rates {first.fs_hz:g} and {m.fs_hz:g} Hz'
+        if (m.input_channels, m.output_channels) != (first.input_channels,
+                                                     first.output_channels):
+            return False, 'different channels'
+        if m.units != first.units:
+            return False, 'different units'
+    for m in models:
+        if m.fir_delay_samples > lead or m.fir_taps.shape[2] - m.fir_delay_samples > tail:
+            return False, (f'a FIR of {m.fir_taps.shape[2]} taps with lag zero at '
+                           f'{m.fir_delay_samples} does not fit in the longest one '
+                           f'({base.fir_taps.shape[2]} taps, lag zero at {lead})')
+    return True, ''
+
+
+def compose_rows(models: Sequence, source: Sequence[int], physics: Sequence[Mapping],
+                 fit: Mapping) -> object:
+    """
+    Return a model whose output row ``o`` is row ``o`` of ``models[source[o]]``.
+
+    Parameters
+    ----------
+    models : sequence of FrfModel
+        Models of the same inputs and outputs (:func:`compatible`).
+    source : sequence of int
+        Per output channel, the index of the model its row comes from.
+    physics : sequence of mapping
+        Physics terms of the result (``PhysicsTerm.to_dict()`` form).
+    fit : mapping
+        The result's ``fit`` metadata.
+
+    Returns
+    -------
+    FrfModel
+        The longest filter's realisation, frequency lines, operating point and input
+        condition numbers; no live estimators (``fit`` designs them for one FIR).
+
+    Raises
+    ------
+    ConfigError
+        Incompatible models or a bad ``source``.
+
+    """
+    ok, why = compatible(models)
+    if not ok:
+        raise ConfigError(f'cannot combine model rows: {why}')
+    src = np.asarray(source, dtype=np.int64)
+    no = len(models[0].output_channels)
+    if src.shape != (no,) or src.min() < 0 or src.max() >= len(models):
+        raise ConfigError(f'row sources must be {no} indices below {len(models)}, got '
+                          f'{list(source)}')
+    base = _longest(models)
+    f_hz = np.asarray(base.f_hz)
+    h = np.array(base.h)
+    coh = np.array(base.coherence_ordinary)
+    coh_m = np.array(base.coherence_multiple)
+    taps = np.array(base.fir_taps)
+    static_force = np.array(base.static_force_n, dtype=np.float64)
+    for o, k in enumerate(src.tolist()):
+        m = models[k]
+        if m is base:
+            continue
+        same_lines = m.f_hz.shape == f_hz.shape and np.array_equal(m.f_hz, f_hz)
+        h[:, o] = m.h[:, o] if same_lines else _interp(f_hz, m.f_hz, m.h[:, o])
+        coh[:, o] = (m.coherence_ordinary[:, o] if same_lines
+                     else _interp(f_hz, m.f_hz, m.coherence_ordinary[:, o]))
+        coh_m[:, o] = (m.coherence_multiple[:, o] if same_lines
+                       else _interp(f_hz, m.f_hz, m.coherence_multiple[:, o]))
+        at = base.fir_delay_samples - m.fir_delay_samples
+        taps[o] = 0.0
+        taps[o, :, at:at + m.fir_taps.shape[2]] = m.fir_taps[o]
+        # the row's response to a constant input stays what it was in its own model
+        dc_gain = m.fir_taps[o].sum(axis=1)
+        static_force[o] = m.static_force_n[o] + float(
+            dc_gain @ (np.asarray(base.static_accel_mps2) - np.asarray(m.static_accel_mps2)))
+    return replace(base, h=h, coherence_ordinary=coh, coherence_multiple=coh_m, fir_taps=taps,
+                   static_force_n=static_force, physics=tuple(dict(p) for p in physics),
+                   fit=dict(fit), live=())
