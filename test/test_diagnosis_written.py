@@ -15,10 +15,12 @@ import scipy.signal
 
 from wheel_force_estimator.cli.main import main
 from wheel_force_estimator.core.model import load_model
+from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis.features import pairing
+from wheel_force_estimator.diagnosis.holdout import evaluate_scores
 from wheel_force_estimator.diagnosis.holdout import split_holdout
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 from wheel_force_estimator.diagnosis.written import scaled
@@ -114,9 +116,10 @@ def _three_input(seed, n, cubic_on=0):
 DRIVER = (2, 0, 1)
 
 
-def test_three_input_recording_pairs_by_coherence_and_names_the_hardening():
+def test_three_input_recording_pairs_by_coherence_and_names_the_hardening(tmp_path):
     # Bug caught: pairing by position (or refusing: "cannot tell which input drives which
-    # output"), which puts the physics term on the wrong motion.
+    # output"), which puts the physics term on the wrong motion; a model combined per
+    # channel that does not survive the model file or scores otherwise than `after`.
     n = int(60 * FS_HZ)
     real = [_three_input(1, n), _three_input(2, n)]
     hold = [_three_input(3, n), _three_input(4, n)]
@@ -133,6 +136,17 @@ def test_three_input_recording_pairs_by_coherence_and_names_the_hardening():
                                     'f2': 'real_linear'}
     for c in ('f1', 'f2'):
         assert result.fit.after[c] == pytest.approx(result.fit.real_linear[c], abs=1e-9)
+    # the combined model, written and loaded, scores `after` on the report half
+    save_model(result.model, tmp_path / 'w.npz')
+    loaded = load_model(tmp_path / 'w.npz')
+    assert loaded.fit['rows_from'] == result.fit.rows_from
+    # (the finding's term, then the linear companions refitted with it on its channel)
+    assert loaded.physics[0]['physics'] == 'cubic_stiffness'
+    assert {c for p in loaded.physics for c in p['channels']} == {'f0'}
+    scores = evaluate_scores(lambda r: predict_forces(loaded, r.inputs),
+                             split_holdout(hold).report, result.fit.metric)
+    for c, v in result.fit.after.items():
+        assert scores[c] == pytest.approx(v, abs=1e-9)
 
 
 def test_model_with_displacement_input_is_a_reference(tmp_path, capsys):
