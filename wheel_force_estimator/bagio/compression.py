@@ -9,6 +9,7 @@ standard-library-style ``backports.zstd`` builds a new context for every call (~
 is more than decompressing a 4 KiB chunk costs.  Anything ``zstandard`` does not decode in one
 step (several frames, no content size) goes to ``backports.zstd``; both give the same bytes.
 """
+import functools
 import sys
 import threading
 
@@ -44,24 +45,22 @@ def _zstd_decompress(data: bytes) -> bytes:
 
 def chunk_decompressor(name: str):
     """
-    Return the fastest ``decompress(bytes) -> bytes`` for many small inputs of ``name``.
+    Return ``(decompress, refused)``: the fastest decoder of many small inputs of ``name``.
 
-    For zstd with ``zstandard`` installed: this thread's context, bound once (the general
-    decoder still takes what it does not decode in one step).
+    ``decompress(bytes) -> bytes`` may raise ``refused`` (a tuple of exception types) for an
+    input it does not decode in one step: ``DECOMPRESS[name]`` decides about that one.  For
+    zstd with ``zstandard`` installed it is this thread's context, bound once, refusing
+    several frames or a missing content size; otherwise ``DECOMPRESS[name]``, refusing nothing.
     """
+    if name == 'lz4':
+        return _lz4_frame_decompress, ()
     if name != 'zstd' or _zstandard is None:
-        return DECOMPRESS[name]
+        return DECOMPRESS[name], ()
     context = getattr(_LOCAL, 'zstd', None)
     if context is None:
         context = _LOCAL.zstd = _zstandard.ZstdDecompressor()
-    one_step, error = context.decompress, _zstandard.ZstdError
-
-    def decompress(data):
-        try:
-            return one_step(data, allow_extra_data=False)
-        except error:
-            return _zstd_general(data)
-    return decompress
+    return functools.partial(context.decompress, allow_extra_data=False), (
+        _zstandard.ZstdError,)
 
 
 def _lz4_decompress(data: bytes) -> bytes:
