@@ -228,24 +228,20 @@ def offsets_table(summary: np.ndarray, chunks, wanted):
     Gather the message index offsets of wanted channels of all chunk indexes in one table.
 
     ``chunks`` is a :class:`.mcap_index.ChunkTable`: where each chunk's offsets map lies in
-    ``summary`` and its entries.  Returns ``(chunk start, channel, file offset)`` arrays
-    sorted by chunk start.
+    ``summary`` and its entries.  Returns ``(chunk position in chunks, channel, file
+    offset)`` arrays, ordered by chunk position.
     """
     pos, count = chunks.map_pos, chunks.map_count
     first = np.concatenate(([0], np.cumsum(count)[:-1]))
     at = np.repeat(pos - 10 * first, count) + 10 * np.arange(int(count.sum()))
     table = gather_bytes(summary, at, 10).view(INDEX_OFFSETS)[:, 0]
-    owner = np.repeat(chunks.start, count)
+    owner = np.repeat(np.arange(len(chunks)), count)
     mine = np.isin(table['channel'], np.fromiter(wanted, np.int64, len(wanted)))
-    owner, cid, off = (owner[mine], table['channel'][mine].astype(np.int64),
-                       table['offset'][mine].astype(np.int64))
-    if owner.size and (owner[1:] < owner[:-1]).any():  # chunks not given in file order
-        order = np.argsort(owner, kind='stable')
-        owner, cid, off = owner[order], cid[order], off[order]
-    return owner, cid, off
+    return (owner[mine], table['channel'][mine].astype(np.int64),
+            table['offset'][mine].astype(np.int64))
 
 
-def index_entries(buf: np.ndarray, rel, length, end, start, indexed, table):
+def index_entries(buf: np.ndarray, shift: int, rel, length, end, indexed, table, first: int):
     """
     Locate and check the message index of every wanted channel of every chunk of a batch.
 
@@ -253,13 +249,18 @@ def index_entries(buf: np.ndarray, rel, length, end, start, indexed, table):
     ----------
     buf : numpy.ndarray of uint8
         The batch.
-    rel, length, end, start : numpy.ndarray of int64
-        Per chunk (sorted by ``start``): record start in ``buf``, record length, end of
-        its message indexes in ``buf``, file offset.
+    shift : int
+        File offset of ``buf[0]``.
+    rel, length, end : numpy.ndarray of int64
+        Per chunk: record start in ``buf``, record length, end of its message indexes in
+        ``buf``.
     indexed : numpy.ndarray of bool
         Chunks whose chunk index lists message indexes at all.
     table : tuple of numpy.ndarray
-        :func:`offsets_table`.
+        :func:`offsets_table` of the chunks read, of which the batch's are the chunk
+        positions ``first`` to ``first + rel.size - 1``.
+    first : int
+        Position of the batch's first chunk in ``table``.
 
     Returns
     -------
@@ -271,23 +272,23 @@ def index_entries(buf: np.ndarray, rel, length, end, start, indexed, table):
     """
     usable = indexed.copy()
     owner, cid, off = table
-    lo, hi = np.searchsorted(owner, [start[0], start[-1] + 1])
-    owner, cid, off = owner[lo:hi], cid[lo:hi], off[lo:hi]
-    j = np.searchsorted(start, owner)
-    mine = start[np.minimum(j, start.size - 1)] == owner  # chunks of other batches skipped
-    j, cid, off = j[mine], cid[mine], off[mine]
+    lo, hi = np.searchsorted(owner, [first, first + rel.size])
+    j, cid, pos = owner[lo:hi] - first, cid[lo:hi], off[lo:hi] - shift
     if not j.size:
         return usable, {}
-    pos = rel[j] + off - start[j]
-    ok = (pos >= rel[j] + length[j]) & (pos + 15 <= end[j])
+    end = end[j]
+    ok = (pos >= (rel + length)[j]) & (pos + 15 <= end)
     head = gather_bytes(buf, np.where(ok, pos, 0), 15).view(_INDEX_DTYPE)[:, 0]
     size = head['array_length'].astype(np.int64)
     ok &= (head['opcode'] == 0x07) & (head['channel'] == cid)
-    ok &= (pos + 15 + size <= end[j]) & (size % 16 == 0)
+    ok &= (pos + 15 + size <= end) & (size % 16 == 0)
     usable[j[~ok]] = False
-    keep = usable[j]
+    keep = np.flatnonzero(usable[j])
+    # grouped by channel, in storage order within each (a stable radix sort of 16-bit ids)
+    keep = keep[np.argsort(cid[keep].astype(np.uint16), kind='stable')]
+    channel, first, count = np.unique(cid[keep], return_index=True, return_counts=True)
     entries = {}
-    for c in np.unique(cid[keep]).tolist():
-        sel = keep & (cid == c)
+    for c, a, n in zip(channel.tolist(), first.tolist(), count.tolist()):
+        sel = keep[a:a + n]
         entries[c] = (pos[sel] + 15, size[sel] // 16, j[sel])
     return usable, entries

@@ -123,12 +123,16 @@ class McapFile:
             return self._scan_file(fh, summary_start, topics, collectors)
         if (chunks.start[1:] < chunks.start[:-1]).any():  # summary not in file order
             chunks = chunks.take(np.argsort(chunks.start, kind='stable'))
-        self._table = offsets_table(summary, chunks, wanted)
+        owner, cid, offset = offsets_table(summary, chunks, wanted)
         # chunks that may hold wanted messages: indexed for one, or without message indexes
         # (those may hold any channel: they are read record by record)
-        owners = np.append(self._table[0], -1)  # sorted, and a sentinel past the end
-        listed = owners[np.searchsorted(owners[:-1], chunks.start)] == chunks.start
-        todo = chunks.take(np.flatnonzero((chunks.map_count == 0) | listed))
+        listed = np.zeros(len(chunks), bool)
+        listed[owner] = True
+        keep = np.flatnonzero((chunks.map_count == 0) | listed)
+        todo = chunks.take(keep)
+        position = np.zeros(len(chunks), np.int64)
+        position[keep] = np.arange(keep.size)
+        self._table = (position[owner], cid, offset)  # owners: positions in todo
         beyond = np.flatnonzero(todo.end > size)
         if beyond.size:
             raise self._fail('chunk beyond end of file', int(todo.start[beyond[0]]))
@@ -181,7 +185,7 @@ class McapFile:
         # releases the GIL), which also faults the pages in for it; a batch's pages are
         # released once its CRCs are checked, so the resident set stays at a few batches.
         mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
-        batches = [(chunks.take(slice(a, b)), lo, hi)
+        batches = [(chunks.take(slice(a, b)), a, lo, hi)
                    for a, b, lo, hi in batches_of(chunks, _BATCH_BYTES, _MAX_SKIP)]
         previous: List[tuple] = []
         previous_range = (0, 0)
@@ -192,13 +196,13 @@ class McapFile:
             collectors.sink(topic, msgtype)
         try:
             upcoming = self._submit_crcs(mm, batches[0], pool)
-            for k, (batch, lo, hi) in enumerate(batches):
-                checks = upcoming
+            for k, (batch, first, lo, hi) in enumerate(batches):
+                checks, headers = upcoming
                 if k + 1 < len(batches):
                     upcoming = self._submit_crcs(mm, batches[k + 1], pool)
                 try:
-                    self._read_batch(memoryview(mm)[lo:hi], lo, batch, wanted, collectors,
-                                     counts)
+                    self._read_batch(memoryview(mm)[lo:hi], lo, batch, first, headers, wanted,
+                                     collectors, counts)
                 except BagError:
                     self._check_crcs(previous + checks)  # a CRC mismatch explains it better
                     raise
@@ -213,16 +217,20 @@ class McapFile:
             except BufferError:  # views still referenced by a traceback: unmapped by GC
                 pass
 
-    def _submit_crcs(self, mm, batch, pool) -> List[tuple]:
-        """Queue the CRC of every uncompressed chunk of a batch: ``(start, crc, future)``."""
-        chunks, lo, hi = batch
+    def _submit_crcs(self, mm, batch, pool):
+        """
+        Parse a batch's chunk headers and queue the CRC of every uncompressed chunk.
+
+        Returns ``([(start, crc, future), ...], headers)`` (:meth:`_headers`).
+        """
+        chunks, _, lo, hi = batch
         view = memoryview(mm)[lo:hi]
-        start, first, usize, crc = self._headers(view, lo, chunks)
+        headers = start, first, usize, crc = self._headers(view, lo, chunks)
         plain = np.array([not name for name in chunks.names], bool)[chunks.comp] & (crc != 0)
         k = np.flatnonzero(plain)
         return [(s, c, pool.submit(crc32, view[f:f + u]))
                 for s, f, u, c in zip(start[k].tolist(), first[k].tolist(), usize[k].tolist(),
-                                      crc[k].tolist())]
+                                      crc[k].tolist())], headers
 
     def _headers(self, view, lo: int, chunks):
         """Chunk offsets and the header fields of a batch; a bad header is named."""
@@ -241,13 +249,13 @@ class McapFile:
             if future.result() != crc:
                 raise self._fail('chunk CRC mismatch', start)
 
-    def _read_batch(self, view, lo, batch, wanted, collectors, counts):
+    def _read_batch(self, view, lo, batch, first_chunk, headers, wanted, collectors, counts):
         buf = np.frombuffer(view, np.uint8)
-        start, first, usize, crc = self._headers(view, lo, batch)
+        start, first, usize, crc = headers
         rel = start - lo
         end = batch.end - lo
-        usable, entries = index_entries(buf, rel, batch.length, end, start,
-                                        batch.map_count > 0, self._table)
+        usable, entries = index_entries(buf, lo, rel, batch.length, end, batch.map_count > 0,
+                                        self._table, first_chunk)
         for a, b in runs(batch.comp):
             comp = batch.names[batch.comp[a]]
             group = ChunkGroup(bool(comp))
