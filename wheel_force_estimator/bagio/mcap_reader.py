@@ -134,8 +134,9 @@ class McapFile:
         position[keep] = np.arange(keep.size)
         self._table = (position[owner], cid, offset)  # owners: positions in todo
         beyond = np.flatnonzero(todo.end > size)
-        if beyond.size:
-            raise self._fail('chunk beyond end of file', int(todo.start[beyond[0]]))
+        if beyond.size:  # named with the offset as written (the table caps huge values)
+            (start,) = struct.unpack_from('<Q', summary, int(todo.map_pos[beyond[0]]) - 20)
+            raise self._fail('chunk beyond end of file', start)
         counts = dict.fromkeys(wanted, 0)
         self._read_chunks(fh, todo, wanted, collectors, counts)
         if stats is not None and any(counts[c] != stats.get(c, 0) for c in wanted):
