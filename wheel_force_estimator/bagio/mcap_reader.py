@@ -11,10 +11,12 @@ length and log time are checked for every message), is read through its own reco
 indexes, or with messages outside chunks, is read record by record from start to end
 (``scan=True`` forces that for every file: the independent fallback path).
 
-The records of all chunks in a ~64 MiB batch are checked with one vectorised pass per channel
-(the decompressed records of a batch's chunks are joined first, so the cost is per batch,
-not per chunk), and every uncompressed chunk's CRC is computed by a worker thread one batch
-ahead.  Batches go to the per-topic sinks of :mod:`.storage`.
+The summary's chunk indexes are parsed into arrays (:mod:`.mcap_index`).  The records of
+all chunks in a ~64 MiB batch are checked with one vectorised pass per channel (the
+decompressed records of a batch's chunks are joined first, so the cost is per batch, not per
+chunk; a run of zstd chunks with CRCs is decompressed in one call), and every uncompressed
+chunk's CRC is computed by a worker thread one batch ahead.  Batches go to the per-topic
+sinks of :mod:`.storage`.
 """
 from concurrent.futures import ThreadPoolExecutor
 import mmap
