@@ -206,3 +206,19 @@ def test_chunk_index_beyond_the_file_is_named(many_chunks):
     with pytest.raises(BagError, match=rf'{data_file}: corrupt or truncated mcap: chunk '
                                        rf'beyond end of file at offset {1 << 63}'):
         read_recording(path)
+
+
+def test_no_usable_message_index_reads_every_chunk_through_its_records(many_chunks):
+    # every message index damaged (outside the chunk CRCs): all chunks read record by record
+    path, data_file, raw, at, _ = many_chunks
+    ref = read_recording(path)
+    data = np.frombuffer(bytes(raw), np.uint8)
+    op, body, _ = locate(data, 8, int(at[0]), _fail)
+    assert (op == 0x07).sum() > 100
+    for k in (body[op == 0x07] - 9).tolist():
+        raw[k] = 0x7F  # an opcode no reader knows: skipped as the spec says
+    data_file.write_bytes(bytes(raw))
+    rec = read_recording(path)
+    assert rec.n_bulk == ref.n_bulk == 8 * N
+    assert np.array_equal(rec.segments[0].force_n.view(np.int64),
+                          ref.segments[0].force_n.view(np.int64))

@@ -284,11 +284,14 @@ def index_entries(buf: np.ndarray, shift: int, rel, length, end, indexed, table,
     ok &= (pos + 15 + size <= end) & (size % 16 == 0)
     usable[j[~ok]] = False
     keep = np.flatnonzero(usable[j])
+    if not keep.size:
+        return usable, {}
     # grouped by channel, in storage order within each (a stable radix sort of 16-bit ids)
     keep = keep[np.argsort(cid[keep].astype(np.uint16), kind='stable')]
-    channel, first, count = np.unique(cid[keep], return_index=True, return_counts=True)
+    ids = cid[keep]
+    cuts = np.concatenate(([0], np.flatnonzero(ids[1:] != ids[:-1]) + 1, [ids.size])).tolist()
     entries = {}
-    for c, a, n in zip(channel.tolist(), first.tolist(), count.tolist()):
-        sel = keep[a:a + n]
-        entries[c] = (pos[sel] + 15, size[sel] // 16, j[sel])
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        sel = keep[a:b]
+        entries[int(ids[a])] = (pos[sel] + 15, size[sel] // 16, j[sel])
     return usable, entries
