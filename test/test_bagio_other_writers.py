@@ -175,6 +175,41 @@ def test_flipped_byte_in_chunk_data_still_fails_with_offset(tmp_path, original):
             read_recording(path, bulk=bulk)
 
 
+def _small_zstd_chunks(tmp_path, original, **writer_args):
+    path = _rewrite_mcap(original[0], tmp_path / 'b', compression=CompressionType.ZSTD,
+                         chunk_size=4 << 10, **writer_args)
+    with path.open('rb') as fh:
+        chunks = make_reader(fh).get_summary().chunk_indexes
+    assert len(chunks) > 50
+    return path, chunks[len(chunks) // 2]
+
+
+# Chunk record: opcode(1) length(8) start/end time(16) uncompressed size(8) CRC(4) ...
+@pytest.mark.parametrize('field, at, fault', [
+    ('crc', 33, 'chunk CRC mismatch'),
+    ('uncompressed_size', 25, r'chunk holds \d+ bytes, header says \d+'),
+    ('compressed_data', -30, r'chunk (CRC mismatch|does not decompress \(.*\))'),
+])
+def test_damaged_small_zstd_chunk_is_named(tmp_path, original, field, at, fault):
+    # The chunks of a run are decompressed in one call; a damaged one is then found chunk by
+    # chunk and named as before (#18 item 4).
+    path, chunk = _small_zstd_chunks(tmp_path, original)
+    damaged = bytearray(path.read_bytes())
+    start = chunk.chunk_start_offset
+    damaged[start + at if at > 0 else start + chunk.chunk_length + at] ^= 0x01
+    path.write_bytes(bytes(damaged))
+    with pytest.raises(BagError, match=rf'{path}: corrupt or truncated mcap: {fault} at offset '
+                                       rf'{start}$'):
+        read_recording(path)
+
+
+def test_small_zstd_chunks_without_crcs(tmp_path, original):
+    # no CRC to check each chunk's place in a joined decompression: decoded chunk by chunk
+    path, _ = _small_zstd_chunks(tmp_path, original, enable_crcs=False)
+    bulk, _ = _read_both(path, original[1])
+    assert bulk.n_bulk == 8 * N
+
+
 def test_truncated_unchunked_mcap_names_the_offset(tmp_path, original):
     path = _rewrite_mcap(original[0], tmp_path / 'b', use_chunking=False)
     data = path.read_bytes()

@@ -174,7 +174,8 @@ _INDEX_DTYPE = np.dtype({'names': ['opcode', 'channel', 'array_length'],
                          'itemsize': 15})
 
 
-def chunk_headers(buf: np.ndarray, rel: np.ndarray, end: np.ndarray, compression):
+def chunk_headers(buf: np.ndarray, rel: np.ndarray, end: np.ndarray, comp: np.ndarray,
+                  names):
     """
     Parse the Chunk record headers of a batch at once.
 
@@ -184,8 +185,10 @@ def chunk_headers(buf: np.ndarray, rel: np.ndarray, end: np.ndarray, compression
         The batch.
     rel, end : numpy.ndarray of int64
         Each chunk record's start and the end of its message indexes in ``buf``.
-    compression : sequence of str
-        Each chunk's compression as its chunk index lists it.
+    comp : numpy.ndarray of int64
+        Each chunk's compression as its chunk index lists it: a position in ``names``.
+    names : sequence of str
+        Compression names.
 
     Returns
     -------
@@ -195,7 +198,8 @@ def chunk_headers(buf: np.ndarray, rel: np.ndarray, end: np.ndarray, compression
         Positions of chunks whose header is inconsistent (the caller names the fault).
 
     """
-    clen = np.fromiter((len(c) for c in compression), np.int64, len(compression))
+    name_len = np.array([len(name.encode()) for name in names] or [0], np.int64)
+    clen = name_len[comp]
     fits = (rel >= 0) & (rel + 49 + clen <= np.minimum(end, buf.size))
     at = np.where(fits, rel, 0)
     if buf.size < 49 + int(clen.max(initial=0)):
@@ -209,10 +213,12 @@ def chunk_headers(buf: np.ndarray, rel: np.ndarray, end: np.ndarray, compression
     ok &= (csize >= 0) & (first + csize <= end)
     ok &= head['record_length'].astype(np.int64) + at + 9 <= end
     ok &= (clen > 0) | (csize == usize)
-    for name in set(compression) - {''}:  # the header names the compression the index does
-        sel = np.flatnonzero(ok & (clen == len(name)))
+    for code, name in enumerate(names):  # the header names the compression the index does
+        if not name:
+            continue
+        sel = np.flatnonzero(ok & (comp == code))
         text = np.frombuffer(name.encode(), np.uint8)
-        same = (gather_bytes(buf, at[sel] + 41, len(name)) == text).all(axis=1)
+        same = (gather_bytes(buf, at[sel] + 41, text.size) == text).all(axis=1)
         ok[sel[~same]] = False
     return first, usize, head['crc'].astype(np.int64), np.flatnonzero(~ok)
 
@@ -221,23 +227,21 @@ def offsets_table(summary: np.ndarray, chunks, wanted):
     """
     Gather the message index offsets of wanted channels of all chunk indexes in one table.
 
-    ``chunks[k][2]`` is ``(position, entries)`` of chunk ``k``'s offsets map in ``summary``.
-    Returns ``(chunk start, channel, file offset)`` arrays sorted by chunk start.
+    ``chunks`` is a :class:`.mcap_index.ChunkTable`: where each chunk's offsets map lies in
+    ``summary`` and its entries.  Returns ``(chunk position in chunks, channel, file
+    offset)`` arrays, ordered by chunk position.
     """
-    pos = np.fromiter((c[2][0] for c in chunks), np.int64, len(chunks))
-    count = np.fromiter((c[2][1] for c in chunks), np.int64, len(chunks))
+    pos, count = chunks.map_pos, chunks.map_count
     first = np.concatenate(([0], np.cumsum(count)[:-1]))
     at = np.repeat(pos - 10 * first, count) + 10 * np.arange(int(count.sum()))
     table = gather_bytes(summary, at, 10).view(INDEX_OFFSETS)[:, 0]
-    owner = np.repeat(np.fromiter((c[0] for c in chunks), np.int64, len(chunks)), count)
+    owner = np.repeat(np.arange(len(chunks)), count)
     mine = np.isin(table['channel'], np.fromiter(wanted, np.int64, len(wanted)))
-    owner, cid, off = (owner[mine], table['channel'][mine].astype(np.int64),
-                       table['offset'][mine].astype(np.int64))
-    order = np.argsort(owner, kind='stable')
-    return owner[order], cid[order], off[order]
+    return (owner[mine], table['channel'][mine].astype(np.int64),
+            table['offset'][mine].astype(np.int64))
 
 
-def index_entries(buf: np.ndarray, rel, length, end, start, indexed, table):
+def index_entries(buf: np.ndarray, shift: int, rel, length, end, indexed, table, first: int):
     """
     Locate and check the message index of every wanted channel of every chunk of a batch.
 
@@ -245,13 +249,18 @@ def index_entries(buf: np.ndarray, rel, length, end, start, indexed, table):
     ----------
     buf : numpy.ndarray of uint8
         The batch.
-    rel, length, end, start : numpy.ndarray of int64
-        Per chunk (sorted by ``start``): record start in ``buf``, record length, end of
-        its message indexes in ``buf``, file offset.
+    shift : int
+        File offset of ``buf[0]``.
+    rel, length, end : numpy.ndarray of int64
+        Per chunk: record start in ``buf``, record length, end of its message indexes in
+        ``buf``.
     indexed : numpy.ndarray of bool
         Chunks whose chunk index lists message indexes at all.
     table : tuple of numpy.ndarray
-        :func:`offsets_table`.
+        :func:`offsets_table` of the chunks read, of which the batch's are the chunk
+        positions ``first`` to ``first + rel.size - 1``.
+    first : int
+        Position of the batch's first chunk in ``table``.
 
     Returns
     -------
@@ -263,23 +272,26 @@ def index_entries(buf: np.ndarray, rel, length, end, start, indexed, table):
     """
     usable = indexed.copy()
     owner, cid, off = table
-    lo, hi = np.searchsorted(owner, [start[0], start[-1] + 1])
-    owner, cid, off = owner[lo:hi], cid[lo:hi], off[lo:hi]
-    j = np.searchsorted(start, owner)
-    mine = start[np.minimum(j, start.size - 1)] == owner  # chunks of other batches skipped
-    j, cid, off = j[mine], cid[mine], off[mine]
+    lo, hi = np.searchsorted(owner, [first, first + rel.size])
+    j, cid, pos = owner[lo:hi] - first, cid[lo:hi], off[lo:hi] - shift
     if not j.size:
         return usable, {}
-    pos = rel[j] + off - start[j]
-    ok = (pos >= rel[j] + length[j]) & (pos + 15 <= end[j])
+    end = end[j]
+    ok = (pos >= (rel + length)[j]) & (pos + 15 <= end)
     head = gather_bytes(buf, np.where(ok, pos, 0), 15).view(_INDEX_DTYPE)[:, 0]
     size = head['array_length'].astype(np.int64)
     ok &= (head['opcode'] == 0x07) & (head['channel'] == cid)
-    ok &= (pos + 15 + size <= end[j]) & (size % 16 == 0)
+    ok &= (pos + 15 + size <= end) & (size % 16 == 0)
     usable[j[~ok]] = False
-    keep = usable[j]
+    keep = np.flatnonzero(usable[j])
+    if not keep.size:
+        return usable, {}
+    # grouped by channel, in storage order within each (a stable radix sort of 16-bit ids)
+    keep = keep[np.argsort(cid[keep].astype(np.uint16), kind='stable')]
+    ids = cid[keep]
+    cuts = np.concatenate(([0], np.flatnonzero(ids[1:] != ids[:-1]) + 1, [ids.size])).tolist()
     entries = {}
-    for c in np.unique(cid[keep]).tolist():
-        sel = keep & (cid == c)
-        entries[c] = (pos[sel] + 15, size[sel] // 16, j[sel])
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        sel = keep[a:b]
+        entries[int(ids[a])] = (pos[sel] + 15, size[sel] // 16, j[sel])
     return usable, entries

@@ -11,10 +11,12 @@ length and log time are checked for every message), is read through its own reco
 indexes, or with messages outside chunks, is read record by record from start to end
 (``scan=True`` forces that for every file: the independent fallback path).
 
-The records of all chunks in a ~64 MiB batch are checked with one vectorised pass per channel
-(the decompressed records of a batch's chunks are joined first, so the cost is per batch,
-not per chunk), and every uncompressed chunk's CRC is computed by a worker thread one batch
-ahead.  Batches go to the per-topic sinks of :mod:`.storage`.
+The summary's chunk indexes are parsed into arrays (:mod:`.mcap_index`).  The records of
+all chunks in a ~64 MiB batch are checked with one vectorised pass per channel (the
+decompressed records of a batch's chunks are joined first, so the cost is per batch, not per
+chunk; a run of zstd chunks with CRCs is decompressed in one call), and every uncompressed
+chunk's CRC is computed by a worker thread one batch ahead.  Batches go to the per-topic
+sinks of :mod:`.storage`.
 """
 from concurrent.futures import ThreadPoolExecutor
 import mmap
@@ -28,12 +30,18 @@ import numpy as np
 from wheel_force_estimator.bagio.checksum import crc32
 from wheel_force_estimator.bagio.compression import chunk_decompressor
 from wheel_force_estimator.bagio.compression import DECOMPRESS
+from wheel_force_estimator.bagio.compression import decompress_joined
 from wheel_force_estimator.bagio.fastpath import FastPathUnavailable
 from wheel_force_estimator.bagio.mcap_group import chunk_headers
 from wheel_force_estimator.bagio.mcap_group import ChunkGroup
 from wheel_force_estimator.bagio.mcap_group import deliver
 from wheel_force_estimator.bagio.mcap_group import index_entries
 from wheel_force_estimator.bagio.mcap_group import offsets_table
+from wheel_force_estimator.bagio.mcap_index import batches as batches_of
+from wheel_force_estimator.bagio.mcap_index import chunk_table
+from wheel_force_estimator.bagio.mcap_index import locate
+from wheel_force_estimator.bagio.mcap_index import OP_CHUNK_INDEX
+from wheel_force_estimator.bagio.mcap_index import runs
 from wheel_force_estimator.bagio.mcap_records import OP_CHANNEL
 from wheel_force_estimator.bagio.mcap_records import OP_CHUNK
 from wheel_force_estimator.bagio.mcap_records import OP_DATA_END
@@ -109,21 +117,29 @@ class McapFile:
             return self._scan_file(fh, summary_start or size - _FOOTER_LEN, topics, collectors)
         fh.seek(summary_start)
         summary = fh.read(size - _FOOTER_LEN - summary_start)
+        summary = np.frombuffer(summary, np.uint8)
         registry, chunks, stats = self._summary(summary, summary_start)
         present, wanted = self._present(registry, topics)
         if not wanted:
             return present
-        if not chunks:  # messages outside chunks (or no chunk index): read every record
+        if not len(chunks):  # messages outside chunks (or no chunk index): read every record
             return self._scan_file(fh, summary_start, topics, collectors)
-        # chunks without message indexes may hold any channel: they are read record by record
-        chunks.sort(key=lambda c: c[0])
-        self._table = offsets_table(np.frombuffer(summary, np.uint8), chunks, wanted)
+        if (chunks.start[1:] < chunks.start[:-1]).any():  # summary not in file order
+            chunks = chunks.take(np.argsort(chunks.start, kind='stable'))
+        owner, cid, offset = offsets_table(summary, chunks, wanted)
         # chunks that may hold wanted messages: indexed for one, or without message indexes
-        listed = set(np.unique(self._table[0]).tolist())
-        todo = [c for c in chunks if not c[2][1] or c[0] in listed]
-        for start, length, _, index_length, _ in todo:
-            if start + length + index_length > size:
-                raise self._fail('chunk beyond end of file', start)
+        # (those may hold any channel: they are read record by record)
+        listed = np.zeros(len(chunks), bool)
+        listed[owner] = True
+        keep = np.flatnonzero((chunks.map_count == 0) | listed)
+        todo = chunks.take(keep)
+        position = np.zeros(len(chunks), np.int64)
+        position[keep] = np.arange(keep.size)
+        self._table = (position[owner], cid, offset)  # owners: positions in todo
+        beyond = np.flatnonzero(todo.end > size)
+        if beyond.size:  # named with the offset as written (the table caps huge values)
+            (start,) = struct.unpack_from('<Q', summary, int(todo.map_pos[beyond[0]]) - 20)
+            raise self._fail('chunk beyond end of file', start)
         counts = dict.fromkeys(wanted, 0)
         self._read_chunks(fh, todo, wanted, collectors, counts)
         if stats is not None and any(counts[c] != stats.get(c, 0) for c in wanted):
@@ -143,37 +159,29 @@ class McapFile:
                 wanted[cid] = (topic, msgtype)
         return present, wanted
 
-    def _summary(self, data: bytes, base: int):
+    def _summary(self, data: np.ndarray, base: int):
+        """Return the summary's registry, chunk indexes and message counts (or None)."""
+        op, body, length = locate(data, 0, data.size,
+                                  lambda what, at: self._fail(f'summary {what}', base + at))
         registry = Registry()
-        chunks = []
         stats = None
-        pos = 0
-        try:
-            for op, body, length in walk(data, 0, len(data), lambda what, at: self._fail(
-                    f'summary {what}', base + at)):
-                pos = body - 9
-                if op in (OP_SCHEMA, OP_CHANNEL):
-                    registry.add(op, data, body)
-                elif op == 0x08:
-                    chunks.append(self._chunk_index(data, body))
-                elif op == 0x0B:
-                    (map_len,) = struct.unpack_from('<I', data, body + 42)
-                    stats = dict(struct.iter_unpack('<HQ', data[body + 46:body + 46 + map_len]))
-        except (struct.error, UnicodeDecodeError) as err:
-            raise self._fail(f'unreadable summary ({err})', base + pos) from err
+        view = memoryview(data)
+        for k in np.flatnonzero((op == OP_SCHEMA) | (op == OP_CHANNEL) | (op == 0x0B)).tolist():
+            at, end = int(body[k]), int(body[k] + length[k])
+            try:
+                if op[k] == 0x0B:
+                    (map_len,) = struct.unpack_from('<I', view[:end], at + 42)
+                    if at + 46 + map_len > end:
+                        raise struct.error('channel message counts overrun the record')
+                    stats = dict(struct.iter_unpack('<HQ', view[at + 46:at + 46 + map_len]))
+                else:
+                    registry.add(int(op[k]), view, at)
+            except (struct.error, UnicodeDecodeError) as err:
+                raise self._fail(f'unreadable summary ({err})', base + at - 9) from err
+        sel = op == OP_CHUNK_INDEX
+        chunks = chunk_table(data, body[sel], length[sel],
+                             lambda what, at: self._fail(what, base + at))
         return registry, chunks, stats
-
-    @staticmethod
-    def _chunk_index(data: bytes, pos: int):
-        start_offset, length, map_len = struct.unpack_from('<QQI', data, pos + 16)
-        pos += 36
-        if map_len % 10:
-            raise struct.error('message index offsets map of a bad length')
-        index_offsets = (pos, map_len // 10)  # read for all chunks at once (offsets_table)
-        pos += map_len
-        index_length, clen = struct.unpack_from('<QI', data, pos)
-        compression = data[pos + 12:pos + 12 + clen].decode()
-        return start_offset, length, index_offsets, index_length, compression
 
     def _read_chunks(self, fh, chunks, wanted, collectors, counts):
         # The file is memory-mapped (no copy into a buffer) and read in batches of nearby
@@ -181,7 +189,8 @@ class McapFile:
         # releases the GIL), which also faults the pages in for it; a batch's pages are
         # released once its CRCs are checked, so the resident set stays at a few batches.
         mm = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
-        batches = list(_batches(chunks))
+        batches = [(chunks.take(slice(a, b)), a, lo, hi)
+                   for a, b, lo, hi in batches_of(chunks, _BATCH_BYTES, _MAX_SKIP)]
         previous: List[tuple] = []
         previous_range = (0, 0)
         pool = ThreadPoolExecutor(max_workers=1)
@@ -191,13 +200,13 @@ class McapFile:
             collectors.sink(topic, msgtype)
         try:
             upcoming = self._submit_crcs(mm, batches[0], pool)
-            for k, (batch, lo, hi) in enumerate(batches):
-                checks = upcoming
+            for k, (batch, first, lo, hi) in enumerate(batches):
+                checks, headers = upcoming
                 if k + 1 < len(batches):
                     upcoming = self._submit_crcs(mm, batches[k + 1], pool)
                 try:
-                    self._read_batch(memoryview(mm)[lo:hi], lo, batch, wanted, collectors,
-                                     counts)
+                    self._read_batch(memoryview(mm)[lo:hi], lo, batch, first, headers, wanted,
+                                     collectors, counts)
                 except BagError:
                     self._check_crcs(previous + checks)  # a CRC mismatch explains it better
                     raise
@@ -212,22 +221,28 @@ class McapFile:
             except BufferError:  # views still referenced by a traceback: unmapped by GC
                 pass
 
-    def _submit_crcs(self, mm, batch, pool) -> List[tuple]:
-        """Queue the CRC of every uncompressed chunk of a batch: ``(start, crc, future)``."""
-        chunks, lo, hi = batch
+    def _submit_crcs(self, mm, batch, pool):
+        """
+        Parse a batch's chunk headers and queue the CRC of every uncompressed chunk.
+
+        Returns ``([(start, crc, future), ...], headers)`` (:meth:`_headers`).
+        """
+        chunks, _, lo, hi = batch
         view = memoryview(mm)[lo:hi]
-        start, first, usize, crc = self._headers(view, lo, chunks)
+        headers = start, first, usize, crc = self._headers(view, lo, chunks)
+        plain = np.array([not name for name in chunks.names], bool)[chunks.comp] & (crc != 0)
+        k = np.flatnonzero(plain)
         return [(s, c, pool.submit(crc32, view[f:f + u]))
-                for s, f, u, c, (*_, comp) in zip(start.tolist(), first.tolist(), usize.tolist(),
-                                                  crc.tolist(), chunks) if c and not comp]
+                for s, f, u, c in zip(start[k].tolist(), first[k].tolist(), usize[k].tolist(),
+                                      crc[k].tolist())], headers
 
     def _headers(self, view, lo: int, chunks):
         """Chunk offsets and the header fields of a batch; a bad header is named."""
-        start = np.fromiter((c[0] for c in chunks), np.int64, len(chunks))
+        start = chunks.start
         rel = start - lo
-        end = rel + np.fromiter((c[1] + c[3] for c in chunks), np.int64, len(chunks))
+        end = chunks.end - lo
         first, usize, crc, bad = chunk_headers(np.frombuffer(view, np.uint8), rel, end,
-                                               [c[4] for c in chunks])
+                                               chunks.comp, chunks.names)
         for k in bad.tolist():  # the exact fault, from the one-by-one parser
             self._chunk_header(view, int(rel[k]), int(end[k]), int(start[k]))
             raise self._fail('chunk header disagrees with its chunk index', int(start[k]))
@@ -238,19 +253,18 @@ class McapFile:
             if future.result() != crc:
                 raise self._fail('chunk CRC mismatch', start)
 
-    def _read_batch(self, view, lo, batch, wanted, collectors, counts):
+    def _read_batch(self, view, lo, batch, first_chunk, headers, wanted, collectors, counts):
         buf = np.frombuffer(view, np.uint8)
-        start, first, usize, crc = self._headers(view, lo, batch)
+        start, first, usize, crc = headers
         rel = start - lo
-        length = np.fromiter((c[1] for c in batch), np.int64, len(batch))
-        end = rel + length + np.fromiter((c[3] for c in batch), np.int64, len(batch))
-        indexed = np.fromiter((c[2][1] > 0 for c in batch), bool, len(batch))
-        usable, entries = index_entries(buf, rel, length, end, start, indexed, self._table)
-        comps = [c[4] for c in batch]
-        for a, b in _runs(comps):
-            group = ChunkGroup(bool(comps[a]))
-            if comps[a]:  # CRCs checked on decompression
-                records = self._decompress_run(view, comps[a], first[a:b], usize[a:b],
+        end = batch.end - lo
+        usable, entries = index_entries(buf, lo, rel, batch.length, end, batch.map_count > 0,
+                                        self._table, first_chunk)
+        for a, b in runs(batch.comp):
+            comp = batch.names[batch.comp[a]]
+            group = ChunkGroup(bool(comp))
+            if comp:  # CRCs checked on decompression
+                records = self._decompress_run(view, comp, first[a:b], usize[a:b],
                                                crc[a:b], start[a:b])
                 group.pieces.append(records)
                 group.size = records.size
@@ -299,28 +313,52 @@ class McapFile:
         """Decompress consecutive chunks into one array (per-chunk cost kept to a minimum)."""
         if comp not in DECOMPRESS:
             raise BagError(f'{self.file}: unsupported mcap chunk compression {comp!r}')
-        decompress = chunk_decompressor(comp)
-        sizes = usize.tolist()
+        fast, refused = chunk_decompressor(comp)
+        general = DECOMPRESS[comp]
+        check = crc32
+        ends = np.cumsum(usize)
         csize = np.frombuffer(view, np.uint8)[
             (first[:, None] - 8 + np.arange(8)).reshape(-1)].view('<u8').tolist()
-        out = np.empty(sum(sizes), np.uint8)
-        at = 0
+        out = np.empty(int(ends[-1]) if ends.size else 0, np.uint8)
+        target = memoryview(out)
+        if crc.all() and self._joined(view, comp, first.tolist(), csize, usize.tolist(),
+                                      crc.tolist(), ends.tolist(), target):
+            return out
         # Each chunk is copied into place at once: its bytes object is freed and its memory
         # reused by the next one, so only `out` is new memory (fresh pages cost ~2 s/GB on
         # the benchmark VM, more than the decompression).
-        for f, n, u, c, s in zip(first.tolist(), csize, sizes, crc.tolist(), start.tolist()):
+        for f, n, u, c, s, e in zip(first.tolist(), csize, usize.tolist(), crc.tolist(),
+                                    start.tolist(), ends.tolist()):
             try:
-                data = decompress(view[f:f + n])
+                try:
+                    data = fast(view[f:f + n])
+                except refused:  # several frames, no content size, or damage
+                    data = general(view[f:f + n])
             except (ValueError, RuntimeError, OSError):  # the exact fault, from the slow path
                 self._decompress(view, f, comp, u, c, s)
                 raise
             if len(data) != u:
                 raise self._fail(f'chunk holds {len(data)} bytes, header says {u}', s)
-            if c and crc32(data) != c:
+            if c and check(data) != c:
                 raise self._fail('chunk CRC mismatch', s)
-            out[at:at + u] = memoryview(data)
-            at += u
+            target[e - u:e] = data
         return out
+
+    @staticmethod
+    def _joined(view, comp: str, first, csize, usize, crc, ends, target) -> bool:
+        """
+        Decompress a run's chunks in one call, if its compression allows; True if all good.
+
+        Only for chunks that all have a CRC: each is checked over the bytes at its place in
+        ``target``, so a chunk that decodes to another size than its header says (which
+        shifts its bytes and those of the chunks after it) fails its CRC or the total size.
+        On any fault the caller decodes chunk by chunk, which names the fault exactly.
+        """
+        frames = b''.join([view[f:f + n] for f, n in zip(first, csize)])
+        if not decompress_joined(comp, frames, target):
+            return False
+        check = crc32
+        return all(check(target[e - u:e]) == c for u, c, e in zip(usize, crc, ends))
 
     def _decompress(self, view, first: int, comp: str, usize: int, crc: int, start: int):
         (csize,) = struct.unpack_from('<Q', view, first - 8)
@@ -442,27 +480,3 @@ def _release(mm: mmap.mmap, lo: int, hi: int):
     lo -= lo % mmap.PAGESIZE
     if hi > lo and hasattr(mm, 'madvise') and hasattr(mmap, 'MADV_DONTNEED'):
         mm.madvise(mmap.MADV_DONTNEED, lo, hi - lo)
-
-
-def _runs(compression):
-    """Yield ``(a, b)`` index ranges of consecutive chunks with the same compression."""
-    a = 0
-    for b in range(1, len(compression) + 1):
-        if b == len(compression) or compression[b] != compression[a]:
-            yield a, b
-            a = b
-
-
-def _batches(chunks):
-    """Group sorted chunk indexes into ``(chunks, lo, hi)`` runs of nearby chunks."""
-    batch: list = []
-    hi = 0
-    for chunk in chunks:
-        end = chunk[0] + chunk[1] + chunk[3]
-        if batch and (chunk[0] - hi > _MAX_SKIP or end - batch[0][0] > _BATCH_BYTES):
-            yield batch, batch[0][0], hi
-            batch = []
-        hi = end if not batch else max(hi, end)
-        batch.append(chunk)
-    if batch:
-        yield batch, batch[0][0], hi
