@@ -21,6 +21,7 @@ from scipy import signal
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.errors import ShapeError
+from wheel_force_estimator.core.filter_design import butter_sos
 from wheel_force_estimator.core.rainflow import _BLOCK_SAMPLES
 from wheel_force_estimator.core.rainflow import _check_residue
 from wheel_force_estimator.core.rainflow import _push_channels
@@ -307,10 +308,9 @@ def relative_damage_spectrum(x, fs_hz: float, sn_slope: float = 5.0, bands_hz=No
     filters = []
     for lo, hi in bands:
         if lo == 0.0:
-            sos = signal.butter(_BAND_FILTER_ORDER, hi, btype='lowpass', fs=fs_hz, output='sos')
+            sos = butter_sos(_BAND_FILTER_ORDER, float(hi), 'lowpass', fs_hz)
         else:
-            sos = signal.butter(_BAND_FILTER_ORDER, (lo, hi), btype='bandpass', fs=fs_hz,
-                                output='sos')
+            sos = butter_sos(_BAND_FILTER_ORDER, (float(lo), float(hi)), 'bandpass', fs_hz)
         filters.append(sos)
     # sosfiltfilt's default odd-extension padding; it refuses records not longer than that.
     min_samples = max(3 * (2 * sos.shape[0] + 1) for sos in filters) + 1

@@ -18,6 +18,7 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.errors import NonFiniteError
 from wheel_force_estimator.core.errors import ShapeError
+from wheel_force_estimator.core.filter_design import butter_sos
 from wheel_force_estimator.core.validation import as_signals
 from wheel_force_estimator.core.validation import positive_float
 
@@ -130,7 +131,7 @@ def highpass(x, fs_hz, cutoff_hz=1.0, name: str = 'high-pass input') -> np.ndarr
     cutoff = positive_float(cutoff_hz, 'cutoff_hz')
     if cutoff >= fs / 2.0:
         raise ConfigError(f'cutoff_hz must be below fs/2 = {fs / 2.0} Hz, got {cutoff_hz!r}')
-    sos = scipy.signal.butter(_HIGHPASS_ORDER, cutoff, btype='highpass', fs=fs, output='sos')
+    sos = butter_sos(_HIGHPASS_ORDER, cutoff, 'highpass', fs)
     padlen = 3 * (2 * sos.shape[0] + 1)
     sig = as_signals(x, name, min_samples=padlen + 1)
     return scipy.signal.sosfiltfilt(sos, sig, axis=1, padlen=padlen)

@@ -25,6 +25,7 @@ from scipy import signal
 
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
+from wheel_force_estimator.core.filter_design import butter_ba
 from wheel_force_estimator.core.physics_laws import *  # noqa: F401,F403  (re-export)
 from wheel_force_estimator.core.physics_laws import clip_indicator
 from wheel_force_estimator.core.physics_laws import play_operator
@@ -163,7 +164,8 @@ class TermView:
         """
         force = self._f[self._partner] if partner else self.force
         key = self._key + (partner,)
-        b, a = signal.butter(1, self._term.state_lowpass_hz, fs=self._stage.fs_hz)
+        b, a = butter_ba(1, float(self._term.state_lowpass_hz), 'lowpass',
+                         float(self._stage.fs_hz))
         zi = self._stage._load_zi.get(key)
         if zi is None:
             zi = signal.lfilter_zi(b, a) * force[0]

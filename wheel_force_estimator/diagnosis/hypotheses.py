@@ -15,6 +15,7 @@ import numpy as np
 from scipy import signal
 
 from wheel_force_estimator.core import physics as ph
+from wheel_force_estimator.core.filter_design import butter_ba
 from wheel_force_estimator.diagnosis.features import ChannelContext
 from wheel_force_estimator.diagnosis.features import saturation_level
 
@@ -100,7 +101,7 @@ LOAD_LOWPASS_HZ = (2.5, 5.0, 10.0)
 
 def load_state(ctx: ChannelContext, lowpass_hz: float) -> np.ndarray:
     """Predicted load low-passed like :class:`PhysicsStage` does for ``state='load'``."""
-    b, a = signal.butter(1, lowpass_hz, fs=ctx.fs_hz)
+    b, a = butter_ba(1, float(lowpass_hz), 'lowpass', float(ctx.fs_hz))
     return signal.lfilter(b, a, ctx.load, zi=signal.lfilter_zi(b, a) * ctx.load[0])[0]
 
 
