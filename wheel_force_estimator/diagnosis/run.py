@@ -467,11 +467,16 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     if mode == 'sim':
         findings = settle_hardening(findings, builder, prep, sim_prep, channels, config, pooled)
     findings = _ranked(findings, prep, channels, hp, fs_hz, structural, pooled)
+    # Motion findings (clip, tyre in the air) carry no terms, so they skip the holdout gate,
+    # but the real motion differs from the simulated one: the written model is then chosen
+    # between the reference and the plain fit on the real data (no longer "no change").
+    motion = motion_findings(real, sim, sources)
     findings, fit, model = compare(findings, real, reference, mode, holdout, outcomes,
                                    channels, sources, partners, config,
-                                   lambda recs: _real_linear(recs, config).model)
-    # Motion findings (clip, tyre in the air): no terms, so after the holdout gate.
-    findings = merge_motion(findings, motion_findings(real, sim, sources))
+                                   lambda recs: _real_linear(recs, config).model,
+                                   motion_channels=sorted({c for m in motion
+                                                           for c in m.channels}))
+    findings = merge_motion(findings, motion)
     named = {(c, f.physics) for f in findings for c in f.channels}
     rejected = tuple(text.rejection(ch, outcomes[ch].rejected) for ch in channels
                      if outcomes[ch].rejected is not None and outcomes[ch].rejected[0].gain > 0

@@ -290,13 +290,16 @@ AUGMENTED = {'sim': 'sim_frf+physics', 'model': 'model+physics', 'linear': 'real
 
 
 def compare(findings, real, reference, mode, holdout, outcomes, channels, sources, partners,
-            config, real_fit):
+            config, real_fit, motion_channels=()):
     """
     Gate the findings, choose the written model, score before / real_linear / after.
 
     ``mode`` is ``'sim'``, ``'model'`` or ``'linear'`` (reference fitted on ``real``);
     ``outcomes`` the per-channel selections (cross-validation figures without holdout);
-    ``real_fit(recordings) -> FrfModel`` fits with the design of ``wheel-force fit``.
+    ``real_fit(recordings) -> FrfModel`` fits with the design of ``wheel-force fit``;
+    ``motion_channels`` the channels of motion findings (no terms: the recorded motion
+    differs from the simulated one, so the reference is no longer kept as it is: it and the
+    plain fit on the real data compete on the gate half, channel by channel).
     Returns ``(findings, FitComparison, written model or None)``.
     """
     rec0 = real[0]
@@ -327,7 +330,7 @@ def compare(findings, real, reference, mode, holdout, outcomes, channels, source
     if not with_terms:
         if ref_model is not None:
             candidates[UNCHANGED[mode]] = ref_model
-        elif lin_model is not None:
+        if lin_model is not None and (ref_model is None or (motion_channels and split)):
             candidates['real_linear'] = lin_model
     else:
         if ref_model is not None:
@@ -341,7 +344,7 @@ def compare(findings, real, reference, mode, holdout, outcomes, channels, source
         if ref_model is not None and split is not None and mode != 'linear':
             # the findings may help some channels and not others: the reference as it was
             candidates[UNCHANGED[mode]] = ref_model
-    named = sorted({c for f in with_terms for c in f.channels})
+    named = sorted({c for f in with_terms for c in f.channels}) or list(motion_channels)
     gate_scores = {}
     rows_from: Dict[str, str] = {}
     if split is None or len(candidates) < 2:
