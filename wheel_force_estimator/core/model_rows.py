@@ -32,6 +32,10 @@ def _interp(f_to, f_from, values):
     return np.stack(cols, axis=1).reshape((f_to.size,) + values.shape[1:])
 
 
+#: Fields that describe each output row on the frequency lines (axis 0 lines, axis 1 outputs).
+_PER_ROW = ('h', 'coherence_ordinary', 'coherence_multiple')
+
+
 def _longest(models):
     return max(models, key=lambda m: m.fir_taps.shape[2])
 
@@ -95,9 +99,8 @@ def compose_rows(models: Sequence, source: Sequence[int], physics: Sequence[Mapp
                           f'{list(source)}')
     base = _longest(models)
     f_hz = np.asarray(base.f_hz)
-    h = np.array(base.h)
-    coh = np.array(base.coherence_ordinary)
-    coh_m = np.array(base.coherence_multiple)
+    # the frequency descriptions of each row (FRF estimate, coherences), per output on axis 1
+    described = {name: np.array(getattr(base, name)) for name in _PER_ROW}
     taps = np.array(base.fir_taps)
     static_force = np.array(base.static_force_n, dtype=np.float64)
     for o, k in enumerate(src.tolist()):
@@ -105,11 +108,9 @@ def compose_rows(models: Sequence, source: Sequence[int], physics: Sequence[Mapp
         if m is base:
             continue
         same_lines = m.f_hz.shape == f_hz.shape and np.array_equal(m.f_hz, f_hz)
-        h[:, o] = m.h[:, o] if same_lines else _interp(f_hz, m.f_hz, m.h[:, o])
-        coh[:, o] = (m.coherence_ordinary[:, o] if same_lines
-                     else _interp(f_hz, m.f_hz, m.coherence_ordinary[:, o]))
-        coh_m[:, o] = (m.coherence_multiple[:, o] if same_lines
-                       else _interp(f_hz, m.f_hz, m.coherence_multiple[:, o]))
+        for name, values in described.items():
+            row = getattr(m, name)[:, o]
+            values[:, o] = row if same_lines else _interp(f_hz, m.f_hz, row)
         at = base.fir_delay_samples - m.fir_delay_samples
         taps[o] = 0.0
         taps[o, :, at:at + m.fir_taps.shape[2]] = m.fir_taps[o]
@@ -117,6 +118,5 @@ def compose_rows(models: Sequence, source: Sequence[int], physics: Sequence[Mapp
         dc_gain = m.fir_taps[o].sum(axis=1)
         static_force[o] = m.static_force_n[o] + float(
             dc_gain @ (np.asarray(base.static_accel_mps2) - np.asarray(m.static_accel_mps2)))
-    return replace(base, h=h, coherence_ordinary=coh, coherence_multiple=coh_m, fir_taps=taps,
-                   static_force_n=static_force, physics=tuple(dict(p) for p in physics),
-                   fit=dict(fit), live=())
+    return replace(base, **described, fir_taps=taps, static_force_n=static_force,
+                   physics=tuple(dict(p) for p in physics), fit=dict(fit), live=())

@@ -364,7 +364,8 @@ def _ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
     if winner is not None:
         total[winner] = max(v for k, v in total.items()
                             if k in HARDENINGS) * (1.0 + 1e-9) + 1e-300
-    first = {f.physics for f in findings if id(f) in set(structural)}
+    structural = set(structural)
+    first = {f.physics for f in findings if id(f) in structural}
     return sorted(findings, key=lambda f: (not BY_NAME[f.physics].priority,
                                            f.physics not in first,
                                            -total[f.physics], -weight(f)))
