@@ -369,3 +369,44 @@ def test_load_driven_linear_omission_hand_values_and_stage(physics):
     assert ph.PhysicsTerm.from_dict(json.loads(json.dumps(term.to_dict()))) == term
     with pytest.raises(ConfigError, match='parameters must be'):
         ph.PhysicsTerm(physics, ('lf_fz',), {'gain': 0.1}, state='load', state_lowpass_hz=1.0)
+
+
+def _load_terms():
+    return [ph.PhysicsTerm(physics, ('lf_fz',), params, state='load', state_lowpass_hz=2.0)
+            for physics, params in (
+                ('bump_stop', {'threshold_n': 3010.0, 'gain': 2.0, 'exponent': 2.0}),
+                ('rebound_stop', {'threshold_n': 2990.0, 'gain': 2.0, 'exponent': 1.0}),
+                ('cubic_stiffness', {'center_n': 3000.0, 'gain': 0.2}),
+                ('backlash', {'center_n': 3000.0, 'threshold_n': 10.0, 'gain': 0.8}),
+                ('mass_error', {'center_n': 3000.0, 'gain': 0.1}),
+                ('stiffness_error', {'center_n': 3000.0, 'gain': 0.1}))]
+
+
+def test_every_registered_strength_scales_the_force_and_nothing_else():
+    # The diagnosis carries a jointly fitted strength factor into the written model by scaling
+    # the kind's strength parameter: that must scale the added force exactly (bug caught: a
+    # table kept beside the registry naming a parameter the force is not proportional to).
+    accel, force = _signals()
+    terms = _terms() + _load_terms()
+    assert {t.key for t in terms} == set(ph.TERM_KINDS)
+    for term in terms:
+        if term.kind.strength is None:
+            assert term.physics == 'time_delay'
+            with pytest.raises(ConfigError, match='no strength parameter'):
+                term.scaled(2.0)
+            continue
+        one = ph.apply_physics([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force) - force
+        two = ph.apply_physics([term.scaled(-1.5)], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel,
+                               force) - force
+        assert np.abs(one).max() > 1e-3, term.key
+        np.testing.assert_allclose(two, -1.5 * one, rtol=1e-9, atol=1e-9, err_msg=term.key)
+        changed = {k for k in term.parameters
+                   if term.scaled(-1.5).parameters[k] != term.parameters[k]}
+        assert changed == {term.kind.strength}, term.key
+
+
+def test_a_strength_that_is_not_a_parameter_is_refused():
+    from wheel_force_estimator.core.physics_terms import TermKind
+    with pytest.raises(ConfigError, match="strength parameter 'gain'"):
+        TermKind('cubic_stiffness', 'motion', ph.TERM_KINDS['cubic_stiffness'].params,
+                 ph.TERM_KINDS['cubic_stiffness'].force, 'gain')

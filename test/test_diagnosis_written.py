@@ -23,7 +23,6 @@ from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.holdout import evaluate_scores
 from wheel_force_estimator.diagnosis.holdout import split_holdout
 from wheel_force_estimator.diagnosis.recording import MotionRecording
-from wheel_force_estimator.diagnosis.written import scaled
 
 FS_HZ = 256.0
 #: Linear rig: spring, damper [N/m, N s/m]; hardening: cubic spring [N/m^3].
@@ -226,6 +225,6 @@ def test_scaling_a_term_scales_its_force_through_the_predictor(tmp_path):
                              sources=('x',), input_quantity='displacement', highpass_hz=0.0,
                              lowpass_hz=32.0)):
         one = predict_forces(model.with_physics([term.to_dict()]), x[None]) - base
-        two = predict_forces(model.with_physics([scaled(term, 2.5).to_dict()]), x[None]) - base
+        two = predict_forces(model.with_physics([term.scaled(2.5).to_dict()]), x[None]) - base
         assert np.abs(one).max() > 1.0
         np.testing.assert_allclose(two, 2.5 * one, rtol=1e-9, atol=1e-9)

@@ -69,6 +69,10 @@ class TermKind:
     needs_partner : bool
         The term needs one partner channel per output channel: an input channel for the
         motion state, the other side's output channel for the load state.
+    strength : str or None
+        The parameter the force is proportional to (a strength factor found later, e.g. by
+        the diagnosis's joint fit, scales it and nothing else); None when the force is not
+        proportional to any one parameter (``time_delay``).
     history_samples : callable, optional
         ``(params, fs_hz) -> int``: past force samples the law needs (delay line).
 
@@ -78,8 +82,14 @@ class TermKind:
     state: str
     params: type
     force: Callable
+    strength: Optional[str] = None
     needs_partner: bool = False
     history_samples: Optional[Callable] = None
+
+    def __post_init__(self):
+        if self.strength is not None and self.strength not in self.params.names():
+            raise ConfigError(f'{self.physics} ({self.state}): strength parameter '
+                              f'{self.strength!r} is not one of {list(self.params.names())}')
 
     @property
     def key(self) -> str:
@@ -102,46 +112,52 @@ def _backlash(p, v):
 
 
 _KINDS = (
-    TermKind('bump_stop', 'motion', StopParams, _stop_motion(1.0)),
-    TermKind('rebound_stop', 'motion', StopParams, _stop_motion(-1.0)),
+    TermKind('bump_stop', 'motion', StopParams, _stop_motion(1.0), 'stiffness_n_per_m'),
+    TermKind('rebound_stop', 'motion', StopParams, _stop_motion(-1.0), 'stiffness_n_per_m'),
     TermKind('cubic_stiffness', 'motion', CubicStiffnessParams,
-             lambda p, v: law.cubic_stiffness_force(v.disp, p.stiffness_n_per_m3)),
+             lambda p, v: law.cubic_stiffness_force(v.disp, p.stiffness_n_per_m3),
+             'stiffness_n_per_m3'),
     TermKind('damper_asymmetry', 'motion', DamperAsymmetryParams,
              lambda p, v: law.damper_asymmetry_force(
-                 v.vel, p.compression_minus_rebound_n_s_per_m)),
+                 v.vel, p.compression_minus_rebound_n_s_per_m),
+             'compression_minus_rebound_n_s_per_m'),
     TermKind('coulomb_friction', 'motion', CoulombFrictionParams,
-             lambda p, v: law.coulomb_friction_force(v.vel, p.friction_n, p.velocity_scale_mps)),
-    TermKind('backlash', 'motion', BacklashParams, _backlash),
+             lambda p, v: law.coulomb_friction_force(v.vel, p.friction_n, p.velocity_scale_mps),
+             'friction_n'),
+    TermKind('backlash', 'motion', BacklashParams, _backlash, 'stiffness_n_per_m'),
     TermKind('tire_lift_off', 'motion', LiftOffParams,
-             lambda p, v: law.tire_lift_off_force(v.force, p.threshold_n, p.gain)),
+             lambda p, v: law.tire_lift_off_force(v.force, p.threshold_n, p.gain), 'gain'),
     TermKind('anti_roll_bar', 'motion', AntiRollBarParams,
              lambda p, v: law.anti_roll_bar_force(v.disp, v.partner_disp, p.stiffness_n_per_m),
-             needs_partner=True),
+             'stiffness_n_per_m', needs_partner=True),
     TermKind('time_delay', 'motion', TimeDelayParams,
              lambda p, v: law.time_delay_force(v.force, v.delayed(p.delay_s)),
              history_samples=lambda p, fs: int(math.floor(p.delay_s * fs)) + 1),
     TermKind('sensor_saturation', 'motion', SaturationParams,
              lambda p, v: law.sensor_saturation_force(v.clip_feature(p.limit, p.integration),
-                                                      p.force_n)),
+                                                      p.force_n), 'force_n'),
     TermKind('mass_error', 'motion', MassErrorParams,
-             lambda p, v: law.mass_error_force(v.acc, p.mass_kg)),
+             lambda p, v: law.mass_error_force(v.acc, p.mass_kg), 'mass_kg'),
     TermKind('stiffness_error', 'motion', StiffnessErrorParams,
-             lambda p, v: law.stiffness_error_force(v.disp, p.stiffness_n_per_m)),
+             lambda p, v: law.stiffness_error_force(v.disp, p.stiffness_n_per_m),
+             'stiffness_n_per_m'),
     TermKind('damping_error', 'motion', DampingErrorParams,
-             lambda p, v: law.damping_error_force(v.vel, p.damping_n_s_per_m)),
-    TermKind('bump_stop', 'load', LoadStopParams, _stop_load(1.0)),
-    TermKind('rebound_stop', 'load', LoadStopParams, _stop_load(-1.0)),
+             lambda p, v: law.damping_error_force(v.vel, p.damping_n_s_per_m),
+             'damping_n_s_per_m'),
+    TermKind('bump_stop', 'load', LoadStopParams, _stop_load(1.0), 'gain'),
+    TermKind('rebound_stop', 'load', LoadStopParams, _stop_load(-1.0), 'gain'),
     TermKind('cubic_stiffness', 'load', LoadLinearParams,
-             lambda p, v: law.load_cubic_force(v.load(), p.center_n, p.gain)),
+             lambda p, v: law.load_cubic_force(v.load(), p.center_n, p.gain), 'gain'),
     TermKind('backlash', 'load', LoadBacklashParams,
-             lambda p, v: law.load_backlash_force(v.load(), p.center_n, p.threshold_n, p.gain)),
+             lambda p, v: law.load_backlash_force(v.load(), p.center_n, p.threshold_n, p.gain),
+             'gain'),
     TermKind('anti_roll_bar', 'load', LoadRollParams,
-             lambda p, v: law.load_roll_force(v.load(), v.load(partner=True), p.gain),
+             lambda p, v: law.load_roll_force(v.load(), v.load(partner=True), p.gain), 'gain',
              needs_partner=True),
     TermKind('mass_error', 'load', LoadLinearParams,
-             lambda p, v: law.load_linear_force(v.load(), p.center_n, p.gain)),
+             lambda p, v: law.load_linear_force(v.load(), p.center_n, p.gain), 'gain'),
     TermKind('stiffness_error', 'load', LoadLinearParams,
-             lambda p, v: law.load_linear_force(v.load(), p.center_n, p.gain)),
+             lambda p, v: law.load_linear_force(v.load(), p.center_n, p.gain), 'gain'),
 )
 
 #: The registry: every kind of term, keyed ``physics`` (motion state) or ``physics:load``.
@@ -312,6 +328,23 @@ class PhysicsTerm:
     def filter_key(self) -> Tuple[str, float, float]:
         """Feature filter configuration this term needs."""
         return (self.input_quantity, self.highpass_hz, self.lowpass_hz)
+
+    def scaled(self, factor: float) -> 'PhysicsTerm':
+        """
+        Return this term with its force multiplied by ``factor`` (its strength parameter).
+
+        Raises
+        ------
+        ConfigError
+            When the kind has no strength parameter (:attr:`TermKind.strength`).
+
+        """
+        name = self.kind.strength
+        if name is None:
+            raise ConfigError(f'{self.physics}: no strength parameter to scale')
+        params = dict(self.parameters)
+        params[name] = params[name] * float(factor)
+        return dataclasses.replace(self, parameters=params)
 
     def to_dict(self) -> Dict:
         """Return a JSON-serialisable description (inverse of :meth:`from_dict`)."""

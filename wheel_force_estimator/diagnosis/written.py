@@ -28,12 +28,10 @@ from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 import scipy.optimize
 
-from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.model_rows import compatible
 from wheel_force_estimator.core.model_rows import compose_rows
-from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis.features import settle_samples
 from wheel_force_estimator.diagnosis.holdout import evaluate_scores
@@ -43,43 +41,6 @@ from wheel_force_estimator.diagnosis.holdout import split_holdout
 from wheel_force_estimator.diagnosis.prepared import prepare
 from wheel_force_estimator.diagnosis.reference import FrfReference
 from wheel_force_estimator.diagnosis.result import FitComparison
-
-#: Parameter each physics' force is proportional to (motion state), so a strength factor can be
-#: carried into the model; terms of other physics keep the strength they were fitted with.
-#: (To move into the physics-term registry when terms become typed objects.)
-STRENGTH = {'bump_stop': 'stiffness_n_per_m', 'rebound_stop': 'stiffness_n_per_m',
-            'cubic_stiffness': 'stiffness_n_per_m3',
-            'damper_asymmetry': 'compression_minus_rebound_n_s_per_m',
-            'coulomb_friction': 'friction_n', 'backlash': 'stiffness_n_per_m',
-            'tire_lift_off': 'gain', 'anti_roll_bar': 'stiffness_n_per_m',
-            'sensor_saturation': 'force_n', 'mass_error': 'mass_kg',
-            'stiffness_error': 'stiffness_n_per_m', 'damping_error': 'damping_n_s_per_m'}
-#: Load-state terms: the force is proportional to ``gain``.
-LOAD_STRENGTH = 'gain'
-
-
-def strength_parameter(term: PhysicsTerm) -> Optional[str]:
-    """Return the parameter ``term``'s force is proportional to, or None."""
-    name = LOAD_STRENGTH if term.state == 'load' else STRENGTH.get(term.physics)
-    return name if name in term.parameters else None
-
-
-def scaled(term: PhysicsTerm, factor: float) -> PhysicsTerm:
-    """
-    Return ``term`` with its force multiplied by ``factor``.
-
-    Raises
-    ------
-    ConfigError
-        When the physics has no strength parameter.
-
-    """
-    name = strength_parameter(term)
-    if name is None:
-        raise ConfigError(f'{term.physics}: no strength parameter to scale')
-    params = dict(term.parameters)
-    params[name] = params[name] * float(factor)
-    return replace(term, parameters=params)
 
 
 def _predictions(model, recordings) -> List[np.ndarray]:
@@ -167,7 +128,7 @@ def backfitted_model(findings, real: Sequence, linear_model,
     groups = [tuple(f.terms) for f in findings if f.terms]
     if not groups:
         return linear_model, ()
-    free = [all(strength_parameter(t) is not None for t in g) for g in groups]
+    free = [all(t.kind.strength is not None for t in g) for g in groups]
     model = linear_model
     base = _predictions(model, real)
     units = _units(model, groups, real, base)
@@ -183,7 +144,7 @@ def backfitted_model(findings, real: Sequence, linear_model,
     terms = []
     for g, f, b in zip(groups, free, beta):
         if f and b > 0.0:
-            terms.extend(scaled(t, b) for t in g)
+            terms.extend(t.scaled(b) for t in g)
         elif not f:
             terms.extend(g)
     return model.with_physics(_term_dicts(terms)), tuple(float(b) for b in beta)
