@@ -9,8 +9,8 @@ from scipy import stats
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.diagnosis.clipping import clip_test
 from wheel_force_estimator.diagnosis.features import pairing
-from wheel_force_estimator.diagnosis.motion import clip_test
 from wheel_force_estimator.diagnosis.motion import merge_motion
 from wheel_force_estimator.diagnosis.motion import motion_findings
 from wheel_force_estimator.diagnosis.motion import runs

@@ -192,32 +192,3 @@ def channel_contexts(inputs: np.ndarray, input_channels: Sequence[str], fs_hz: f
             partner_disp=None if partner is None else feats['displacement'][idx[partner]],
             fs_hz=fs_hz, filters=filters))
     return tuple(out)
-
-
-def saturation_level(level: np.ndarray, min_fraction: float = 5e-4,
-                     min_samples: int = 3) -> Optional[float]:
-    """
-    Return the clipping level of a sensor record, or None when it shows no flat tops.
-
-    A clipped sensor repeats its extreme value exactly, and it arrives there fast: the signal
-    is cut while still moving.  A healthy (even coarsely quantised) sensor rounds a peak
-    slowly.  The level is reported when at least ``min_fraction`` of the samples (and at
-    least ``min_samples``) sit at the extreme magnitude of either sign, and the median step
-    into those flat tops is at least half the RMS sample-to-sample step of the record.
-    """
-    x = np.asarray(level, dtype=np.float64)
-    if x.size < 3:
-        return None
-    steps = np.abs(np.diff(x))
-    typical = float(np.sqrt(np.mean(steps ** 2)))
-    best = None
-    for extreme in (x.max(), x.min()):
-        at = x == extreme
-        if extreme == 0.0 or np.count_nonzero(at) < max(min_samples, min_fraction * x.size):
-            continue
-        entries = np.flatnonzero(at[1:] & ~at[:-1])
-        if entries.size == 0 or np.median(steps[entries]) < 0.5 * typical:
-            continue
-        mag = abs(float(extreme))
-        best = mag if best is None else min(best, mag)
-    return best

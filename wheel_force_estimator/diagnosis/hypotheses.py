@@ -16,8 +16,8 @@ from scipy import signal
 
 from wheel_force_estimator.core import physics as ph
 from wheel_force_estimator.core.filter_design import butter_ba
+from wheel_force_estimator.diagnosis.clipping import clip_level
 from wheel_force_estimator.diagnosis.features import ChannelContext
-from wheel_force_estimator.diagnosis.features import saturation_level
 
 Shape = Mapping[str, float]
 
@@ -196,12 +196,13 @@ def shift_signal(x: np.ndarray, delay_samples: float) -> np.ndarray:
 
 
 def _saturation_grid(contexts):
-    levels = [saturation_level(c.level) for c in contexts]
-    levels = [v for v in levels if v is not None]
-    if not levels:
+    # The clip test of the motion comparison, on the source's whole recorded level (a flat
+    # top is judged against the values next to it over all of the record).
+    level = clip_level(np.concatenate([c.level for c in contexts]))
+    if level is None:
         return []
     order = ph.QUANTITIES.index(contexts[0].filters[0])
-    return [{'limit': min(levels), 'integration': float(k)} for k in range(order + 1)]
+    return [{'limit': level, 'integration': float(k)} for k in range(order + 1)]
 
 
 def _saturation_basis(ctx, shape):

@@ -12,8 +12,8 @@ same course, with two statistical rules that need no threshold fitted to our sim
     A clip repeats the channel's extreme value exactly.  A sensor that is not clipped reaches
     its extreme once (continuous values) or about as often as the values just inside it
     (quantised values: the tail thins toward the extreme).  The count at the extreme is
-    tested against a Poisson law whose mean is how often the :data:`NEIGHBOURS` distinct
-    values next to the extreme repeat; the level is the extreme itself, found from the data.
+    tested against a Poisson law whose mean is how often the distinct values next to the
+    extreme repeat (:mod:`.clipping`); the level is the extreme itself, found from the data.
     The simulation on the same course shows the peaks the sensor lost (how often it goes
     beyond the level) and must not clip at that level itself.
 ``tire_lift_off``
@@ -41,12 +41,13 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 from scipy import stats
 
+from wheel_force_estimator.diagnosis.clipping import CLIP_ALPHA
+from wheel_force_estimator.diagnosis.clipping import clip_test
+from wheel_force_estimator.diagnosis.clipping import MIN_CLIP_SAMPLES
 from wheel_force_estimator.diagnosis.result import Finding
 
 #: Standard gravity [m/s**2]: an airborne wheel is pushed down harder than this by its spring.
 GRAVITY_MPS2 = 9.80665
-#: Distinct values next to the extreme whose repeat count is the null mean of a clip test.
-NEIGHBOURS = 20
 #: Shortest free flight [s]: a quarter period of a 50 Hz wheel-hop mode, far above any car's.
 FLIGHT_MIN_S = 0.005
 #: Tyre force band counted as free flight, as a fraction of the static tyre load.
@@ -73,66 +74,16 @@ class MotionConfig:
 
     """
 
-    alpha: float = 1e-3
-    min_clip_samples: int = 3
+    alpha: float = CLIP_ALPHA
+    min_clip_samples: int = MIN_CLIP_SAMPLES
     merge_s: float = 0.2
     max_windows: int = 12
-
-
-@dataclass(frozen=True)
-class Clip:
-    """A flat top of one channel: level (signed), samples at it, Poisson p-value."""
-
-    channel: str
-    level: float
-    count: int
-    p_value: float
-    null_mean: float
 
 
 def runs(mask: np.ndarray) -> np.ndarray:
     """Return ``(k, 2)`` start / stop (exclusive) indices of the True runs of ``mask``."""
     d = np.diff(np.concatenate([[0], np.asarray(mask, dtype=np.int8), [0]]))
     return np.stack([np.flatnonzero(d == 1), np.flatnonzero(d == -1)], axis=1)
-
-
-def clip_test(x: np.ndarray, channel: str = '', min_samples: int = 3) -> Optional[Clip]:
-    """
-    Return the more significant flat top of ``x`` (max or min side), or None.
-
-    The count at the extreme value is compared with a Poisson law whose mean is the mean
-    repeat count of the :data:`NEIGHBOURS` distinct values next to it (at least 1).  A clip
-    cuts the signal while it is still moving, so the flat top is entered at speed: the median
-    of the last full steps before it must be at least half the RMS sample-to-sample step of
-    the record (a Gaussian process crosses any level at its typical speed, Rice; a sine
-    clipped at 90 % of its amplitude at 0.62 of it).  A smooth turning point (a
-    displacement-controlled rig reversing, quantised) dwells longest at its extreme value
-    too, but creeps into it.
-    """
-    x = np.asarray(x, dtype=np.float64)
-    if x.size < NEIGHBOURS + min_samples:
-        return None
-    values, counts = np.unique(x, return_counts=True)
-    steps = np.abs(np.diff(x))
-    typical = float(np.sqrt(np.mean(steps ** 2)))
-    best = None
-    for side in (1, -1):
-        k = int(counts[-1] if side > 0 else counts[0])
-        inner = counts[-1 - NEIGHBOURS:-1] if side > 0 else counts[1:1 + NEIGHBOURS]
-        if k < min_samples or inner.size == 0:
-            continue
-        level = float(values[-1] if side > 0 else values[0])
-        at = x == level
-        # The full step before the entry (the entry step itself is cut short by the clip).
-        entries = np.flatnonzero(at[1:] & ~at[:-1])
-        entries = entries[entries >= 1]
-        if entries.size == 0 or np.median(steps[entries - 1]) < 0.5 * typical:
-            continue
-        lam = max(float(np.mean(inner)), 1.0)
-        p = float(stats.poisson.sf(k - 1, lam))
-        if best is None or p < best.p_value:
-            best = Clip(channel, level, k, p, lam)
-    return best
 
 
 def _windows(spans_s: List[Tuple[float, float]], merge_s: float, limit: int):
