@@ -201,16 +201,43 @@ def test_short_records_fall_back_to_one_resolution_with_a_note(files, tmp_path, 
     out = capsys.readouterr().out
     assert 'note: no record holds the 8192-sample long segment' in out
     assert 'longest: 1536 samples' in out
+    # 1536 samples hold 2 Welch windows of 1024 for 2 inputs: too few (next test), so 512.
+    assert 'fitted with segment 512 (5 windows' in out
     fitted = load_model(model)
     assert 'long_segment_length' not in fitted.fit
-    assert fitted.n_taps == 1024
+    assert fitted.n_taps == 512
     # Asked for explicitly, the long resolution is refused rather than dropped.
     assert main(['fit', str(files['short']), '-o', str(model), '--long-segment-length',
                  '8192'] + ROLES) == 1
     assert 'long_segment_length = 8192' in capsys.readouterr().err
+    # Both chosen explicitly: no fallback, no note.
     assert main(['fit', str(files['short']), '-o', str(model), '--long-segment-length',
-                 '0'] + ROLES) == 0
+                 '0', '--segment-length', '1024'] + ROLES) == 0
     assert 'note:' not in capsys.readouterr().out
+    assert load_model(model).n_taps == 1024
+
+
+def test_no_more_windows_than_inputs_gives_a_shorter_segment(files, tmp_path, capsys):
+    # Why the few-windows rule exists: with no more Welch windows than inputs, H1 reproduces
+    # every window exactly, so the multiple coherence is 1 at every frequency whatever the
+    # noise (only the 1e-4 Tikhonov term keeps it below): a check that cannot fail.  Known
+    # answer: 2 % output noise leaves 1 - coherence ~ 0.02**2 = 4e-4 in band, shrunk by
+    # (n_windows - n_inputs) / n_windows for the estimate (measured 1.1e-4 with 2 windows,
+    # 4.2e-4 with the 5 windows of the shorter segment).
+    exact, short = tmp_path / 'exact.npz', tmp_path / 'short.npz'
+    assert main(['fit', str(files['short']), '-o', str(exact), '--long-segment-length', '0',
+                 '--segment-length', '1024'] + ROLES) == 0
+    assert main(['fit', str(files['short']), '-o', str(short), '--long-segment-length', '0']
+                + ROLES) == 0
+    out = capsys.readouterr().out
+    assert 'note: the records hold 2 Welch window(s) of 1024 samples for 2 input(s)' in out
+    coh_exact = load_model(exact).coherence_multiple
+    coh_short = load_model(short).coherence_multiple
+    loss_exact = np.median(1.0 - coh_exact[1:])
+    loss_short = np.median(1.0 - coh_short[1:])
+    assert NOISE ** 2 / 4 < loss_short < 4 * NOISE ** 2
+    assert loss_exact < loss_short / 2
+    assert load_model(short).fit['segment_length'] == 512
 
 
 def test_fit_refuses_records_shorter_than_one_segment(files, tmp_path, capsys):

@@ -150,3 +150,25 @@ def test_every_candidate_is_a_registered_term_kind():
     from wheel_force_estimator.diagnosis.hypotheses import LOAD_LINEAR
     # One registry: every candidate the diagnosis ranks can be written as a model term.
     assert {h.key for h in HYPOTHESES + (LOAD_LINEAR,)} <= set(TERM_KINDS)
+
+
+def test_short_records_get_shorter_cross_validation_blocks_down_to_the_floor():
+    from wheel_force_estimator.core.errors import DiagnosisError
+    from wheel_force_estimator.diagnosis.selection import CvData
+    config = SelectionConfig()                       # 5 folds of 2 s blocks (512 samples)
+
+    def pieces(*sizes):
+        return [Piece(_context(np.ones(n)), np.ones(n), np.ones(n), k, 'f')
+                for k, n in enumerate(sizes)]
+    long = CvData(pieces(8192), config)
+    assert np.array_equal(long.starts[0], np.arange(16) * 512)
+    # 1000 samples: 5 blocks of 200 (one per fold) instead of a refusal.
+    short = CvData(pieces(1000), config)
+    assert np.array_equal(short.starts[0], np.arange(5) * 200)
+    assert sorted(short.fold) == [0, 1, 2, 3, 4]
+    # Two recordings: every one keeps at least one block.
+    two = CvData(pieces(900, 150), config)
+    assert all(s.size >= 1 for s in two.starts) and np.unique(two.fold).size == 5
+    # Below min_block_samples (64) per fold it is still refused, with the reason.
+    with pytest.raises(DiagnosisError, match='too little data to cross-validate'):
+        CvData(pieces(300), config)

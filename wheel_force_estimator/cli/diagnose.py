@@ -125,10 +125,13 @@ def command(args: argparse.Namespace) -> int:
     reference = reference if args.model else sim
     features = FeatureConfig() if args.highpass_hz is None else FeatureConfig(args.highpass_hz)
     # One fit design with `wheel-force fit`: same params file, same short-record rule.
-    fallback = (request is not None
-                and 'long_segment_length' not in explicit_fit_keys(args.config))
+    explicit = explicit_fit_keys(args.config)
     config = DiagnosisConfig(features=features, fit=load_fit_config(args.config),
-                             linear=args.linear, fit_fallback=fallback)
+                             linear=args.linear,
+                             fit_fallback=request is not None
+                             and 'long_segment_length' not in explicit,
+                             segment_fallback=request is not None
+                             and 'segment_length' not in explicit)
     result = diagnose(real, reference, holdout, config)
     path = result.write_json(args.json)
     for m in result.mismatch[:4]:

@@ -12,6 +12,12 @@ FRF of the written model) call :func:`fit_design`, so the two can never drift ap
 - short records (rig and DAQ exports, often a few seconds): when no record holds the long
   segment and the caller allows it (generic recordings, long segment not chosen by the user),
   the fit falls back to one resolution and says so in ``note``; nothing is padded;
+- very short records: when the Welch segments of all records number no more than the inputs,
+  the H1 estimate reproduces every window exactly (the input cross-spectral matrix has rank
+  <= the number of windows), so its coherence is 1 by construction (only the Tikhonov term
+  keeps it below) and says nothing about noise or nonlinearity; when the caller allows it
+  (generic recordings, segment length not chosen by the user) the segment is halved until
+  there are more windows than inputs, and ``note`` says so;
 - the model's ``units`` name the declared input quantity.
 """
 import dataclasses
@@ -80,10 +86,36 @@ def _short_record_fallback(config: FitConfig, segments, fs_hz: float) -> Tuple[F
     return dataclasses.replace(config, long_segment_length=0), note
 
 
+#: Shortest Welch segment the few-windows fallback goes down to [samples].
+MIN_FALLBACK_SEGMENT = 64
+
+
+def _few_windows_fallback(config: FitConfig, segments, fs_hz: float,
+                          n_inputs: int) -> Tuple[FitConfig, str]:
+    """Return the config with a segment short enough for more windows than inputs, and a note."""
+    def windows(length):
+        welch = dataclasses.replace(config, segment_length=length).welch(fs_hz)
+        return sum(welch.n_windows(s.accel_mps2.shape[1]) for s in segments)
+    length = config.segment_length
+    if windows(length) > n_inputs:
+        return config, ''
+    while length // 2 >= MIN_FALLBACK_SEGMENT and windows(length) <= n_inputs:
+        length //= 2
+    if windows(length) <= n_inputs:
+        return config, ''
+    note = (f'note: the records hold {windows(config.segment_length)} Welch window(s) of '
+            f'{config.segment_length} samples for {n_inputs} input(s): an H1 estimate from no '
+            f'more windows than inputs fits them exactly (coherence 1 by construction); fitted '
+            f'with segment {length} ({windows(length)} windows, '
+            f'{fs_hz / length:g} Hz resolution). --segment-length N silences this note.')
+    return dataclasses.replace(config, segment_length=length), note
+
+
 def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConfig,
                input_channels: Sequence[str], output_channels: Sequence[str],
                input_quantity: str = 'acceleration', fit_info: Optional[Mapping] = None,
-               short_record_fallback: bool = False) -> DesignedFit:
+               short_record_fallback: bool = False,
+               segment_fallback: bool = False) -> DesignedFit:
     """
     Fit a model as ``wheel-force fit`` does.
 
@@ -104,6 +136,9 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
     short_record_fallback : bool
         Allow the one-resolution fallback for records shorter than the long segment
         (generic recordings whose long segment the user did not choose).
+    segment_fallback : bool
+        Allow a shorter Welch segment when the records hold no more windows than inputs
+        (generic recordings whose segment length the user did not choose).
 
     Returns
     -------
@@ -130,9 +165,14 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
             f'no recording holds one Welch segment of {config.segment_length} samples '
             f'({config.segment_length / fs_hz:g} s at {fs_hz:g} Hz): {detail}; pass '
             f'--segment-length N (N <= the record length) for a coarser frequency grid')
-    note = ''
+    notes = []
     if short_record_fallback:
         config, note = _short_record_fallback(config, used, fs_hz)
+        notes.append(note)
+    if segment_fallback and not config.long_segment_length:
+        config, note = _few_windows_fallback(config, used, fs_hz, len(input_channels))
+        notes.append(note)
+    note = '\n'.join(n for n in notes if n)
     model = fit_model(used, fs_hz, config, input_channels, output_channels, fit_info=fit_info)
     model = dataclasses.replace(model, units={'input': INPUT_UNITS[input_quantity],
                                               'output': 'N'})

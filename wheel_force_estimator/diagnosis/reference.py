@@ -35,7 +35,7 @@ class FrfReference:
 
     @classmethod
     def fit(cls, recordings: Sequence[MotionRecording], name: str, fit_config=None,
-            short_record_fallback: bool = False):
+            short_record_fallback: bool = False, segment_fallback: bool = False):
         """
         Fit the FRF on recordings with the product's design (``wheel-force fit``).
 
@@ -49,6 +49,8 @@ class FrfReference:
             Settings; None = what ``wheel-force fit`` uses without a params file.
         short_record_fallback : bool
             One resolution when no record holds the long segment (generic recordings).
+        segment_fallback : bool
+            A shorter Welch segment when the records hold no more windows than inputs.
 
         Raises
         ------
@@ -65,7 +67,7 @@ class FrfReference:
         try:
             fitted = fit_design(segments, rec0.fs_hz, config, rec0.input_channels,
                                 rec0.output_channels, rec0.input_quantity,
-                                {'diagnosis': name}, short_record_fallback)
+                                {'diagnosis': name}, short_record_fallback, segment_fallback)
         except WheelForceError as err:
             raise DiagnosisError(f'cannot fit the linear FRF on the {name} recordings: '
                                  f'{err}') from err

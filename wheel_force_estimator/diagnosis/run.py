@@ -89,6 +89,10 @@ class DiagnosisConfig:
         Real-data fits may fall back to one resolution for records shorter than the long
         Welch segment, as ``wheel-force fit`` does for generic recordings (the CLI passes
         False for bags and when the long segment was chosen explicitly).
+    segment_fallback : bool
+        Real-data fits may shorten the Welch segment when the records hold no more windows
+        than inputs, as ``wheel-force fit`` does for generic recordings (the CLI passes False
+        for bags and when the segment length was chosen explicitly).
     merge_ratio : float
         A physics found on several channels becomes one shared-parameter finding when the
         shared fit removes at least this fraction of what the per-channel fits remove.
@@ -109,6 +113,7 @@ class DiagnosisConfig:
     linear: str = 'auto'
     fit: object = None
     fit_fallback: bool = True
+    segment_fallback: bool = True
     merge_ratio: float = 0.85
     range_ratio: float = 10.0
     residual_highpass_hz: Optional[float] = None
@@ -134,7 +139,8 @@ def _fit_linear(recordings, config, name, rec0):
 
 def _real_linear(recordings, config, name='real'):
     """Fit the best linear dynamic model on real recordings: ``wheel-force fit``'s design."""
-    return FrfReference.fit(recordings, name, config.fit, config.fit_fallback)
+    return FrfReference.fit(recordings, name, config.fit, config.fit_fallback,
+                            config.segment_fallback)
 
 
 def _reference(real, sim_or_model, config):
