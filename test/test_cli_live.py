@@ -140,3 +140,22 @@ def test_both_look_ahead_options_are_a_usage_error(setup, capsys):
                '--causal-delay-samples', '20', '--live-look-ahead-s', '0.04'])
     assert rc == 2
     assert 'not both' in capsys.readouterr().err
+
+
+def test_look_ahead_from_the_params_file_follows_the_node_section_precedence(tmp_path):
+    from wheel_force_estimator.cli.live import configured_look_ahead_s
+    from wheel_force_estimator.core.errors import ConfigError
+    from wheel_force_estimator.core.live_estimator import DEFAULT_LIVE_LOOK_AHEAD_S
+    both = tmp_path / 'both.yaml'
+    both.write_text('/**:\n  ros__parameters:\n    live_look_ahead_s: 0.1\n'
+                    'wheel_force_node:\n  ros__parameters:\n    live_look_ahead_s: 0.2\n')
+    # The node-specific section overrides the wildcard, as for the topics (bagio.topics).
+    assert configured_look_ahead_s(both) == 0.2
+    assert configured_look_ahead_s(both, 0.03) == 0.03
+    fit_only = tmp_path / 'fit.yaml'
+    fit_only.write_text('wheel_force_fit:\n  segment_length: 512\n')
+    assert configured_look_ahead_s(fit_only) == DEFAULT_LIVE_LOOK_AHEAD_S
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('/**:\n  ros__parameters:\n    live_look_ahead_s: -1\n')
+    with pytest.raises(ConfigError, match=r'bad.yaml: /\*\*.ros__parameters.live_look_ahead_s'):
+        configured_look_ahead_s(bad)

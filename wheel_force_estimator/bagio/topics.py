@@ -16,7 +16,7 @@ default names; the node declares its parameters with them.
 from dataclasses import dataclass
 from pathlib import Path
 import re
-from typing import Optional, Tuple
+from typing import Dict, Optional, Tuple
 
 
 from wheel_force_estimator import CORNERS
@@ -186,6 +186,48 @@ _TOPIC_LIST_KEYS = ('imu_topics', 'wft_topics', 'output_topics')
 _TOPIC_KEYS = ('damage_topic', 'event_topic', 'travel_topic')
 
 
+def node_parameters(path) -> Tuple[Dict[str, object], str]:
+    """
+    Return the node's ``ros__parameters`` from a params file and the sections they came from.
+
+    The ``/**`` section, then ``wheel_force_node`` (then ``/wheel_force_node``): a key in a
+    later, more specific section overrides the wildcard's.  A file with only the
+    ``wheel_force_fit`` section gives ``({}, '')``.
+
+    Raises
+    ------
+    ConfigError
+        The file cannot be read or parsed, is not a mapping, has neither a node nor a fit
+        section, or a section has no ``ros__parameters`` mapping (file and section named).
+
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding='utf-8')
+    except OSError as err:
+        raise ConfigError(f'{path}: cannot read params file: {err.strerror or err}') from err
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise ConfigError(f'{path}: invalid YAML: {err}') from err
+    if not isinstance(doc, dict):
+        raise ConfigError(f'{path}: expected a mapping with a {NODE_SECTION!r} section')
+    sections = [n for n in _SECTION_NAMES if n in doc]
+    if not sections and FIT_SECTION in doc:
+        return {}, ''
+    if not sections:
+        raise ConfigError(f'{path}: no {WILDCARD_SECTION!r} or {NODE_SECTION!r} section '
+                          f'(keys: {sorted(doc)})')
+    params = {}
+    for section_name in sections:
+        section = doc[section_name]
+        values = section.get('ros__parameters') if isinstance(section, dict) else None
+        if not isinstance(values, dict):
+            raise ConfigError(f'{path}: {section_name}: missing ros__parameters mapping')
+        params.update(values)
+    return params, ' + '.join(sections)
+
+
 def load_topic_config(path=None, namespace: str = '/') -> TopicConfig:
     """
     Read the topic names of the node's section of a ROS 2 params file, resolved.
@@ -213,31 +255,9 @@ def load_topic_config(path=None, namespace: str = '/') -> TopicConfig:
     """
     if path is None:
         return TopicConfig(namespace=namespace)
-    path = Path(path)
-    try:
-        text = path.read_text(encoding='utf-8')
-    except OSError as err:
-        raise ConfigError(f'{path}: cannot read params file: {err.strerror or err}') from err
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise ConfigError(f'{path}: invalid YAML: {err}') from err
-    if not isinstance(doc, dict):
-        raise ConfigError(f'{path}: expected a mapping with a {NODE_SECTION!r} section')
-    sections = [n for n in _SECTION_NAMES if n in doc]
-    if not sections and FIT_SECTION in doc:
+    params, section_name = node_parameters(path)
+    if not section_name:
         return TopicConfig(namespace=namespace)     # fit settings only: default topics
-    if not sections:
-        raise ConfigError(f'{path}: no {WILDCARD_SECTION!r} or {NODE_SECTION!r} section '
-                          f'(keys: {sorted(doc)})')
-    params = {}
-    for section_name in sections:
-        section = doc[section_name]
-        values = section.get('ros__parameters') if isinstance(section, dict) else None
-        if not isinstance(values, dict):
-            raise ConfigError(f'{path}: {section_name}: missing ros__parameters mapping')
-        params.update(values)
-    section_name = ' + '.join(sections)
     known = set(_TOPIC_LIST_KEYS) | set(_TOPIC_KEYS) | {'frame_ids'} | NODE_ONLY_KEYS
     for key in params:
         if key not in known:

@@ -17,7 +17,6 @@ import sys
 from typing import Callable, List, Optional, Tuple
 
 from wheel_force_estimator.core.errors import ConfigError
-import yaml
 
 
 def add_causal_arguments(parser: argparse.ArgumentParser, what: str) -> None:
@@ -42,21 +41,15 @@ def configured_look_ahead_s(config_path=None, override: Optional[float] = None) 
         Unreadable params file or a value that is not a number >= 0 (file and key named).
 
     """
-    from wheel_force_estimator.bagio.topics import _SECTION_NAMES
+    from wheel_force_estimator.bagio.topics import node_parameters
     from wheel_force_estimator.core.live_estimator import DEFAULT_LIVE_LOOK_AHEAD_S
     value, where = override, '--live-look-ahead-s'
     if value is None and config_path is not None:
-        try:
-            doc = yaml.safe_load(Path(config_path).read_text()) or {}
-        except (OSError, yaml.YAMLError) as err:
-            raise ConfigError(f'{config_path}: cannot read params file: {err}') from err
-        for name in _SECTION_NAMES:
-            params = ((doc.get(name) or {}) if isinstance(doc, dict) else {})
-            params = params.get('ros__parameters') or {} if isinstance(params, dict) else {}
-            if 'live_look_ahead_s' in params:
-                value = params['live_look_ahead_s']
-                where = f'{config_path}: {name}.ros__parameters.live_look_ahead_s'
-                break
+        # The node reads the same sections with the same precedence (bagio.topics).
+        params, sections = node_parameters(config_path)
+        if 'live_look_ahead_s' in params:
+            value = params['live_look_ahead_s']
+            where = f'{config_path}: {sections}.ros__parameters.live_look_ahead_s'
     if value is None:
         return DEFAULT_LIVE_LOOK_AHEAD_S
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0.0:
