@@ -8,6 +8,7 @@ import pytest
 
 from wheel_force_estimator.cli.main import main
 from wheel_force_estimator.core.model import load_model
+from wheel_force_estimator.core.predict import select_filter
 from wheel_force_estimator.diagnosis.synthetic import make_recording
 
 
@@ -118,3 +119,10 @@ def test_bags_from_the_simulator_and_augmented_model(tmp_path):
         assert not any(s.endswith('+physics') for s in sources)
     if physics:
         assert physics[0]['physics'] == 'damper_asymmetry'
+    # Like `fit`, the written model carries live estimators (configured 50 ms first), so the
+    # node runs it without cutting the offline FIR.
+    written = load_model(model)
+    looks = [e.look_ahead_samples for e in written.live]
+    assert looks[0] == round(0.05 * written.fs_hz) and len(looks) == 5
+    _, fallback = select_filter(written, looks[0])
+    assert fallback is None

@@ -2,6 +2,7 @@
 # SPDX-License-Identifier: Apache-2.0
 """``wheel-force diagnose``: name the physics a simulation (or model) leaves out."""
 import argparse
+import sys
 
 from wheel_force_estimator.cli.common import add_generic_arguments
 from wheel_force_estimator.cli.common import add_namespace_argument
@@ -143,12 +144,27 @@ def command(args: argparse.Namespace) -> int:
     for line in result.rejected:
         print(f'  not accepted: {line}')
     if args.out_model:
+        from wheel_force_estimator.core.errors import DiagnosisError
         if result.model is None:
-            from wheel_force_estimator.core.errors import DiagnosisError
             raise DiagnosisError('no FRF model to write: the reference is not one and the real '
                                  'recordings could not be fitted (see the notes above)')
-        print(f'written model ({result.fit.model}): '
-              f'{save_model(result.model, args.out_model)}')
+        model = result.model
+        if not model.live and result.fit.model != 'model':
+            # Like `fit`, the written model carries live estimators for the node (the
+            # configured look-ahead first).  A model whose linear map is the --model's keeps
+            # that model's estimators (or none, when it is written unchanged).
+            from wheel_force_estimator.cli.live import configured_look_ahead_s
+            from wheel_force_estimator.core.live_estimator import LiveDesign
+            from wheel_force_estimator.core.live_estimator import SWEEP_LOOK_AHEADS_S
+            from wheel_force_estimator.diagnosis.written import with_live_estimators
+            look = configured_look_ahead_s(args.config)
+            try:
+                model = with_live_estimators(model, real, LiveDesign(
+                    look_aheads_s=(look,) + SWEEP_LOOK_AHEADS_S))
+            except DiagnosisError as err:
+                print(f'warning: {err}; written without them (a live look-ahead then cuts '
+                      f'the offline FIR)', file=sys.stderr)
+        print(f'written model ({result.fit.model}): {save_model(model, args.out_model)}')
     if args.report:
         from wheel_force_estimator.diagnosis.plots import write_report
         print(f'report: {write_report(args.report, result, real, holdout)}')
