@@ -410,3 +410,32 @@ def test_a_strength_that_is_not_a_parameter_is_refused():
     with pytest.raises(ConfigError, match="strength parameter 'gain'"):
         TermKind('cubic_stiffness', 'motion', ph.TERM_KINDS['cubic_stiffness'].params,
                  ph.TERM_KINDS['cubic_stiffness'].force, 'gain')
+
+
+def test_feature_terms_fade_in_while_the_filters_settle_and_force_terms_do_not():
+    # A term read from integrated features must not add the filters' start-up transient (the
+    # motion before the first sample is unknown): silent for half the settle time, faded in
+    # over the other half.  Terms that read the force prediction start at once.
+    accel, force = _signals(n=12000)
+    cubic = ph.PhysicsTerm('cubic_stiffness', ('rr_fz',), {'stiffness_n_per_m3': 1e7})
+    delay = ph.PhysicsTerm('time_delay', ('lf_fy',), {'delay_s': 3.3 / FS})
+    n_settle = ph.settle_samples(FS, cubic.highpass_hz, cubic.lowpass_hz)
+    assert n_settle == int(np.ceil(3.0 / cubic.highpass_hz * FS))
+    lead = 1000
+    stage = ph.PhysicsStage([cubic, delay], FS, INPUT_CHANNELS, OUTPUT_CHANNELS,
+                            lead_samples=lead)
+    added = stage.process(accel, force) - force
+    o, d = OUTPUT_CHANNELS.index('rr_fz'), OUTPUT_CHANNELS.index('lf_fy')
+    start = lead + n_settle // 2
+    assert not added[o, :start].any() and np.abs(added[o, start + 10:]).max() > 1e-3
+    weight = ph.settle_weight(-lead, 12000, n_settle)
+    unfaded = ph.PhysicsStage([cubic], FS, INPUT_CHANNELS, OUTPUT_CHANNELS,
+                              lead_samples=-10 ** 9).process(accel, force) - force
+    np.testing.assert_allclose(added[o], weight * unfaded[o], rtol=1e-12, atol=1e-12)
+    assert np.all(np.diff(weight) >= 0.0) and weight[lead + n_settle:].min() == 1.0
+    assert np.abs(added[d, :10]).max() > 1.0      # the delay term reads the force: no fade
+    # the fade restarts with the filters, and a split record gives the same numbers
+    stage.reset()
+    parts = [stage.process(accel[:, i:i + 777], force[:, i:i + 777])
+             for i in range(0, 12000, 777)]
+    assert np.array_equal(np.concatenate(parts, axis=1) - force, added)

@@ -47,8 +47,11 @@ def test_generic_sim_diagnosis_writes_json_and_report(generic_files, tmp_path, c
     assert doc['findings'][0]['channels'] == ['fa']
     assert doc['fit']['data'] == 'holdout'
     # The static-law reference (--linear regression) is not an FRF and cannot be written:
-    # the written model and `after` are built on the FIR fitted on the real data.
-    assert doc['fit']['model'] in ('real_frf+physics', 'real_linear')
+    # the written model and `after` are built on the FIR fitted on the real data (whole, or
+    # per channel: the named channel may take the rows with the term, the other the plain fit).
+    assert doc['fit']['model'] in ('real_frf+physics', 'real_linear', 'per_channel')
+    if doc['fit']['model'] == 'per_channel':
+        assert doc['fit']['rows_from'] == {'fa': 'real_frf+physics', 'fb': 'real_linear'}
     assert (tmp_path / 'rep' / 'report.md').is_file()
     assert list((tmp_path / 'rep').glob('regime_*.png'))
     assert 'rebound damping differ' in capsys.readouterr().out

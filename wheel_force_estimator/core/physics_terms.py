@@ -75,6 +75,11 @@ class TermKind:
         proportional to any one parameter (``time_delay``).
     history_samples : callable, optional
         ``(params, fs_hz) -> int``: past force samples the law needs (delay line).
+    reads_features : bool
+        A motion-state law that reads the filtered motion features (displacement, velocity,
+        acceleration or the clip feature), whose integrators need time to settle after a
+        (re)start; False for ``time_delay`` and ``tire_lift_off``, which read only the force
+        prediction (as every load-state law does, whatever this flag says).
 
     """
 
@@ -85,6 +90,7 @@ class TermKind:
     strength: Optional[str] = None
     needs_partner: bool = False
     history_samples: Optional[Callable] = None
+    reads_features: bool = True
 
     def __post_init__(self):
         if self.strength is not None and self.strength not in self.params.names():
@@ -126,13 +132,15 @@ _KINDS = (
              'friction_n'),
     TermKind('backlash', 'motion', BacklashParams, _backlash, 'stiffness_n_per_m'),
     TermKind('tire_lift_off', 'motion', LiftOffParams,
-             lambda p, v: law.tire_lift_off_force(v.force, p.threshold_n, p.gain), 'gain'),
+             lambda p, v: law.tire_lift_off_force(v.force, p.threshold_n, p.gain), 'gain',
+             reads_features=False),
     TermKind('anti_roll_bar', 'motion', AntiRollBarParams,
              lambda p, v: law.anti_roll_bar_force(v.disp, v.partner_disp, p.stiffness_n_per_m),
              'stiffness_n_per_m', needs_partner=True),
     TermKind('time_delay', 'motion', TimeDelayParams,
              lambda p, v: law.time_delay_force(v.force, v.delayed(p.delay_s)),
-             history_samples=lambda p, fs: int(math.floor(p.delay_s * fs)) + 1),
+             history_samples=lambda p, fs: int(math.floor(p.delay_s * fs)) + 1,
+             reads_features=False),
     TermKind('sensor_saturation', 'motion', SaturationParams,
              lambda p, v: law.sensor_saturation_force(v.clip_feature(p.limit, p.integration),
                                                       p.force_n), 'force_n'),

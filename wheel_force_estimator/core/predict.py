@@ -27,7 +27,9 @@ FIR length.  :meth:`Predictor.flush` fills the look-ahead with the mean of the l
 ``delay_samples`` inputs held constant (a local, noise-averaged state, not a step to rest).
 No recorded sample is changed, added or dropped.  The output stream lags the input by
 ``delay_samples`` (the FIR look-ahead): output sample ``j`` is the estimate for input sample
-``j - delay_samples``.
+``j - delay_samples``.  Physics terms read from motion features are faded in after every
+(re)start while the feature filters settle (:func:`.physics.settle_weight`), counted from the
+first recorded sample (the stage's first ``delay_samples`` inputs are the rest level).
 """
 from typing import Iterator, Optional
 
@@ -183,8 +185,11 @@ class Predictor:
         self._recent = np.empty((len(model.input_channels), 0))
         if model.physics:
             from wheel_force_estimator.core.physics import PhysicsStage
+            # The stage reads the inputs delayed like the FIR's output: the first
+            # delay_samples it sees are the rest level, before the record.
             self._physics = PhysicsStage(model.physics_terms, model.fs_hz, model.input_channels,
-                                         model.output_channels)
+                                         model.output_channels,
+                                         lead_samples=self.delay_samples)
             self._accel_delay = _DelayLine(self._static_accel, self.delay_samples)
 
     @property

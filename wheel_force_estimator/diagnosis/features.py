@@ -138,12 +138,11 @@ def settle_samples(fs_hz: float, input_quantity: str, config: FeatureConfig) -> 
     """
     Return the samples at the start of a record left out while the feature filters settle.
 
-    An integrator high-pass at ``f`` rings for about ``3 / f`` seconds after the record
-    starts (a differentiator low-pass for about ``3 / f_lp``).
+    The rule of :func:`core.physics.settle_samples` (the physics stage fades its motion
+    terms in over the same time) for the filters of these inputs.
     """
-    hp, lp = config.resolved(fs_hz, input_quantity)
-    settle_s = max(3.0 / hp if hp else 0.0, 3.0 / lp if lp else 0.0)
-    return int(np.ceil(settle_s * fs_hz))
+    from wheel_force_estimator.core.physics import settle_samples as core_settle
+    return core_settle(fs_hz, *config.resolved(fs_hz, input_quantity))
 
 
 @dataclass(frozen=True)
