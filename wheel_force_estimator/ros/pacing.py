@@ -51,7 +51,8 @@ class OutputPacer:
     nominal_hz : float
         Output sample rate assumed until the input rate is measured (the model's) [Hz].
     max_waiting : int
-        More output samples than this never wait: the rest leaves at once [samples].
+        More output samples than this waiting are caught up :data:`HURRY_FACTOR` times faster;
+        more than twice this never wait (the rest leaves at once) [samples].
     n_inputs : int
         Input messages per output sample (one per corner).
 
