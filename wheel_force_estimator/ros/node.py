@@ -16,11 +16,15 @@ Wiring (all in ``WheelForceNode.__init__``; callbacks stay tiny):
   one message per input sample per corner, stamped with the estimated input sample's stamp.
   **Steady output**: a finished block is not published in one burst (a reliable keep-last-5
   subscriber such as ``ros2 topic echo`` would lose most of it) but paced at the input
-  rate: every input message earns a quarter of an output sample (four corners), so the
-  estimates leave at the rhythm the samples came in, spread over the next block.  The wait
-  this adds is at most about one block, and is measured and reported (``/diagnostics``,
-  shutdown summary).  Without input (end of a replay), the rest leaves one sample per sample
-  period of the model.
+  rate (:mod:`.pacing`): every input message earns a quarter of an output sample (four
+  corners), so the estimates leave at the rhythm the samples came in, spread over the next
+  block; and the output rate is bounded on the steady clock (at most twice the measured input
+  rate, 2 ms of it at once), so input that arrives in a burst after a stall is not sent on as
+  a burst but caught up over about the stall's length.  The wait this adds is at most about
+  one block in steady running; beyond two blocks waiting the catch-up doubles, beyond four
+  the rest leaves at once.  It is measured and reported (``/diagnostics``, shutdown
+  summary).  Without input (a stall, the end of a replay), what waits leaves one sample per
+  sample period of the model.
 * the running pseudo damage on ``damage_topic`` every ``damage_publish_period_s`` of **data
   time** (sample stamps, :mod:`.stream`), so a replay at any rate or under sim time gives the
   same messages; a last one when the input stops and at shutdown.
@@ -75,6 +79,7 @@ from wheel_force_estimator.ros.diagnostics import CornerReport
 from wheel_force_estimator.ros.diagnostics import ERROR
 from wheel_force_estimator.ros.diagnostics import OK
 from wheel_force_estimator.ros.diagnostics import WARN
+from wheel_force_estimator.ros.pacing import OutputPacer
 from wheel_force_estimator.ros.params import declare_node_parameters
 from wheel_force_estimator.ros.params import model_layout
 from wheel_force_estimator.ros.params import unknown_parameters
@@ -88,8 +93,6 @@ IMU_TYPE = 'sensor_msgs/msg/Imu'
 HOUSEKEEPING_PERIOD_S = 0.02
 #: Steady-clock period of the /diagnostics health message [s].
 DIAGNOSTICS_PERIOD_S = 1.0
-#: Output samples earned per input message (one output sample per input sample of 4 corners).
-CREDIT_PER_MESSAGE = 0.25
 #: Throttle of repeated fault warnings [s].
 WARN_THROTTLE_S = 5.0
 #: Pacing latencies kept for the percentiles.
@@ -146,7 +149,7 @@ class WheelForceNode(Node):
         self._queued = 0                  # stream samples waiting for their block
         self._out = collections.deque()   # [per-corner serialized messages, next index, ready]
         self._n_unpublished = 0
-        self._credit = 0.0
+        self._pacer = OutputPacer(model.fs_hz, 2 * params.block_size, n)
         self._published = 0
         self._latency_s = collections.deque(maxlen=LATENCY_WINDOW)
         self._received = np.zeros(n, dtype=np.int64)
@@ -212,8 +215,7 @@ class WheelForceNode(Node):
             if self._queued + min(map(len, raws)) >= block:
                 self._process(time.monotonic())
             if self._n_unpublished:
-                self._credit += CREDIT_PER_MESSAGE
-                self._pace()
+                self._pace(time.monotonic())
         return on_imu
 
     def _on_event(self, msg: String):
@@ -224,6 +226,7 @@ class WheelForceNode(Node):
         had_input, self._input_since_tick = self._input_since_tick, False
         if any(self._raw):
             self._process(now)
+        self._pacer.measure(now, int(self._received.sum()))
         if (self._stream.in_flight and self._last_input_s is not None
                 and now - self._last_input_s > self._params.flush_timeout_s):
             self._end_of_stream('no input for '
@@ -234,7 +237,9 @@ class WheelForceNode(Node):
 
     def _on_idle_tick(self):
         if self._n_unpublished and not self._input_since_tick:
-            self._pump(1)
+            due = self._pacer.on_idle(time.monotonic(), self._n_unpublished)
+            if due:
+                self._pacer.published(self._pump(due), self._n_unpublished)
         else:
             self._idle_timer.cancel()
 
@@ -337,15 +342,11 @@ class WheelForceNode(Node):
         self._out.append([blobs, 0, None if tail else ready_s])
         self._n_unpublished += stamp_ns.size
 
-    def _pace(self):
-        """Publish the output samples the input has paid for (see the module notes)."""
-        # More than two blocks waiting (after a flush, or inputs dropped): catch up at once.
-        excess = self._n_unpublished - 2 * self._params.block_size
-        due = max(int(self._credit), excess)
+    def _pace(self, now: float):
+        """One input message arrived: publish what the pacing allows (see the module notes)."""
+        due = self._pacer.on_message(now, self._n_unpublished)
         if due > 0:
-            self._credit -= self._pump(due)
-        if not self._n_unpublished:
-            self._credit = min(self._credit, 1.0)   # no saving up while nothing waits
+            self._pacer.published(self._pump(due), self._n_unpublished)
 
     def _pump(self, budget: int) -> int:
         """Publish up to ``budget`` waiting output samples, oldest first; return the count."""

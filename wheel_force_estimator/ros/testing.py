@@ -225,8 +225,10 @@ def count_messages_main(argv: Sequence[str]) -> int:
     from rclpy.qos import HistoryPolicy
     from rclpy.qos import QoSProfile
     from rclpy.qos import ReliabilityPolicy
+    from rclpy.task import Future
 
     reliability, depth, expected, timeout_s, *topics = argv
+    expected, timeout_s = int(expected), float(timeout_s)
     qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth),
                      reliability=(ReliabilityPolicy.RELIABLE if reliability == 'reliable'
                                   else ReliabilityPolicy.BEST_EFFORT))
@@ -234,28 +236,30 @@ def count_messages_main(argv: Sequence[str]) -> int:
     node = rclpy.create_node('message_counter')
     counts = [0] * len(topics)
     first = []
+    done = Future()
 
     def counter(k):
         def on_msg(_raw):
             if not first:
                 first.append(time.monotonic())
             counts[k] += 1
+            if counts[k] == expected and min(counts) >= expected:
+                done.set_result(True)
         return on_msg
 
     subs = [node.create_subscription(WrenchStamped, t, counter(k), qos, raw=True)
             for k, t in enumerate(topics)]
     executor = EventsExecutor()
     executor.add_node(node)
-    ready = False
     try:
-        while True:
+        while not all(node.count_publishers(t) for t in topics):
             executor.spin_once(timeout_sec=0.01)
-            if not ready and all(node.count_publishers(t) for t in topics):
-                ready = True
-                print('ready', flush=True)
-            if min(counts) >= int(expected) or (
-                    first and time.monotonic() - first[0] > float(timeout_s)):
-                break
+        print('ready', flush=True)
+        # Messages are taken by the executor's own loop, one Python call each, as a
+        # subscriber spun by ``rclpy.spin`` would (``ros2 topic echo``): a Python turn per
+        # message would cost more than the messages themselves.
+        while not done.done() and not (first and time.monotonic() - first[0] > timeout_s):
+            executor.spin_until_future_complete(done, timeout_sec=0.1)
     finally:
         print(json.dumps(counts), flush=True)
         del subs
