@@ -24,7 +24,6 @@ from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.ros.diagnostics import status_values
-from wheel_force_estimator.ros.testing import isolated_ros_env
 from wheel_force_estimator.ros.testing import sample_stamps
 from wheel_force_estimator.ros.testing import SpinningParticipant
 from wheel_force_estimator.ros.testing import start_node
@@ -44,14 +43,6 @@ LOOK_AHEAD = round(0.05 * FS_HZ)
 RTOL = 1e-9
 RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000,
                       reliability=ReliabilityPolicy.RELIABLE)
-
-
-@pytest.fixture
-def ros_env(monkeypatch):
-    env = isolated_ros_env()
-    for key in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'RMW_IMPLEMENTATION'):
-        monkeypatch.setenv(key, env[key])
-    return env
 
 
 @pytest.fixture

@@ -14,7 +14,6 @@ from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.ros.params import PARAMETERS
 from wheel_force_estimator.ros.replay import replay_bag
 from wheel_force_estimator.ros.replay import ReplaySettings
-from wheel_force_estimator.ros.testing import isolated_ros_env
 from wheel_force_estimator.ros.testing import sample_stamps
 from wheel_force_estimator.ros.testing import start_node
 from wheel_force_estimator.ros.testing import stop_node
@@ -46,14 +45,6 @@ def live_model(seed=31):
                           edges[n_fine:], rng.normal(size=(12, 12, edges.size - 1 - n_fine)),
                           {'method': 'random (test)'})
     return dataclasses.replace(model, live=(est,))
-
-
-@pytest.fixture
-def ros_env(monkeypatch):
-    env = isolated_ros_env()
-    for key in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'RMW_IMPLEMENTATION'):
-        monkeypatch.setenv(key, env[key])
-    return env
 
 
 def test_node_at_block_16_equals_offline_causal_prediction(ros_env, tmp_path):

@@ -21,7 +21,6 @@ from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.ros.diagnostics import status_values
 from wheel_force_estimator.ros.replay import replay_bag
 from wheel_force_estimator.ros.replay import ReplaySettings
-from wheel_force_estimator.ros.testing import isolated_ros_env
 from wheel_force_estimator.ros.testing import sample_stamps
 from wheel_force_estimator.ros.testing import SpinningParticipant
 from wheel_force_estimator.ros.testing import start_node
@@ -44,14 +43,6 @@ RTOL = 1e-9
 NODE_PARAMS = {'live_look_ahead_s': DELAY / FS_HZ, 'damage_publish_period_s': 0.2,
                'input_reliability': 'reliable', 'input_qos_depth': 5000,
                'flush_timeout_s': 1.0}
-
-
-@pytest.fixture
-def ros_env(monkeypatch):
-    env = isolated_ros_env()
-    for key in ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'RMW_IMPLEMENTATION'):
-        monkeypatch.setenv(key, env[key])
-    return env
 
 
 @pytest.fixture(scope='module')
