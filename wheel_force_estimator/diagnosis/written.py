@@ -57,6 +57,12 @@ def _units(model, groups, recordings, base) -> List[List[np.ndarray]]:
                                    base)] for g in groups]
 
 
+def _channel_weights(y: np.ndarray, fs_hz: float, hp: float, skip: int) -> np.ndarray:
+    """Return (n_out, 1) weights 1 / RMS of each force after ``skip``, high-passed when hp > 0."""
+    t = highpass(y, fs_hz, hp, 'refit target') if hp > 0.0 else y
+    return 1.0 / np.maximum(np.sqrt(np.mean(t[:, skip:] ** 2, axis=1, keepdims=True)), 1e-300)
+
+
 def _strengths(units, free, recordings, base, hp: float, skip: int) -> np.ndarray:
     """
     Non-negative least-squares strength per group (fixed groups at 1) on the residual.
@@ -74,13 +80,11 @@ def _strengths(units, free, recordings, base, hp: float, skip: int) -> np.ndarra
         r = y - pred - sum((units[i][k] for i, f in enumerate(free) if not f),
                            np.zeros_like(pred))
         cols = [units[i][k] for i in idx]
-        t = y
         if hp > 0.0:
             fs = rec.fs_hz
             cols = [highpass(c, fs, hp, 'term contribution') if np.any(c) else c for c in cols]
             r = highpass(r, fs, hp, 'refit residual')
-            t = highpass(y, fs, hp, 'refit target')
-        w = 1.0 / np.maximum(np.sqrt(np.mean(t[:, skip:] ** 2, axis=1, keepdims=True)), 1e-300)
+        w = _channel_weights(y, rec.fs_hz, hp, skip)
         a_rows.append(np.stack([(c[:, skip:] * w).ravel() for c in cols], axis=1))
         b_rows.append((r[:, skip:] * w).ravel())
     q, rr = np.linalg.qr(np.concatenate(a_rows))
@@ -95,12 +99,9 @@ def _weighted_sse(units, beta, recordings, base, hp: float, skip: int) -> float:
     for k, (rec, pred) in enumerate(zip(recordings, base)):
         y = np.asarray(rec.outputs, dtype=np.float64)
         r = y - pred - sum((b * u[k] for b, u in zip(beta, units)), np.zeros_like(pred))
-        t = y
         if hp > 0.0:
             r = highpass(r, rec.fs_hz, hp, 'refit residual')
-            t = highpass(y, rec.fs_hz, hp, 'refit target')
-        w = 1.0 / np.maximum(np.sqrt(np.mean(t[:, skip:] ** 2, axis=1, keepdims=True)), 1e-300)
-        total += float(np.sum((r[:, skip:] * w) ** 2))
+        total += float(np.sum((r[:, skip:] * _channel_weights(y, rec.fs_hz, hp, skip)) ** 2))
     return total
 
 
