@@ -172,3 +172,42 @@ def test_short_records_get_shorter_cross_validation_blocks_down_to_the_floor():
     # Below min_block_samples (64) per fold it is still refused, with the reason.
     with pytest.raises(DiagnosisError, match='too little data to cross-validate'):
         CvData(pieces(300), config)
+
+
+def test_null_lags_of_a_periodic_feature_are_where_it_is_unlike_itself():
+    from wheel_force_estimator.diagnosis.selection import null_lags
+    n, period = 8192, 256
+    phase = 2 * np.pi * np.arange(n) / period
+    # A sine, its square wave (odd harmonics) and its rectified form (even harmonics): a
+    # shift by a whole period reproduces each, so the null must avoid those lags.
+    for feature in (np.sin(phase), np.sign(np.sin(phase)), np.abs(np.sin(phase))):
+        lags = np.array(null_lags(feature, 8))
+        assert lags.size == 8
+        assert lags.min() >= n // 4 and lags.max() < 3 * n // 4
+        assert np.all(np.diff(lags) >= n // 32)
+        x = feature - feature.mean()
+        rho = [abs(np.dot(x, np.roll(x, int(k)))) / np.dot(x, x) for k in lags]
+        assert max(rho) < 0.05, rho
+    # A constant feature has no autocorrelation to go by: evenly spread lags.
+    assert null_lags(np.ones(n), 3) == (n // 4, n // 2, 3 * n // 4)
+
+
+def test_the_null_of_a_sine_test_is_not_the_feature_shifted_by_whole_periods():
+    from wheel_force_estimator.diagnosis.selection import NullShift
+    hyp = BY_KEY['backlash:load']
+    n = 8192
+    # A sine test at a period that divides the record: the old fixed quarter-record shift
+    # (2048 samples = 8 periods) handed the null the true feature itself.
+    load = 1000.0 * np.sin(2 * np.pi * np.arange(n) / 256) + np.random.default_rng(2).normal(
+        0, 50, n)
+    ctx = _context(load)
+    shape = hyp.grid([ctx])[5]
+    lost = hyp.basis(ctx, shape)
+    noise = np.random.default_rng(3).normal(0.0, 0.3 * np.std(lost), n)
+    sel = _selector(load, lost + noise)
+    base = sel._sse()
+    true_gain = sel.gain(hyp, shape, base)
+    assert true_gain > 0.8
+    assert sel.gain(hyp, shape, base, NullShift((n // 4,))) > 0.8 * true_gain
+    nulls = sel.null_gains(hyp, shape=shape)
+    assert max(nulls) < 0.25 * true_gain, nulls
