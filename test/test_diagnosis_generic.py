@@ -154,17 +154,16 @@ def _friction_sets():
 @pytest.mark.skipif(not FRICTION.is_dir(), reason=f'real dataset folder {FRICTION} is absent')
 def test_friction_damper_against_the_real_data_fir():
     # Coble et al., Dataset-Friction-Damper-with-Backlash (CC BY-SA 4.0), 30 lb band tension.
-    # The reference is the FIR `fit` makes on the real sine tests (measured 71.6 % on the
-    # 0.5 Hz holdout file with the default design).  The lost motion is named with the
-    # default design too since the shifted-feature null avoids lags where the feature of a
-    # sine test repeats itself (it was not: a whole-period shift explained 26 %): FIR +
-    # backlash 39.3 %.  With the short segment 69.8 -> 28.0 % (`evaluate` on the 0.5 Hz file).
+    # The reference is the FIR `fit` makes on the real sine tests: 62.1 % on the 0.5 Hz
+    # holdout file with the default design (71.6 % before `fit` damped the lines the sine
+    # tests never excite).  With the default design the lost motion explains 49 % of the
+    # residual, but one shifted-feature null 27 % (a sine test's features share their
+    # harmonics with any shift of themselves), so nothing is named.  With the short segment
+    # the lost motion is named: FIR + backlash 28.7 % against 74.7 % for the plain fit with
+    # that setting (`evaluate` of each on the 0.5 Hz file).
     real, holdout = _friction_sets()
     plain = diagnose(real, None, holdout)
     assert plain.fit.real_linear == plain.fit.before
-    assert {f.physics for f in plain.findings} & {'coulomb_friction', 'backlash'}
-    assert plain.fit.model == 'real_frf+physics'
-    assert plain.fit.after['data[2]'] < 0.75 * plain.fit.real_linear['data[2]']
     short = diagnose(real, None, holdout, SHORT)
     assert {f.physics for f in short.findings} & {'coulomb_friction', 'backlash'}
     assert short.fit.model == 'real_frf+physics'
@@ -178,11 +177,12 @@ def test_mr_damper_short_records_get_a_shorter_segment_and_shorter_blocks():
     # construction), and its FIR edges leave 7.5 s: 3 blocks of 2 s for 5 folds (refused in
     # earlier versions).  Now the design halves the segment to 512 (4 windows, as `fit` does
     # for such records) and the cross-validation uses shorter blocks.  Measured, good or bad:
-    # nothing is named, the plain fit is written, 162 % on the report half (426 % with the
-    # 1024-sample FIR; the short segment of `SHORT` gives 126 %): a sine test does not
-    # identify an FIR between its frequencies, and the static law of earlier versions
-    # (38.7 %) was a better model of this damper than any FIR `fit` can make from these
-    # records.
+    # nothing is named, the plain fit is written, 93.7 % on the report half (162 % before
+    # `fit` damped the lines a sine test never excites; 426 % with the 1024-sample FIR).  With
+    # the short segment of `SHORT` lost motion, Coulomb friction and a rebound stop are named
+    # and the written model reaches 45.7 % against 83.9 % for the plain fit: a sine test does
+    # not identify an FIR between its frequencies, and the yield force of an MR damper is
+    # friction-like.
     def load(name):
         return load_generic(MR / name, [parse_spec('x_F[0]:displacement:mm', 'input')],
                             [parse_spec('x_F[2]:force:N', 'output')], 100.0)
@@ -194,4 +194,5 @@ def test_mr_damper_short_records_get_a_shorter_segment_and_shorter_blocks():
     assert result.fit.model in ('real_linear', 'real_frf+physics')
     result = diagnose(real, None, hold, SHORT)
     assert result.fit.real_linear == result.fit.before
-    assert result.fit.model in ('real_linear', 'real_frf+physics')
+    assert result.fit.model == 'real_frf+physics'
+    assert result.fit.after['x_F[2]'] < 0.8 * result.fit.real_linear['x_F[2]']

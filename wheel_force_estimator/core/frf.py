@@ -30,6 +30,18 @@ Estimators
 
 For both regularised estimators a frequency with no input power at all gets ``H = 0`` (the
 limit of the regularised solution; ``syx`` is then zero too).
+
+Water level (``water_level`` > 0, both regularised estimators): the classic guard of spectral
+division (water-level deconvolution).  ``lambda`` is at least ``water_level`` times the largest
+mean input power over all frequencies (Tikhonov), and eigenvalues below ``water_level`` times
+the largest one over all frequencies are dropped (TSVD).  A frequency where the inputs hold
+almost no power was not excited: its ``sxx`` and ``syx`` are sensor noise or window leakage
+from the excited band, their ratio is not the system's response, and the coherence does not
+reveal it (leakage is coherent, and few long windows make chance coherence high).  Measured on
+the known-answer pairs of :mod:`diagnosis.synthetic` (excited 0.5-25 Hz, inputs 132 dB down
+below 0.5 Hz): without it the fitted gain there was 1.7e5 N per m/s² against about 200 for the
+noise-free fit of the same system, and the FIR's response to a record's first sample dominated
+the whole-record RMSE (240-5772 %).
 """
 from dataclasses import dataclass
 
@@ -56,6 +68,9 @@ class FrfConfig:
         Relative regularisation, finite and >= 0 (dimensionless).  Tikhonov:
         ``lambda = regularisation * trace(sxx) / n_in``; TSVD: eigenvalues below
         ``regularisation * s_max`` are dropped (so <= 1).  Ignored by ``'h1'``.
+    water_level : float
+        Fraction of the strongest frequency's input power below which a frequency counts as
+        not excited (see the module notes), in [0, 1); 0 = off.  Ignored by ``'h1'``.
 
     Raises
     ------
@@ -66,6 +81,7 @@ class FrfConfig:
 
     estimator: str = 'h1_tikhonov'
     regularisation: float = 1e-4
+    water_level: float = 0.0
 
     def __post_init__(self):
         if self.estimator not in ESTIMATORS:
@@ -83,6 +99,14 @@ class FrfConfig:
             raise ConfigError(f'FrfConfig.regularisation must be <= 1 for h1_tsvd (it is '
                               f'relative to the largest singular value), got {reg!r}')
         object.__setattr__(self, 'regularisation', reg)
+        try:
+            water = float(self.water_level)
+        except (TypeError, ValueError) as err:
+            raise ConfigError(f'FrfConfig.water_level must be a number, '
+                              f'got {self.water_level!r}') from err
+        if not 0.0 <= water < 1.0:
+            raise ConfigError(f'FrfConfig.water_level must be in [0, 1), got {water!r}')
+        object.__setattr__(self, 'water_level', water)
 
 
 @dataclass(frozen=True)
@@ -226,7 +250,10 @@ def estimate_frf(spectra: CrossSpectra, config: FrfConfig = FrfConfig()) -> FrfE
                             "use estimator 'h1_tikhonov' or 'h1_tsvd'")
         h = _solve_hermitian(sxx, syx)
     elif config.estimator == 'h1_tikhonov':
-        lam = config.regularisation * np.trace(sxx, axis1=1, axis2=2).real / n_in
+        power = np.trace(sxx, axis1=1, axis2=2).real / n_in
+        lam = config.regularisation * power
+        if config.water_level > 0.0 and power.size:
+            lam = np.maximum(lam, config.water_level * power.max())
         bad = ~dead & (eig[:, 0] + lam <= eps_rank * (s_max + lam))
         if bad.any():
             _raise_singular(f_hz, bad, cond, 1.0 / eps_rank,
@@ -238,6 +265,8 @@ def estimate_frf(spectra: CrossSpectra, config: FrfConfig = FrfConfig()) -> FrfE
         eig, vec = np.linalg.eigh(sxx)
         keep = (eig >= config.regularisation * s_max[:, np.newaxis]) & (
             eig > eps_rank * s_max[:, np.newaxis])
+        if config.water_level > 0.0 and s_max.size:
+            keep &= eig >= config.water_level * s_max.max()
         inv = np.zeros(eig.shape)
         np.divide(1.0, eig, out=inv, where=keep)
         # h^T = V diag(1/s) V^H syx^T on the kept subspace only.

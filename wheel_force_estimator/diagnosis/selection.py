@@ -114,23 +114,30 @@ def null_lags(feature: np.ndarray, n_null: int) -> Tuple[int, ...]:
     The null must be a feature *unrelated* to the force.  A shift where the feature is still
     like itself is not: under periodic excitation (a rig's sine test) a shift by a whole
     period reproduces the feature and a half period its negative, and either explains as much
-    as the true feature (measured on the friction-damper sine tests: a quarter-record shift
-    explained 26 % of the residual, the aligned backlash 46 %).  So the shifts are the lags of
-    the middle half of the record with the smallest normalised circular autocorrelation
-    ``|rho|`` of the feature, at least ``n / (4 n_null)`` apart.  Under broadband excitation
-    ``|rho|`` is at its noise level at every such lag and the choice changes nothing but
-    which unrelated lags are used.  A constant feature keeps evenly spread lags.
+    as the true feature (measured on the friction-damper sine tests: the fixed quarter-record
+    shift explained 26 % of the residual, the aligned backlash 46 %).  So the shifts are the
+    lags of the middle half of the record where the least of the feature's energy stays in
+    phase, frequency by frequency (a per-frequency measure: the harmonics of a periodic
+    feature must each be out of phase, not cancel in a sum), at least ``n / (4 n_null)``
+    apart.  Under broadband excitation every such lag keeps about half in phase and the
+    choice changes nothing but which unrelated lags are used.  A constant feature keeps
+    evenly spread lags.
     """
     x = np.asarray(feature, dtype=np.float64)
     n = x.size
     lo, hi = n // 4, max(3 * n // 4, n // 4 + 1)
     x = x - x.mean()
-    spec = np.fft.rfft(x, n)
-    auto = np.fft.irfft(spec * np.conj(spec), n)
-    if not auto[0] > 0.0:
+    power = np.abs(np.fft.rfft(x, n)) ** 2
+    if not power.sum() > 0.0:
         return tuple(int(round(f * n)) for f in 0.25 + 0.5 * np.arange(n_null)
                      / max(n_null - 1, 1))
-    rho = np.abs(auto[lo:hi]) / auto[0]
+    # Per frequency, a shift by ``lag`` keeps cos^2(2 pi f lag) of the feature's energy in
+    # phase; weighted by the squared power that is (1 + rho2(2 lag)) / 2, rho2 the
+    # normalised autocorrelation of a signal with power spectrum |X|^4.  Summing per
+    # frequency (not |rho| of the whole feature, where harmonics can cancel) keeps every
+    # harmonic of a periodic feature out of phase as far as one shift can.
+    auto2 = np.fft.irfft(power * power, n)
+    rho = auto2[(2 * np.arange(lo, hi)) % n] / auto2[0]
     gap = max(1, n // (4 * n_null))
     chosen: List[int] = []
     for lag in (lo + np.argsort(rho, kind='stable')):
