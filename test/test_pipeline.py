@@ -250,3 +250,11 @@ def test_fit_on_band_limited_accelerations_predicts_new_data_within_the_noise():
     assert config.water_level == 1e-6
     assert np.all(holdout_rmse(config) < 10.0)
     assert np.all(holdout_rmse(dataclasses.replace(config, water_level=0.0)) > 100.0)
+
+
+def test_water_level_needs_detrended_windows():
+    # Undetrended windows leak the sensors' offsets (gravity) into the low lines, so no line
+    # is a clean reference for the water level: the combination is refused, not guessed.
+    with pytest.raises(ConfigError, match='water_level'):
+        FitConfig(detrend='none')
+    assert FitConfig(detrend='none', water_level=0.0).water_level == 0.0

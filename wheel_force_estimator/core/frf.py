@@ -33,8 +33,9 @@ limit of the regularised solution; ``syx`` is then zero too).
 
 Water level (``water_level`` > 0, both regularised estimators): the classic guard of spectral
 division (water-level deconvolution).  ``lambda`` is at least ``water_level`` times the largest
-mean input power over all frequencies (Tikhonov), and eigenvalues below ``water_level`` times
-the largest one over all frequencies are dropped (TSVD).  A frequency where the inputs hold
+mean input power over all frequencies above 0 Hz (Tikhonov), and eigenvalues below
+``water_level`` times the largest one over them are dropped (TSVD).  The 0 Hz line is not a
+reference: without detrending it holds the sensors' offsets (gravity).  A frequency where the inputs hold
 almost no power was not excited: its ``sxx`` and ``syx`` are sensor noise or window leakage
 from the excited band, their ratio is not the system's response, and the coherence does not
 reveal it (leakage is coherent, and few long windows make chance coherence high).  Measured on
@@ -253,7 +254,7 @@ def estimate_frf(spectra: CrossSpectra, config: FrfConfig = FrfConfig()) -> FrfE
         power = np.trace(sxx, axis1=1, axis2=2).real / n_in
         lam = config.regularisation * power
         if config.water_level > 0.0 and power.size:
-            lam = np.maximum(lam, config.water_level * power.max())
+            lam = np.maximum(lam, config.water_level * _strongest(power, f_hz))
         bad = ~dead & (eig[:, 0] + lam <= eps_rank * (s_max + lam))
         if bad.any():
             _raise_singular(f_hz, bad, cond, 1.0 / eps_rank,
@@ -266,7 +267,7 @@ def estimate_frf(spectra: CrossSpectra, config: FrfConfig = FrfConfig()) -> FrfE
         keep = (eig >= config.regularisation * s_max[:, np.newaxis]) & (
             eig > eps_rank * s_max[:, np.newaxis])
         if config.water_level > 0.0 and s_max.size:
-            keep &= eig >= config.water_level * s_max.max()
+            keep &= eig >= config.water_level * _strongest(s_max, f_hz)
         inv = np.zeros(eig.shape)
         np.divide(1.0, eig, out=inv, where=keep)
         # h^T = V diag(1/s) V^H syx^T on the kept subspace only.
@@ -274,6 +275,17 @@ def estimate_frf(spectra: CrossSpectra, config: FrfConfig = FrfConfig()) -> FrfE
         h = np.matmul(vec, inv[:, :, np.newaxis] * proj).transpose(0, 2, 1)
     return FrfEstimate(f_hz, h, _ordinary_coherence(sxx, syx, syy),
                        _multiple_coherence(h, syx, syy), cond, config)
+
+
+def _strongest(power: np.ndarray, f_hz: np.ndarray) -> float:
+    """
+    Return the water level's reference: the largest ``power`` over the lines above 0 Hz.
+
+    The 0 Hz line holds the sensors' offsets (gravity) unless the windows were detrended; it
+    says nothing about how strongly the inputs were excited.
+    """
+    above = np.asarray(f_hz) > 0.0
+    return float(power[above].max() if above.any() else power.max())
 
 
 def _ordinary_coherence(sxx, syx, syy):

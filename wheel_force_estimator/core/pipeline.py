@@ -129,13 +129,19 @@ class FitConfig:
         if self.long_segment_length and self.f_min_hz > 0.0:
             raise ConfigError('long_segment_length needs f_min_hz == 0 (it exists to resolve '
                               f'the quasi-static band), got f_min_hz={self.f_min_hz!r}')
-        FrfConfig(estimator=self.estimator, regularisation=self.long_regularisation)
+        FrfConfig(estimator=self.estimator, regularisation=self.long_regularisation,
+                  water_level=self.water_level)
         if not 0.0 <= self.coherence_floor < 0.5:
             raise ConfigError(f'coherence_floor must be in [0, 0.5), got {self.coherence_floor!r}')
         if not np.isfinite(self.f_min_hz) or self.f_min_hz < 0:
             raise ConfigError(f'f_min_hz must be >= 0, got {self.f_min_hz!r}')
         if self.live is not None and not isinstance(self.live, LiveDesign):
             raise ConfigError(f'live must be a LiveDesign or None, got {self.live!r}')
+        if self.detrend == 'none' and self.water_level > 0.0:
+            raise ConfigError(
+                "water_level needs detrended Welch windows: with detrend 'none' the sensors' "
+                "offsets leak into the low lines and no line is a clean reference; set "
+                "water_level: 0 or detrend: constant")
         if self.f_max_hz is not None and not self.f_max_hz > self.f_min_hz:
             raise ConfigError(
                 f'f_max_hz ({self.f_max_hz!r}) must be > f_min_hz ({self.f_min_hz!r})')
