@@ -35,8 +35,9 @@ Water level (``water_level`` > 0, both regularised estimators): the classic guar
 division (water-level deconvolution).  ``lambda`` is at least ``water_level`` times the largest
 mean input power over all frequencies above 0 Hz (Tikhonov), and eigenvalues below
 ``water_level`` times the largest one over them are dropped (TSVD).  The 0 Hz line is not a
-reference: without detrending it holds the sensors' offsets (gravity).  A frequency where the inputs hold
-almost no power was not excited: its ``sxx`` and ``syx`` are sensor noise or window leakage
+reference: without detrending it holds the sensors' offsets (gravity), and ``FitConfig``
+refuses a water level with undetrended windows.  A frequency where the inputs hold almost no
+power was not excited: its ``sxx`` and ``syx`` are sensor noise or window leakage
 from the excited band, their ratio is not the system's response, and the coherence does not
 reveal it (leakage is coherent, and few long windows make chance coherence high).  Measured on
 the known-answer pairs of :mod:`diagnosis.synthetic` (excited 0.5-25 Hz, inputs 132 dB down

@@ -139,9 +139,9 @@ class FitConfig:
             raise ConfigError(f'live must be a LiveDesign or None, got {self.live!r}')
         if self.detrend == 'none' and self.water_level > 0.0:
             raise ConfigError(
-                "water_level needs detrended Welch windows: with detrend 'none' the sensors' "
-                "offsets leak into the low lines and no line is a clean reference; set "
-                "water_level: 0 or detrend: constant")
+                'water_level needs detrended Welch windows: with detrend none the sensor '
+                'offsets leak into the low lines and no line is a clean reference; set '
+                'water_level: 0 or detrend: constant')
         if self.f_max_hz is not None and not self.f_max_hz > self.f_min_hz:
             raise ConfigError(
                 f'f_max_hz ({self.f_max_hz!r}) must be > f_min_hz ({self.f_min_hz!r})')
