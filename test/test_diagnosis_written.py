@@ -322,3 +322,22 @@ def test_backfitting_never_ends_worse_on_its_own_data_than_it_started():
     start, _ = backfitted_model(findings, real, result.baseline.model, refit, hp, skip, 0)
     joint, _ = backfitted_model(findings, real, result.baseline.model, refit, hp, skip, 2)
     assert objective(joint) <= objective(start) * (1 + 1e-9)
+
+
+def test_a_shared_parameter_finding_gets_one_backfit_strength_per_channel():
+    from wheel_force_estimator.diagnosis.result import Finding
+    from wheel_force_estimator.diagnosis.written import _strength_groups
+    fz = ('lf_fz', 'rf_fz', 'lr_fz', 'rr_fz')
+    cubic = PhysicsTerm('cubic_stiffness', fz, {'stiffness_n_per_m3': 1e8})
+    roll = PhysicsTerm('anti_roll_bar', ('lf_fz', 'rf_fz'), {'stiffness_n_per_m': 4000.0},
+                       partners=('rf_az', 'lf_az'))
+    groups = _strength_groups([
+        Finding('cubic_stiffness', fz, {}, 0.1, 'pooled', (cubic,)),
+        Finding('anti_roll_bar', ('lf_fz', 'rf_fz'), {}, 0.1, 'axle', (roll,)),
+        Finding('damping_error', ('lf_fx',), {}, 0.1, 'no term')])
+    # The hardening: one group per corner, same law and source; the roll bar couples its two
+    # corners (a partner), so it keeps one strength; a finding without terms has none.
+    assert [g[0].channels for g in groups[:4]] == [(c,) for c in fz]
+    assert [g[0].sources for g in groups[:4]] == [(c[:2] + '_az',) for c in fz]
+    assert all(dict(g[0].parameters) == dict(cubic.parameters) for g in groups[:4])
+    assert groups[4] == (roll,) and len(groups) == 5

@@ -105,6 +105,37 @@ def _weighted_sse(units, beta, recordings, base, hp: float, skip: int) -> float:
     return total
 
 
+def _one_channel(term, channel: str):
+    """Return ``term`` acting on ``channel`` alone (same parameters and source)."""
+    i = term.channels.index(channel)
+    return replace(term, channels=(channel,), sources=(term.sources[i],))
+
+
+def _strength_groups(findings) -> List[tuple]:
+    """
+    Return the term groups that get one strength each in the backfit.
+
+    A finding whose terms all scale (a strength parameter) and act on each channel alone (no
+    partner) gets one group per channel: its shape was fitted with shared parameters, but
+    the same law does not have the same size everywhere (a hardening read through the load
+    of a front and a rear corner differs by the cube of their spring-rate ratio).  Any
+    other finding is one group.
+    """
+    groups = []
+    for f in findings:
+        if not f.terms:
+            continue
+        terms = tuple(f.terms)
+        split = all(t.kind.strength is not None and not t.kind.needs_partner for t in terms)
+        channels = list(dict.fromkeys(c for t in terms for c in t.channels))
+        if split and len(channels) > 1:
+            groups.extend(tuple(_one_channel(t, c) for t in terms if c in t.channels)
+                          for c in channels)
+        else:
+            groups.append(terms)
+    return groups
+
+
 def backfitted_model(findings, real: Sequence, linear_model,
                      refit: Callable[[Sequence], object], hp: float, skip: int,
                      iterations: int = 2):
@@ -113,11 +144,13 @@ def backfitted_model(findings, real: Sequence, linear_model,
 
     A linear FRF fitted on the real forces absorbs the linearised part of a nonlinear
     effect; adding the terms as they were fitted against another reference counts that part
-    twice.  Backfitting removes it: the strengths (one non-negative factor per finding, shapes
-    kept) are fitted on the residual of the FRF, the FRF is refitted on the real forces minus
-    the terms' force, up to ``iterations`` times (stopping when the weighted residual no
-    longer falls: the best pair is kept).  Terms whose physics has no strength parameter
-    keep their strength; a finding whose factor comes out 0 leaves the model.
+    twice.  Backfitting removes it: the strengths (one non-negative factor per group of
+    :func:`_strength_groups` - per channel of a finding whose terms scale and act channel by
+    channel, else per finding - shapes kept) are fitted on the residual of the FRF, the FRF
+    is refitted on the real forces minus the terms' force, up to ``iterations`` times
+    (stopping when the weighted residual no longer falls: the best pair is kept).  Terms
+    whose physics has no strength parameter keep their strength; a group whose factor comes
+    out 0 leaves the model.
 
     Parameters
     ----------
@@ -139,10 +172,10 @@ def backfitted_model(findings, real: Sequence, linear_model,
     Returns
     -------
     (FrfModel, tuple of float)
-        The model with the scaled terms, and the factor of every finding with terms.
+        The model with the scaled terms, and the factor of every group.
 
     """
-    groups = [tuple(f.terms) for f in findings if f.terms]
+    groups = _strength_groups(findings)
     if not groups:
         return linear_model, ()
     free = [all(t.kind.strength is not None for t in g) for g in groups]
