@@ -84,10 +84,10 @@ class FitConfig:
     water_level : float
         Frequencies whose mean input power is below this fraction of the strongest
         frequency's are treated as not excited: the FRF there is damped towards zero
-        (:mod:`.frf`, water level) [-].  The default 1e-6 (60 dB) leaves every line of the
-        proving-ground simulator's accelerations alone (the weakest is 68 dB down, above
-        100 Hz, where it shrinks the gain by < 0.2 %) and is below the noise floor of
-        typical 16-24 bit acquisition; 0 = off.
+        (:mod:`.frf`, water level) [-].  The default 1e-6 (60 dB) is below the noise floor
+        of typical 16-24 bit acquisition; on the proving-ground simulator it damps only lines
+        above 100 Hz (the weakest is 68 dB down), where the forces hold little: its mean
+        holdout RMSE moved 26.18 -> 26.14 %; 0 = off.
     live : LiveDesign or None
         Also design the live (causal) estimators (correlations accumulated from the same
         segments while they are in memory); ``None`` = none.
