@@ -236,3 +236,36 @@ def test_sine_tests_of_a_rig_name_lost_motion_only_when_it_is_there(backlash):
     assert result.fit.model == 'real_frf+physics'
     # Measured 11.9 -> 8.8 % on the 0.5 Hz report file.
     assert result.fit.after['f'] < 0.85 * result.fit.real_linear['f']
+
+
+def _structure(name, seconds, seed, fs_hz=512.0):
+    """Base-excited 8 Hz mode, 5 % damping: base acceleration in, base force out (linear)."""
+    from wheel_force_estimator.diagnosis.recording import MotionRecording
+    rng = np.random.default_rng(seed)
+    n = int(seconds * fs_hz)
+    b, a = scipy.signal.butter(4, [1.0 / (fs_hz / 2), 40.0 / (fs_hz / 2)], 'bandpass')
+    accel = scipy.signal.lfilter(b, a, rng.standard_normal(n))
+    wn, zeta, mass_kg = 2 * np.pi * 8.0, 0.05, 100.0
+    mode = scipy.signal.lti([mass_kg * 2 * zeta * wn, mass_kg * wn ** 2],
+                            [1.0, 2 * zeta * wn, wn ** 2])
+    force = scipy.signal.lsim(mode, accel, np.arange(n) / fs_hz)[1]
+    force = force + 0.02 * force.std() * rng.standard_normal(n)
+    return MotionRecording(name, fs_hz, accel[None], force[None], ('a',), ('f',))
+
+
+def test_a_lightly_damped_structure_gets_its_resolution_and_no_finding():
+    # The resonance (0.8 Hz half-power band) is narrower than the paper's 0.5 Hz grid: the
+    # real-data FIR then misses by ~22 % and its residual is all resolution bias, which no
+    # physics term may claim.  With the segment chosen by cross-validation (as the CLI does
+    # for generic records) the same recordings give the FIR its resolution: measured 22.7 ->
+    # 7.8 % on the report half (2.7 % on the whole held-out run; the rest is the FIR's start
+    # transient on a 30 s half), and still nothing is named.
+    real = [_structure('r1', 60, 1), _structure('r2', 60, 2)]
+    hold = [_structure('h', 60, 3)]
+    paper = diagnose(real, None, hold)
+    chosen = diagnose(real, None, hold, DiagnosisConfig(choose_resolution=True))
+    for result in (paper, chosen):
+        assert not result.findings
+        assert result.fit.model == 'real_linear'
+        assert result.fit.after == result.fit.real_linear
+    assert chosen.fit.real_linear['f'] < 0.5 * paper.fit.real_linear['f']

@@ -132,6 +132,8 @@ def command(args: argparse.Namespace) -> int:
                              fit_fallback=request is not None
                              and 'long_segment_length' not in explicit,
                              segment_fallback=request is not None
+                             and 'segment_length' not in explicit,
+                             choose_resolution=request is not None
                              and 'segment_length' not in explicit)
     result = diagnose(real, reference, holdout, config)
     path = result.write_json(args.json)

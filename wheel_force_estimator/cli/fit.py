@@ -123,9 +123,10 @@ def command(args: argparse.Namespace) -> int:
     # Bags keep the long-segment refusal; generic records fall back unless the user chose it.
     explicit = explicit_fit_keys(args.config, **settings)
     fallback = request is not None and 'long_segment_length' not in explicit
+    chosen = request is not None and 'segment_length' not in explicit
     fitted = fit_design(data.segments, data.fs_hz, config, data.input_channels,
                         data.output_channels, data.input_quantity, data.fit_info, fallback,
-                        request is not None and 'segment_length' not in explicit)
+                        chosen, chosen)
     model = fitted.model
     path = save_model(model, args.out_model)
     summary = coherence_summary(model)

@@ -18,6 +18,8 @@ FRF of the written model) call :func:`fit_design`, so the two can never drift ap
   keeps it below) and says nothing about noise or nonlinearity; when the caller allows it
   (generic recordings, segment length not chosen by the user) the segment is halved until
   there are more windows than inputs, and ``note`` says so;
+- generic records whose segment length was not chosen: the Welch segment is chosen by
+  blocked cross-validation (:mod:`core.resolution`) and ``note`` says so when it changes;
 - the model's ``units`` name the declared input quantity.
 """
 import dataclasses
@@ -28,6 +30,7 @@ from wheel_force_estimator.core.model import FrfModel
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.pipeline import TrainingSegment
+from wheel_force_estimator.core.resolution import choose_segment_length
 
 #: What ``wheel-force fit`` uses when neither the params file nor the command line says
 #: otherwise (the library's ``FitConfig()`` keeps the single-resolution paper method): the
@@ -111,11 +114,43 @@ def _few_windows_fallback(config: FitConfig, segments, fs_hz: float,
     return dataclasses.replace(config, segment_length=length), note
 
 
+def _cross_validated(config: FitConfig, segments, fs_hz: float, input_channels,
+                     output_channels, input_quantity: str) -> Tuple[FitConfig, str]:
+    """Return the config with the segment :func:`choose_segment_length` picks, and a note."""
+    from wheel_force_estimator.core.predict import predict_forces
+
+    def fit(pieces, length):
+        long = config.long_segment_length
+        if long and (length >= long or all(x.shape[1] < long for x, _ in pieces)):
+            long = 0  # one resolution, as the short-record fallback fits
+        cfg = dataclasses.replace(config, segment_length=length, long_segment_length=long)
+        welch = cfg.welch(fs_hz)
+        if sum(welch.n_windows(x.shape[1]) for x, _ in pieces) <= len(input_channels):
+            # H1 from no more windows than inputs reproduces them exactly: not a candidate
+            raise InsufficientDataError(f'{length}: too few Welch windows')
+        model = fit_model([TrainingSegment(x, y, 'fold') for x, y in pieces], fs_hz, cfg,
+                          input_channels, output_channels)
+        return lambda x: predict_forces(model, x)
+    choice = choose_segment_length([(s.accel_mps2, s.force_n) for s in segments],
+                                   config.segment_length, fit, fs_hz,
+                                   1.0 if input_quantity == 'acceleration' else 0.0)
+    length = choice.segment_length
+    if length == config.segment_length:
+        return config, ''
+    long = config.long_segment_length
+    if long and (length >= long or all(s.accel_mps2.shape[1] < long for s in segments
+                                       if s.accel_mps2.shape[1] >= length)):
+        long = 0
+    return (dataclasses.replace(config, segment_length=length, long_segment_length=long),
+            choice.note(fs_hz))
+
+
 def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConfig,
                input_channels: Sequence[str], output_channels: Sequence[str],
                input_quantity: str = 'acceleration', fit_info: Optional[Mapping] = None,
                short_record_fallback: bool = False,
-               segment_fallback: bool = False) -> DesignedFit:
+               segment_fallback: bool = False,
+               choose_resolution: bool = False) -> DesignedFit:
     """
     Fit a model as ``wheel-force fit`` does.
 
@@ -139,6 +174,11 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
     segment_fallback : bool
         Allow a shorter Welch segment when the records hold no more windows than inputs
         (generic recordings whose segment length the user did not choose).
+    choose_resolution : bool
+        Choose the Welch segment (the asked-for length times a power of two) by blocked
+        cross-validation on the segments (:mod:`core.resolution`; generic recordings whose
+        segment length the user did not choose).  Segments shorter than the chosen length
+        are then left out and listed, as shorter than the asked-for one always are.
 
     Returns
     -------
@@ -172,6 +212,14 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
     if segment_fallback and not config.long_segment_length:
         config, note = _few_windows_fallback(config, used, fs_hz, len(input_channels))
         notes.append(note)
+    if choose_resolution:
+        config, note = _cross_validated(config, used, fs_hz, input_channels, output_channels,
+                                        input_quantity)
+        notes.append(note)
+        short = [s for s in used if s.accel_mps2.shape[1] < config.segment_length]
+        skipped.extend(f'{s.source}: {s.accel_mps2.shape[1]} samples < segment length '
+                       f'{config.segment_length}' for s in short)
+        used = [s for s in used if s.accel_mps2.shape[1] >= config.segment_length]
     note = '\n'.join(n for n in notes if n)
     model = fit_model(used, fs_hz, config, input_channels, output_channels, fit_info=fit_info)
     model = dataclasses.replace(model, units={'input': INPUT_UNITS[input_quantity],

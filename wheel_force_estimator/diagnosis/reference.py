@@ -35,7 +35,8 @@ class FrfReference:
 
     @classmethod
     def fit(cls, recordings: Sequence[MotionRecording], name: str, fit_config=None,
-            short_record_fallback: bool = False, segment_fallback: bool = False):
+            short_record_fallback: bool = False, segment_fallback: bool = False,
+            choose_resolution: bool = False):
         """
         Fit the FRF on recordings with the product's design (``wheel-force fit``).
 
@@ -51,6 +52,8 @@ class FrfReference:
             One resolution when no record holds the long segment (generic recordings).
         segment_fallback : bool
             A shorter Welch segment when the records hold no more windows than inputs.
+        choose_resolution : bool
+            The Welch segment chosen by blocked cross-validation (:mod:`core.resolution`).
 
         Raises
         ------
@@ -67,7 +70,8 @@ class FrfReference:
         try:
             fitted = fit_design(segments, rec0.fs_hz, config, rec0.input_channels,
                                 rec0.output_channels, rec0.input_quantity,
-                                {'diagnosis': name}, short_record_fallback, segment_fallback)
+                                {'diagnosis': name}, short_record_fallback, segment_fallback,
+                                choose_resolution)
         except WheelForceError as err:
             raise DiagnosisError(f'cannot fit the linear FRF on the {name} recordings: '
                                  f'{err}') from err

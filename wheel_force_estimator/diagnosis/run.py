@@ -93,6 +93,11 @@ class DiagnosisConfig:
         Real-data fits may shorten the Welch segment when the records hold no more windows
         than inputs, as ``wheel-force fit`` does for generic recordings (the CLI passes False
         for bags and when the segment length was chosen explicitly).
+    choose_resolution : bool
+        Real-data fits choose their Welch segment by blocked cross-validation
+        (:mod:`core.resolution`), as ``wheel-force fit`` does for generic recordings whose
+        segment length was not chosen (the CLI passes True for those; off by default here,
+        where a car's 12 x 12 records would pay for it on every refit).
     merge_ratio : float
         A physics found on several channels becomes one shared-parameter finding when the
         shared fit removes at least this fraction of what the per-channel fits remove.
@@ -114,6 +119,7 @@ class DiagnosisConfig:
     fit: object = None
     fit_fallback: bool = True
     segment_fallback: bool = True
+    choose_resolution: bool = False
     merge_ratio: float = 0.85
     range_ratio: float = 10.0
     residual_highpass_hz: Optional[float] = None
@@ -140,7 +146,7 @@ def _fit_linear(recordings, config, name, rec0):
 def _real_linear(recordings, config, name='real'):
     """Fit the best linear dynamic model on real recordings: ``wheel-force fit``'s design."""
     return FrfReference.fit(recordings, name, config.fit, config.fit_fallback,
-                            config.segment_fallback)
+                            config.segment_fallback, config.choose_resolution)
 
 
 def _reference(real, sim_or_model, config):
