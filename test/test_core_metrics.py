@@ -85,6 +85,20 @@ def test_highpass_is_zero_phase_and_shared_with_rmse_hp():
         rmse_pct(highpass(x[:1], FS_HZ, 2.0), highpass(x[1:], FS_HZ, 2.0))[0], rel=1e-12)
 
 
+@pytest.mark.parametrize('n', [16, 17, 100, 4097])
+def test_highpass_equals_scipy_sosfiltfilt_exactly(n):
+    # highpass runs scipy's forward-backward steps with the filter's zi computed once; bug
+    # caught: a wrong odd extension, a zi not scaled by the edge sample, a shifted crop.
+    import scipy.signal
+    from wheel_force_estimator.core.filter_design import butter_sos
+    x = np.random.default_rng(n).standard_normal((3, n)) + 7.0
+    for cutoff in (1.0, 20.0):
+        ref = scipy.signal.sosfiltfilt(butter_sos(4, cutoff, 'highpass', FS_HZ), x, axis=1,
+                                       padlen=15)
+        np.testing.assert_array_equal(highpass(x, FS_HZ, cutoff), ref)
+        np.testing.assert_array_equal(highpass(x[0], FS_HZ, cutoff), ref[:1])
+
+
 def test_constant_target_channel_is_named():
     target = np.ones((12, 100)) * 0.1                # 0.1 is not exact in binary: mean != 0.1
     target[:11] += np.random.default_rng(2).standard_normal((11, 100))

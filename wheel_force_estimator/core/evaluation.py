@@ -125,8 +125,37 @@ class Evaluation:
         }
 
 
-def _rmse_pair(targets: List[np.ndarray], preds: List[np.ndarray], fs_hz: float,
-               channels: Sequence[str], hp_min_samples: int) -> Tuple[np.ndarray, np.ndarray]:
+#: Segments shorter than this are left out of the 1 Hz high-passed RMSE [samples].
+HP_MIN_SAMPLES = 64
+
+
+def rmse_figures(targets: List[np.ndarray], preds: List[np.ndarray], fs_hz: float,
+                 channels: Sequence[str],
+                 hp_min_samples: int = HP_MIN_SAMPLES) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Return ``(rmse_pct, rmse_hp1_pct)`` per channel over gap-free segments, as ``evaluate``.
+
+    The one home of the figures :func:`evaluate_segments` reports (the diagnosis scores its
+    models with it without paying for damage and spectra it does not report).
+
+    Parameters
+    ----------
+    targets, preds : list of numpy.ndarray, shape (n_channels, n_i)
+        Target and prediction per segment [N].
+    fs_hz : float
+        Sample rate [Hz].
+    channels : sequence of str
+        Channel names (error messages).
+    hp_min_samples : int
+        Segments shorter than this are left out of the high-passed figure only.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray), each shape (n_channels,)
+        Unfiltered and 1 Hz high-passed relative RMSE [%] (NaN when no segment is long
+        enough for the high-pass).
+
+    """
     t = np.concatenate(targets, axis=1)
     p = np.concatenate(preds, axis=1)
     raw = rmse_pct(t, p, channels=channels)
@@ -214,8 +243,7 @@ def evaluate_segments(segments: Sequence[EvalSegment], fs_hz: float, channels: S
         raise InsufficientDataError('nothing to evaluate: no segments')
     targets = [np.asarray(s.target_n, dtype=np.float64) for s in segments]
     preds = [np.asarray(s.prediction_n, dtype=np.float64) for s in segments]
-    hp_min = 64
-    raw, hp = _rmse_pair(targets, preds, fs_hz, channels, hp_min)
+    raw, hp = rmse_figures(targets, preds, fs_hz, channels)
     bands = tuple(tuple(b) for b in damage_bands_hz(fs_hz))
     dmg_t, rds_t = damage_figures(targets, fs_hz, sn_slope, bands)
     dmg_p, rds_p = damage_figures(preds, fs_hz, sn_slope, bands)
@@ -257,7 +285,7 @@ def _event_figures(segments, targets, preds, fs_hz, channels, events, end_stamp_
                 pooled[name][1].append(p[:, lo:hi])
     out = {}
     for name, (ts, ps) in pooled.items():
-        raw, hp = _rmse_pair(ts, ps, fs_hz, channels, hp_min_samples=64)
+        raw, hp = rmse_figures(ts, ps, fs_hz, channels)
         out[name] = {'rmse_pct': raw, 'rmse_hp1_pct': hp,
                      'duration_s': sum(x.shape[1] for x in ts) / fs_hz}
     return out

@@ -38,3 +38,13 @@ def butter_ba(order: int, corner_hz: Corner, btype: str,
     """Return ``scipy.signal.butter(order, corner_hz, btype, fs=fs_hz)`` as ``(b, a)``."""
     b, a = _ba(int(order), corner_hz, btype, float(fs_hz))
     return b.copy(), a.copy()
+
+
+@functools.lru_cache(maxsize=256)
+def _sos_zi(order, corner_hz, btype, fs_hz):
+    return signal.sosfilt_zi(_sos(order, corner_hz, btype, fs_hz))
+
+
+def butter_sos_zi(order: int, corner_hz: Corner, btype: str, fs_hz: float) -> np.ndarray:
+    """Return ``scipy.signal.sosfilt_zi`` of :func:`butter_sos` (step-response initial state)."""
+    return _sos_zi(int(order), corner_hz, btype, float(fs_hz)).copy()

@@ -19,6 +19,7 @@ from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.errors import NonFiniteError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filter_design import butter_sos
+from wheel_force_estimator.core.filter_design import butter_sos_zi
 from wheel_force_estimator.core.validation import as_signals
 from wheel_force_estimator.core.validation import positive_float
 
@@ -134,7 +135,26 @@ def highpass(x, fs_hz, cutoff_hz=1.0, name: str = 'high-pass input') -> np.ndarr
     sos = butter_sos(_HIGHPASS_ORDER, cutoff, 'highpass', fs)
     padlen = 3 * (2 * sos.shape[0] + 1)
     sig = as_signals(x, name, min_samples=padlen + 1)
-    return scipy.signal.sosfiltfilt(sos, sig, axis=1, padlen=padlen)
+    return _sosfiltfilt(sos, butter_sos_zi(_HIGHPASS_ORDER, cutoff, 'highpass', fs), sig,
+                        padlen)
+
+
+def _sosfiltfilt(sos: np.ndarray, zi: np.ndarray, x: np.ndarray, padlen: int) -> np.ndarray:
+    """
+    ``scipy.signal.sosfiltfilt(sos, x, axis=1, padlen=padlen)`` with its ``zi`` given.
+
+    scipy derives ``sosfilt_zi(sos)`` anew on every call; the diagnosis high-passes thousands
+    of candidate columns with one design, where that was a quarter of the high-pass time.
+    The steps are scipy's (odd extension, forward pass from the first sample's step state,
+    backward pass from the last output's), tested equal to it.
+    """
+    left = 2.0 * x[:, :1] - x[:, padlen:0:-1]
+    right = 2.0 * x[:, -1:] - x[:, -2:-padlen - 2:-1]
+    ext = np.concatenate([left, x, right], axis=1)
+    state = zi[:, np.newaxis, :]
+    y, _ = scipy.signal.sosfilt(sos, ext, axis=1, zi=state * ext[np.newaxis, :, :1])
+    y, _ = scipy.signal.sosfilt(sos, y[:, ::-1], axis=1, zi=state * y[np.newaxis, :, -1:])
+    return y[:, ::-1][:, padlen:-padlen]
 
 
 def rmse_hp_pct(target, prediction, fs_hz, cutoff_hz=1.0,

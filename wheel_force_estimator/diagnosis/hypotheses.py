@@ -45,6 +45,11 @@ class Hypothesis:
         The fitted strength must be positive to mean this physics (load-driven forms: a stop
         or hardening adds force in the direction of the load excess, a clearance loses it);
         a negative fit is a different effect and explains nothing here.
+    lti : bool
+        A linear time-invariant map of the recorded motion (a delay, a rate, a left-right
+        coupling): inside the span of a MIMO FIR fitted on the same records, so never sought
+        against one (the diagnosis without ``--sim``/``--model``), where any gain it shows is
+        the FIR's own estimation error.
 
     """
 
@@ -59,6 +64,7 @@ class Hypothesis:
     priority: bool = False
     state: str = 'motion'
     positive: bool = False
+    lti: bool = False
 
     @property
     def key(self) -> str:
@@ -218,20 +224,20 @@ HYPOTHESES: Tuple[Hypothesis, ...] = (
     Hypothesis('mass_error', 0, False, 'a mass is missing or wrong (force in phase with '
                'acceleration)', 'high acceleration', _one,
                lambda c, s: ph.mass_error_force(c.acc, 1.0),
-               lambda s, k: {'mass_kg': k}),
+               lambda s, k: {'mass_kg': k}, lti=True),
     Hypothesis('stiffness_error', 0, False, 'a stiffness is wrong (force in phase with '
                'displacement)', 'large displacement', _one,
                lambda c, s: ph.stiffness_error_force(c.disp, 1.0),
-               lambda s, k: {'stiffness_n_per_m': k}),
+               lambda s, k: {'stiffness_n_per_m': k}, lti=True),
     Hypothesis('damping_error', 0, False, 'a damping is wrong (force in phase with velocity)',
                'high velocity', _one,
                lambda c, s: ph.damping_error_force(c.vel, 1.0),
-               lambda s, k: {'damping_n_s_per_m': k}),
+               lambda s, k: {'damping_n_s_per_m': k}, lti=True),
     Hypothesis('anti_roll_bar', 0, False, 'left-right coupling is missing (force follows the '
                'left-right displacement difference, like an anti-roll bar)',
                'opposite left-right motion', _arb_grid,
                lambda c, s: ph.anti_roll_bar_force(c.disp, c.partner_disp, 1.0),
-               lambda s, k: {'stiffness_n_per_m': k}),
+               lambda s, k: {'stiffness_n_per_m': k}, lti=True),
     Hypothesis('cubic_stiffness', 0, False, 'symmetric hardening (force grows with the cube '
                'of displacement)', 'large displacement either way', _one,
                lambda c, s: ph.cubic_stiffness_force(c.disp, 1.0),
@@ -255,7 +261,7 @@ HYPOTHESES: Tuple[Hypothesis, ...] = (
     Hypothesis('time_delay', 1, True, 'force and acceleration streams are offset in time',
                'fast force changes', _delay_grid,
                lambda c, s: shift_signal(c.load, s['delay_samples']) - c.load,
-               None),
+               None, lti=True),
     Hypothesis('bump_stop', 2, False, 'progressive stiffening in compression, like a jounce '
                'bumper', 'large compression', _stop_grid(1.0),
                lambda c, s: ph.bump_stop_force(c.disp, s['gap_m'], 1.0, s['exponent']),
@@ -312,7 +318,7 @@ LOAD_LINEAR = Hypothesis(
     'stiffness_error', 1, False, 'a spring rate is wrong (force in phase with the spring part '
     'of the predicted suspension force)', 'body motion', _load_linear_grid,
     lambda c, s: ph.load_linear_force(load_state(c, s['state_lowpass_hz']), s['center_n'], 1.0),
-    lambda s, k: {'center_n': s['center_n'], 'gain': k}, state='load')
+    lambda s, k: {'center_n': s['center_n'], 'gain': k}, state='load', lti=True)
 
 #: Linear parameter errors: refitted with every nonlinear term when the reference is a linear
 #: law fitted on the real data itself (they stand for what that fit got wrong).

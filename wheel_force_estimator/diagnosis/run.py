@@ -437,7 +437,12 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
                                       fs_hz, hp) for o, ch in enumerate(channels)),
                       key=lambda m: -m.rmse_pct)
     skip_names = {h.physics for h in companions}
-    candidates = [h for h in HYPOTHESES if h.physics not in skip_names]
+    # Without --sim/--model the reference is the MIMO FIR fitted on these very records: a
+    # delay, a rate or a left-right coupling of the motion lies in its span, so what such a
+    # candidate "explains" is the FIR's estimation error (measured: a delay explained 51 % of
+    # a linear sine rig's residual), not missing physics.
+    candidates = [h for h in HYPOTHESES if h.physics not in skip_names
+                  and not (mode == 'linear' and h.lti)]
     outcomes = {}
     for o, ch in enumerate(channels):
         sim_pieces = pieces(sim_prep, o, ch) if sim_prep else None

@@ -119,7 +119,9 @@ def null_lags(feature: np.ndarray, n_null: int) -> Tuple[int, ...]:
     lags of the middle half of the record where the least of the feature's energy stays in
     phase, frequency by frequency (a per-frequency measure: the harmonics of a periodic
     feature must each be out of phase, not cancel in a sum), at least ``n / (4 n_null)``
-    apart.  Under broadband excitation every such lag keeps about half in phase and the
+    apart, and only lags keeping at most half in phase (what a signal of random phase keeps on
+    average; the best lag is always kept), so a short periodic record may give fewer than
+    ``n_null``.  Under broadband excitation every lag keeps about half in phase and the
     choice changes nothing but which unrelated lags are used.  A constant feature keeps
     evenly spread lags.
     """
@@ -141,6 +143,11 @@ def null_lags(feature: np.ndarray, n_null: int) -> Tuple[int, ...]:
     gap = max(1, n // (4 * n_null))
     chosen: List[int] = []
     for lag in (lo + np.argsort(rho, kind='stable')):
+        if chosen and rho[lag - lo] > 0.0:
+            # More than half the energy in phase: more like the feature than a signal of
+            # random phase (which keeps half on average).  A short periodic record has few
+            # unrelated shifts; fewer nulls (repeated by the caller) beat related ones.
+            break
         if all(abs(int(lag) - c) >= gap for c in chosen):
             chosen.append(int(lag))
             if len(chosen) == n_null:
@@ -577,8 +584,9 @@ class Selector:
         sim = (None if self.sim is None else
                [null_lags(hyp.basis(p.ctx, shape), n) for p in self.sim.pieces])
         return tuple(float(self.best_shape(hyp, grid, base_sse, NullShift(
-            tuple(lags[k] for lags in data),
-            None if sim is None else tuple(lags[k] for lags in sim)))[1]) for k in range(n))
+            tuple(lags[k % len(lags)] for lags in data),
+            None if sim is None else tuple(lags[k % len(lags)] for lags in sim)))[1])
+            for k in range(n))
 
     def _parsimonious(self, evaluated: Sequence[Evaluated]) -> Evaluated:
         best = evaluated[0]
