@@ -21,7 +21,7 @@ $(STAMP): setup.py setup.cfg package.xml requirements-dev.txt
 	touch $(STAMP)
 
 test: venv
-	AMENT_PREFIX_PATH=$(CURDIR)/$(VENV) $(BIN)/python -m pytest -q -p no:cacheprovider test
+	AMENT_PREFIX_PATH=$(CURDIR)/$(VENV) $(BIN)/python -m pytest -q -p no:cacheprovider -n auto --dist loadfile test
 
 lint: venv
 	$(BIN)/ament_flake8 wheel_force_estimator test bench setup.py

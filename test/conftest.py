@@ -1,9 +1,25 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """Fixtures shared by the test files that start real ROS participants."""
+import os
+
 import pytest
 
 from wheel_force_estimator.ros.testing import isolated_ros_env
+from wheel_force_estimator.ros.testing import TEST_DOMAIN_VARIABLE
+
+
+def pytest_configure(config):
+    """Give every pytest-xdist worker its own DDS domain (``make test`` runs two)."""
+    worker = os.environ.get('PYTEST_XDIST_WORKER', '')  # 'gw0', 'gw1', ...
+    if not worker.startswith('gw'):
+        return
+    # Workers run ROS tests side by side with the same topic names; random domains per test
+    # could meet.  One base per run (the workers share the controller as parent), one domain
+    # per worker, all within 1..100 (Fast DDS ports clear of the ephemeral range).
+    index = int(worker[2:])
+    base = int(os.environ.get(TEST_DOMAIN_VARIABLE) or 1 + os.getppid() % 80)
+    os.environ[TEST_DOMAIN_VARIABLE] = str(1 + (base - 1 + index) % 100)
 
 
 @pytest.fixture
