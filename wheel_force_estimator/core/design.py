@@ -119,11 +119,16 @@ def _cross_validated(config: FitConfig, segments, fs_hz: float, input_channels,
     """Return the config with the segment :func:`choose_segment_length` picks, and a note."""
     from wheel_force_estimator.core.predict import predict_forces
 
-    def fit(pieces, length):
+    def at(length, record_lengths):
+        # one resolution when the long segment is not longer or no record holds it (as the
+        # short-record fallback fits)
         long = config.long_segment_length
-        if long and (length >= long or all(x.shape[1] < long for x, _ in pieces)):
-            long = 0  # one resolution, as the short-record fallback fits
-        cfg = dataclasses.replace(config, segment_length=length, long_segment_length=long)
+        if long and (length >= long or all(n < long for n in record_lengths)):
+            long = 0
+        return dataclasses.replace(config, segment_length=length, long_segment_length=long)
+
+    def fit(pieces, length):
+        cfg = at(length, [x.shape[1] for x, _ in pieces])
         welch = cfg.welch(fs_hz)
         if sum(welch.n_windows(x.shape[1]) for x, _ in pieces) <= len(input_channels):
             # H1 from no more windows than inputs reproduces them exactly: not a candidate
@@ -137,12 +142,8 @@ def _cross_validated(config: FitConfig, segments, fs_hz: float, input_channels,
     length = choice.segment_length
     if length == config.segment_length:
         return config, ''
-    long = config.long_segment_length
-    if long and (length >= long or all(s.accel_mps2.shape[1] < long for s in segments
-                                       if s.accel_mps2.shape[1] >= length)):
-        long = 0
-    return (dataclasses.replace(config, segment_length=length, long_segment_length=long),
-            choice.note(fs_hz))
+    return (at(length, [s.accel_mps2.shape[1] for s in segments
+                        if s.accel_mps2.shape[1] >= length]), choice.note(fs_hz))
 
 
 def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConfig,

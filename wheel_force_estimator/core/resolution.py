@@ -81,15 +81,15 @@ def fold_bounds(n_samples: int, n_folds: int, fold: int) -> Tuple[int, int]:
     return n_samples * fold // n_folds, n_samples * (fold + 1) // n_folds
 
 
-def _fold_error(fit: Callable, records, length: int, fold: int, n_folds: int,
+def _fold_error(fit: Callable, records, scored, length: int, fold: int, n_folds: int,
                 fs_hz: float, highpass_hz: float) -> Optional[float]:
     """Held-out error of one fold [%], or None when the pieces cannot be fitted."""
     pieces, held = [], []
-    for x, y in records:
+    for (x, y), target in zip(records, scored):
         a, b = fold_bounds(x.shape[1], n_folds, fold)
         pieces.extend((x[:, lo:hi], y[:, lo:hi]) for lo, hi in ((0, a), (b, x.shape[1]))
                       if hi - lo >= length)
-        held.append((x, y, a, b))
+        held.append((x, y, target, a, b))
     if not pieces:
         return None
     try:
@@ -98,12 +98,10 @@ def _fold_error(fit: Callable, records, length: int, fold: int, n_folds: int,
         return None  # too few windows or singular at this length: not a candidate
     sse = np.zeros(records[0][1].shape[0])
     sst = np.zeros_like(sse)
-    for x, y, a, b in held:
+    for x, y, target, a, b in held:
         err = predict(x) - y
-        target = y
         if highpass_hz > 0.0:
             err = highpass(err, fs_hz, highpass_hz, 'cross-validation error')
-            target = highpass(y, fs_hz, highpass_hz, 'cross-validation target')
         err = err[:, a:b] - err[:, a:b].mean(axis=1, keepdims=True)
         target = target[:, a:b] - target[:, a:b].mean(axis=1, keepdims=True)
         sse += np.sum(err * err, axis=1)
@@ -154,6 +152,9 @@ def choose_segment_length(records: Sequence[Tuple[np.ndarray, np.ndarray]], aske
         raise ConfigError(f'asked segment length must be >= 1, got {asked!r}')
     records = [(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
                for x, y in records]
+    # the targets as scored (high-passed once: they do not depend on the fold or length)
+    scored = [highpass(y, fs_hz, highpass_hz, 'cross-validation target') if highpass_hz > 0.0
+              else y for _, y in records]
     errors: Dict[int, Tuple[float, ...]] = {}
     lengths = sorted({int(asked * 2.0 ** k) for k in DOUBLINGS} | {asked})
     for length in lengths:
@@ -161,7 +162,7 @@ def choose_segment_length(records: Sequence[Tuple[np.ndarray, np.ndarray]], aske
             continue
         folds = []
         for fold in range(n_folds):
-            e = _fold_error(fit, records, length, fold, n_folds, fs_hz, highpass_hz)
+            e = _fold_error(fit, records, scored, length, fold, n_folds, fs_hz, highpass_hz)
             if e is None:
                 break
             folds.append(e)
