@@ -109,7 +109,7 @@ class NullShift:
 
 def null_lags(feature: np.ndarray, n_null: int) -> Tuple[int, ...]:
     """
-    Return ``n_null`` circular shifts [samples] of ``feature`` for the shifted-feature null.
+    Return up to ``n_null`` circular shifts [samples] of ``feature`` for the shifted-feature null.
 
     The null must be a feature *unrelated* to the force.  A shift where the feature is still
     like itself is not: under periodic excitation (a rig's sine test) a shift by a whole
