@@ -93,12 +93,17 @@ def _short_record_fallback(config: FitConfig, segments, fs_hz: float) -> Tuple[F
 MIN_FALLBACK_SEGMENT = 64
 
 
+def _window_count(config: FitConfig, length: int, fs_hz: float, record_lengths) -> int:
+    """Return the Welch windows of ``length`` samples the records hold together."""
+    welch = dataclasses.replace(config, segment_length=length).welch(fs_hz)
+    return sum(welch.n_windows(n) for n in record_lengths)
+
+
 def _few_windows_fallback(config: FitConfig, segments, fs_hz: float,
                           n_inputs: int) -> Tuple[FitConfig, str]:
     """Return the config with a segment short enough for more windows than inputs, and a note."""
     def windows(length):
-        welch = dataclasses.replace(config, segment_length=length).welch(fs_hz)
-        return sum(welch.n_windows(s.accel_mps2.shape[1]) for s in segments)
+        return _window_count(config, length, fs_hz, [s.accel_mps2.shape[1] for s in segments])
     length = config.segment_length
     if windows(length) > n_inputs:
         return config, ''
@@ -129,8 +134,8 @@ def _cross_validated(config: FitConfig, segments, fs_hz: float, input_channels,
 
     def fit(pieces, length):
         cfg = at(length, [x.shape[1] for x, _ in pieces])
-        welch = cfg.welch(fs_hz)
-        if sum(welch.n_windows(x.shape[1]) for x, _ in pieces) <= len(input_channels):
+        if _window_count(cfg, length, fs_hz, [x.shape[1] for x, _ in pieces]) <= len(
+                input_channels):
             # H1 from no more windows than inputs reproduces them exactly: not a candidate
             raise InsufficientDataError(f'{length}: too few Welch windows')
         model = fit_model([TrainingSegment(x, y, 'fold') for x, y in pieces], fs_hz, cfg,

@@ -156,7 +156,7 @@ def choose_segment_length(records: Sequence[Tuple[np.ndarray, np.ndarray]], aske
     scored = [highpass(y, fs_hz, highpass_hz, 'cross-validation target') if highpass_hz > 0.0
               else y for _, y in records]
     errors: Dict[int, Tuple[float, ...]] = {}
-    lengths = sorted({int(asked * 2.0 ** k) for k in DOUBLINGS} | {asked})
+    lengths = sorted({int(asked * 2.0 ** k) for k in DOUBLINGS})  # k = 0 is asked
     for length in lengths:
         if length < MIN_SEGMENT and length != asked:
             continue
