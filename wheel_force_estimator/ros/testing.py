@@ -212,56 +212,87 @@ def count_messages_main(argv: Sequence[str]) -> int:
     """
     Count raw messages on topics in a process of its own, like ``ros2 topic echo``.
 
-    ``python -m wheel_force_estimator.ros.testing RELIABILITY DEPTH EXPECTED TIMEOUT_S TOPIC...``
-    subscribes every TOPIC (``geometry_msgs/WrenchStamped``, KEEP_LAST ``DEPTH``), prints
-    ``ready`` once each has a publisher, then a JSON list of counts when every topic reached
-    ``EXPECTED`` messages or ``TIMEOUT_S`` passed after the first message.
+    ``python -m wheel_force_estimator.ros.testing [--type imu|wrench] [--source-stamps]
+    RELIABILITY DEPTH EXPECTED TIMEOUT_S TOPIC...`` subscribes every TOPIC (KEEP_LAST
+    ``DEPTH``), prints ``ready`` once each has a publisher, then one JSON line when every topic
+    reached ``EXPECTED`` messages or ``TIMEOUT_S`` passed after the first message:
+    ``{"counts": [...]}``, with ``--source-stamps`` also ``"source_ns"``: per topic, the
+    writer's source timestamp of every message [ns] (when the publisher *wrote* it: how it
+    paced its output, whatever this reader's own scheduling).
     """
+    import argparse
     import json
 
     from geometry_msgs.msg import WrenchStamped
     import rclpy
-    from rclpy.experimental import EventsExecutor
     from rclpy.qos import HistoryPolicy
     from rclpy.qos import QoSProfile
     from rclpy.qos import ReliabilityPolicy
     from rclpy.task import Future
+    from sensor_msgs.msg import Imu
 
-    reliability, depth, expected, timeout_s, *topics = argv
-    expected, timeout_s = int(expected), float(timeout_s)
-    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=int(depth),
-                     reliability=(ReliabilityPolicy.RELIABLE if reliability == 'reliable'
+    parser = argparse.ArgumentParser(prog='wheel_force_estimator.ros.testing')
+    parser.add_argument('--type', choices=('wrench', 'imu'), default='wrench')
+    parser.add_argument('--source-stamps', action='store_true')
+    parser.add_argument('reliability', choices=('reliable', 'best_effort'))
+    parser.add_argument('depth', type=int)
+    parser.add_argument('expected', type=int)
+    parser.add_argument('timeout_s', type=float)
+    parser.add_argument('topics', nargs='+')
+    args = parser.parse_args(argv)
+    topics, expected = args.topics, args.expected
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=args.depth,
+                     reliability=(ReliabilityPolicy.RELIABLE if args.reliability == 'reliable'
                                   else ReliabilityPolicy.BEST_EFFORT))
     rclpy.init()
     node = rclpy.create_node('message_counter')
     counts = [0] * len(topics)
+    source_ns = [[] for _ in topics]
     first = []
     done = Future()
 
     def counter(k):
-        def on_msg(_raw):
+        def count():
             if not first:
                 first.append(time.monotonic())
             counts[k] += 1
             if counts[k] == expected and min(counts) >= expected:
                 done.set_result(True)
-        return on_msg
 
-    subs = [node.create_subscription(WrenchStamped, t, counter(k), qos, raw=True)
+        def on_msg(_raw):
+            count()
+
+        def on_msg_with_info(_raw, info):
+            source_ns[k].append(info['source_timestamp'])
+            count()
+        return on_msg_with_info if args.source_stamps else on_msg
+
+    msg_type = {'wrench': WrenchStamped, 'imu': Imu}[args.type]
+    subs = [node.create_subscription(msg_type, t, counter(k), qos, raw=True)
             for k, t in enumerate(topics)]
-    executor = EventsExecutor()
+    if args.source_stamps:
+        # The Jazzy wheels' EventsExecutor cannot hand message info to a callback
+        # ("SystemError: null argument"); a deep reader does not need its speed.
+        from rclpy.executors import SingleThreadedExecutor
+        executor = SingleThreadedExecutor()
+    else:
+        # Messages are taken by the executor's own loop, one Python call each, as a
+        # subscriber spun by ``rclpy.spin`` would (``ros2 topic echo``): a Python turn per
+        # message would cost more than the messages themselves.
+        from rclpy.experimental import EventsExecutor
+        executor = EventsExecutor()
     executor.add_node(node)
     try:
         while not all(node.count_publishers(t) for t in topics):
             executor.spin_once(timeout_sec=0.01)
         print('ready', flush=True)
-        # Messages are taken by the executor's own loop, one Python call each, as a
-        # subscriber spun by ``rclpy.spin`` would (``ros2 topic echo``): a Python turn per
-        # message would cost more than the messages themselves.
-        while not done.done() and not (first and time.monotonic() - first[0] > timeout_s):
+        while not done.done() and not (first and time.monotonic() - first[0] > args.timeout_s):
             executor.spin_until_future_complete(done, timeout_sec=0.1)
     finally:
-        print(json.dumps(counts), flush=True)
+        out = {'counts': counts}
+        if args.source_stamps:
+            out['source_ns'] = source_ns
+        print(json.dumps(out), flush=True)
         del subs
         executor.shutdown()
         rclpy.try_shutdown()
