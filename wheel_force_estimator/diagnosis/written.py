@@ -325,6 +325,7 @@ def compose(candidates: Mapping[str, object], per_channel: Mapping[str, Mapping[
         # A row no term touches comes from a model without terms: the other candidates'
         # rows there differ from those only by the backfit's refitting noise.
         eligible = names if touched.intersection(group) else plain
+
         def group_score(n, group=group):
             return float(np.mean([per_channel[n][c] for c in group])), names.index(n)
         best = min(eligible, key=group_score)
