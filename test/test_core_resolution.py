@@ -8,6 +8,7 @@ from scipy import signal
 from wheel_force_estimator.core.design import fit_design
 from wheel_force_estimator.core.design import product_fit_config
 from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.metrics import rmse_hp_pct
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.predict import predict_forces
@@ -86,6 +87,40 @@ def test_an_identity_system_keeps_the_asked_length_and_reports_every_candidate()
     assert set(choice.fold_error_pct) == {256, 512, 1024, 2048, 4096}
     assert all(max(e) < 1e-9 for e in choice.fold_error_pct.values())
     assert choice.note(FS_HZ) == ''
+
+
+def test_a_length_the_folds_cannot_fit_gives_way_to_the_longest_they_can():
+    # Known answer through a fake fit: lengths >= 1024 cannot be fitted on the fold pieces
+    # (too few windows); the model gets worse with length (each doubling adds 1 % error).
+    # The asked 1024 cannot be tested, so 512 - the longest tested length - is the default
+    # the other must beat; 256 (the shortest candidate) beats it by exactly 1 point in every
+    # fold, with no scatter, so it is chosen.  Bug caught: keeping an untested
+    # length, or taking the best without the one-standard-error rule from the new default.
+    rng = np.random.default_rng(1)
+    x = rng.standard_normal((1, 8192))
+
+    def fit(pieces, length):
+        if length >= 1024:
+            raise InsufficientDataError(f'{length}: too few Welch windows')
+        gain = 1.0 + 0.01 * np.log2(length / 64)
+        return lambda inputs: inputs * gain
+
+    choice = choose_segment_length([(x, x)], 1024, fit, FS_HZ)
+    assert set(choice.fold_error_pct) == {512, 256}
+    assert choice.segment_length == 256
+    assert 'cannot cross-validate' in choice.note(FS_HZ)
+
+    folds_256 = iter([1.0, 1.0, 1.0, 1.06])
+
+    def noisy(pieces, length):
+        # 256 beats 512 on average (1.5 against 2 %) but not fold by fold (0, 0, 0, 6 %):
+        # 512 stays
+        if length >= 1024:
+            raise InsufficientDataError(f'{length}: too few Welch windows')
+        gain = 1.02 if length == 512 else next(folds_256)
+        return lambda inputs: inputs * gain
+
+    assert choose_segment_length([(x, x)], 1024, noisy, FS_HZ).segment_length == 512
 
 
 def test_choose_segment_length_rejects_bad_settings():

@@ -183,7 +183,9 @@ def test_mr_damper_short_records_get_a_shorter_segment_and_shorter_blocks():
     # the short segment of `SHORT` lost motion, Coulomb friction and a rebound stop are named
     # and the written model reaches 45.7 % against 83.9 % for the plain fit: a sine test does
     # not identify an FIR between its frequencies, and the yield force of an MR damper is
-    # friction-like.
+    # friction-like.  As the CLI runs it (segment chosen by cross-validation): the folds
+    # cannot fit 512 samples, so the longest length they can, 256, is the default to beat
+    # (128 does not beat it fold by fold), and the same findings follow.
     def load(name):
         return load_generic(MR / name, [parse_spec('x_F[0]:displacement:mm', 'input')],
                             [parse_spec('x_F[2]:force:N', 'output')], 100.0)
@@ -193,10 +195,12 @@ def test_mr_damper_short_records_get_a_shorter_segment_and_shorter_blocks():
     assert result.baseline.model.fit['segment_length'] == 512
     assert result.fit.real_linear == result.fit.before
     assert result.fit.model in ('real_linear', 'real_frf+physics')
-    result = diagnose(real, None, hold, SHORT)
-    assert result.fit.real_linear == result.fit.before
-    assert result.fit.model == 'real_frf+physics'
-    assert result.fit.after['x_F[2]'] < 0.8 * result.fit.real_linear['x_F[2]']
+    for config in (SHORT, DiagnosisConfig(choose_resolution=True)):
+        result = diagnose(real, None, hold, config)
+        assert result.baseline.model.fit['segment_length'] == 256
+        assert result.fit.real_linear == result.fit.before
+        assert result.fit.model == 'real_frf+physics'
+        assert result.fit.after['x_F[2]'] < 0.8 * result.fit.real_linear['x_F[2]']
 
 
 def _sine_rig(name, f_hz, amp_m, seconds, seed, backlash=False, fs_hz=1024.0):

@@ -147,8 +147,12 @@ def _cross_validated(config: FitConfig, segments, fs_hz: float, input_channels,
     length = choice.segment_length
     if length == config.segment_length:
         return config, ''
-    return (at(length, [s.accel_mps2.shape[1] for s in segments
-                        if s.accel_mps2.shape[1] >= length]), choice.note(fs_hz))
+    # The long segment is dropped only when the chosen one reaches it; one the records cannot
+    # hold stays, so that fit refuses it (a long segment left in the config was asked for:
+    # the short-record fallback has already dropped the default one).
+    long = config.long_segment_length if config.long_segment_length > length else 0
+    return (dataclasses.replace(config, segment_length=length, long_segment_length=long),
+            choice.note(fs_hz))
 
 
 def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConfig,

@@ -21,7 +21,11 @@ The asked-for length is kept unless the best length predicts the held-out blocks
 more than one standard error of the fold-by-fold difference (the one-standard-error rule of
 Hastie, Tibshirani & Friedman, *Elements of Statistical Learning*, 7.10): a different
 resolution must earn its place, so a car (measured: 512 and 1024 samples within 0.3 point on
-the proving ground) keeps the paper's.
+the proving ground) keeps the paper's.  When the folds hold too few Welch windows of the
+asked-for length to fit it (a short record), the longest length they can fit takes its place
+in that rule: a length the records cannot test gives way to the nearest one they can
+(measured on the MR damper's 15 s records: 512 could not be tested, 256 was kept against
+128, and the holdout error of the plain fit fell from 93.7 to 83.9 %).
 """
 import dataclasses
 from typing import Callable, Dict, Optional, Sequence, Tuple
@@ -68,11 +72,14 @@ class ResolutionChoice:
         """Return a one-line note when the length changed (empty otherwise)."""
         if self.segment_length == self.asked:
             return ''
+        against = (f'{self.mean_error_pct(self.asked):.1f} % for {self.asked}'
+                   if self.asked in self.fold_error_pct else
+                   f'{self.asked}, which the records cannot cross-validate (its folds hold too '
+                   f'few Welch windows)')
         return (f'note: the Welch segment was chosen by blocked cross-validation on the '
                 f'records: {self.segment_length} samples ({fs_hz / self.segment_length:g} Hz '
                 f'resolution) predicted held-out blocks with '
-                f'{self.mean_error_pct(self.segment_length):.1f} % RMSE against '
-                f'{self.mean_error_pct(self.asked):.1f} % for {self.asked}. '
+                f'{self.mean_error_pct(self.segment_length):.1f} % RMSE against {against}. '
                 f'--segment-length N silences this note.')
 
 
@@ -123,7 +130,8 @@ def choose_segment_length(records: Sequence[Tuple[np.ndarray, np.ndarray]], aske
         Gap-free records: inputs ``(n_inputs, n)``, outputs ``(n_outputs, n)`` [SI units].
     asked : int
         The length asked for [samples]; kept unless another is better by more than one
-        standard error.
+        standard error.  When the folds cannot fit it (too few Welch windows), the longest
+        length they can fit takes its place in that rule.
     fit : callable
         ``fit(pieces, length) -> predict`` with ``pieces`` a list of ``(inputs, outputs)``
         gap-free segments and ``predict(inputs) -> outputs`` the fitted model's prediction
@@ -168,10 +176,14 @@ def choose_segment_length(records: Sequence[Tuple[np.ndarray, np.ndarray]], aske
             folds.append(e)
         if len(folds) == n_folds:
             errors[length] = tuple(folds)
-    if asked not in errors or len(errors) < 2:
+    # The default the others must beat: the asked-for length, or - when the folds hold too
+    # few Welch windows of it to be fitted (short records) - the longest length they can fit.
+    # A length the records cannot test gives way to the nearest one they can.
+    default = asked if asked in errors else max((n for n in errors if n < asked), default=None)
+    if default is None:
         return ResolutionChoice(asked, asked, errors)
     best = min(errors, key=lambda n: (np.mean(errors[n]), n))
-    diff = np.subtract(errors[best], errors[asked])
+    diff = np.subtract(errors[best], errors[default])
     se = float(np.std(diff, ddof=1)) / np.sqrt(n_folds)
-    chosen = best if float(np.mean(diff)) + se < 0.0 else asked
+    chosen = best if float(np.mean(diff)) + se < 0.0 else default
     return ResolutionChoice(chosen, asked, errors)
