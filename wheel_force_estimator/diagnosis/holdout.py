@@ -144,16 +144,16 @@ GATE_BLOCKS = 8
 def block_errors(predictions: Sequence[np.ndarray], recordings: Sequence[MotionRecording],
                  metric: str, n_blocks: int = GATE_BLOCKS) -> np.ndarray:
     """
-    Return each block's squared error per channel, over the records' mean square force.
+    Return each block's squared error per channel over the variance of its target.
 
     The records' errors (high-passed per record, as :func:`evaluate_scores` does, for
     ``'rmse_hp1_pct'``) are joined in time, mean-removed (as :func:`core.metrics.rmse_pct`) and
     cut into ``n_blocks`` contiguous blocks of equal length; entry ``[b, c]`` is the mean
     squared error of channel ``c`` in block ``b`` divided by the variance of its target over
-    all blocks, so the mean over equal blocks is the squared
-    relative RMSE of the whole (``(RMSE % / 100) ** 2``).  Two models' block rows are
-    comparable block by block: their difference is the advantage of one over the other, and
-    its scatter over blocks says how much of it a few moments carry.
+    all blocks, so the mean over the blocks is the squared relative RMSE of the whole
+    (``(RMSE % / 100) ** 2``).  Two models' block rows are comparable block by block: their
+    difference is the advantage of one over the other, and its scatter over the blocks says
+    how much of it a few moments carry.
 
     Returns
     -------
