@@ -21,7 +21,6 @@ from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis.features import pairing
-from wheel_force_estimator.diagnosis.holdout import block_errors
 from wheel_force_estimator.diagnosis.holdout import evaluate_scores
 from wheel_force_estimator.diagnosis.holdout import split_holdout
 from wheel_force_estimator.diagnosis.recording import MotionRecording
@@ -206,29 +205,6 @@ def test_holdout_split_whole_files_alternate_and_one_file_is_halved():
     assert (g.n_samples, r.n_samples) == (500, 501)
     assert r.start_s == pytest.approx(5.0)
     assert 'second half: samples 500..1001' in one.report_on[0]
-
-
-def test_block_errors_average_to_the_reported_squared_rmse():
-    # Invariant: the mean over blocks is (RMSE % / 100) ** 2 of evaluate's own figure, for
-    # both metrics and over several records; an error stays in the blocks it occurs in.
-    rng = np.random.default_rng(5)
-    recs = [dataclasses.replace(_rec(f'r{k}.csv', n, ('f', 'g')),
-                                outputs=rng.normal(size=(2, n)) * [[3.0], [0.5]])
-            for k, n in enumerate((700, 1300))]
-    preds = [r.outputs + rng.normal(size=r.outputs.shape) for r in recs]
-    for metric in ('rmse_pct', 'rmse_hp1_pct'):
-        blocks = block_errors(preds, recs, metric)
-        scores = evaluate_scores(lambda r: preds[recs.index(r)], recs, metric)
-        assert blocks.shape == (8, 2)
-        np.testing.assert_allclose(np.sqrt(blocks.mean(axis=0)) * 100.0,
-                                   [scores['f'], scores['g']], rtol=1e-12)
-    # an error in the last quarter of the joined records only lands in the last two blocks
-    late = [r.outputs.copy() for r in recs]
-    late[1][:, -500:] += rng.normal(size=(2, 500))
-    blocks = block_errors(late, recs, 'rmse_pct')
-    assert blocks[:6].max() < 1e-3 * blocks[6:].min()
-    with pytest.raises(ValueError, match='cannot make 8 blocks'):
-        block_errors([np.zeros((1, 5))], [_rec('short.csv', 5)], 'rmse_pct')
 
 
 def test_scaling_a_term_scales_its_force_through_the_predictor(tmp_path):

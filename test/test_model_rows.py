@@ -12,7 +12,6 @@ from wheel_force_estimator.core.model_rows import compose_rows
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis.written import compose
 from wheel_force_estimator.diagnosis.written import linked_channels
-from wheel_force_estimator.diagnosis.written import outweighs
 
 from test_core_model import small_model  # noqa: I100  (the tests' own helper)
 
@@ -85,55 +84,17 @@ def test_channels_a_term_spans_or_couples_are_chosen_together():
     plain = a.with_physics([])
     three = {'a': with_terms, 'b': b, 'c': plain}
     gate['c'] = {'out0': 50.0, 'out1': 50.0, 'out2': 4.0}
-    model, pick, note, _ = compose(three, gate, a.output_channels)
+    model, pick, note = compose(three, gate, a.output_channels)
     assert pick == {'out0': 'b', 'out1': 'b', 'out2': 'c'} and note == ''
     assert model.physics == ()     # the term's rows went to another model
     assert model.fit['rows_from'] == pick
     # a row no term touches comes from a model without terms, even when one with terms
     # scores lower there; a term's rows bring the term along
     gate['a'] = {'out0': 1.0, 'out1': 1.0, 'out2': 1.0}
-    model, pick, _, _ = compose(three, gate, a.output_channels)
+    model, pick, _ = compose(three, gate, a.output_channels)
     assert pick == {'out0': 'a', 'out1': 'a', 'out2': 'c'}
     assert [p['physics'] for p in model.physics] == ['coulomb_friction']
     # unanimous: nothing to combine, the caller writes that candidate whole
     gate['a'] = {'out0': 90.0, 'out1': 90.0, 'out2': 1.0}
-    model, pick, _, _ = compose({'a': with_terms, 'b': b}, gate, a.output_channels)
+    model, pick, _ = compose({'a': with_terms, 'b': b}, gate, a.output_channels)
     assert model is None and set(pick.values()) == {'b'}
-
-
-def test_a_term_that_leads_on_the_gate_through_a_few_moments_is_not_written():
-    # Known-answer block errors (8 blocks, 3 channels): 'a' (with a term on out0, out1) leads
-    # its own FRF without the term ('a0') and the other FRF 'b' on the gate, in both cases by
-    # the same mean: once in every block alike, once through one block only (a stop met once).
-    a, b = _pair()
-    cands = {'a': a.with_physics([_term(['out0', 'out1'])]), 'a0': a, 'b': b}
-    gate = {'a': {'out0': 10.0, 'out1': 10.0, 'out2': 5.0},
-            'a0': {'out0': 11.0, 'out1': 11.0, 'out2': 5.0},
-            'b': {'out0': 12.0, 'out1': 12.0, 'out2': 4.0}}
-    base = np.full((8, 3), 0.0121)
-    spread = base - [0.0021, 0.0021, 0.0]
-    blocks = {'a': spread, 'a0': base, 'b': base + 0.002}
-    model, pick, _, refused = compose(cands, gate, a.output_channels, blocks, {'a': 'a0'})
-    assert pick == {'out0': 'a', 'out1': 'a', 'out2': 'b'} and refused == ()
-    # the same mean gain, all of it in block 3, and blocks 0 and 5 worse and better by as
-    # much: the next best candidate is written there
-    one_block = base.copy()
-    one_block[3, :2] -= 8 * 0.0021
-    one_block[[0, 5], :2] += [[0.002], [-0.002]]
-    assert np.allclose(one_block.mean(axis=0), spread.mean(axis=0))
-    blocks['a'] = one_block
-    model, pick, _, refused = compose(cands, gate, a.output_channels, blocks, {'a': 'a0'})
-    assert pick == {'out0': 'a0', 'out1': 'a0', 'out2': 'b'} and model.physics == ()
-    assert len(refused) == 1 and refused[0].startswith('out0, out1: a led')
-    # without block errors (no evidence to judge by) the lower gate score decides, as before
-    _, pick, _, refused = compose(cands, gate, a.output_channels)
-    assert pick['out0'] == 'a' and refused == ()
-
-
-def test_outweighs_is_the_one_standard_error_rule():
-    blocks = {'w': np.array([[0.0], [0.0], [0.0], [0.0]]),
-              'f': np.array([[1.0], [1.0], [1.0], [1.0]])}
-    assert outweighs(blocks, 'w', 'f', [0]) == (True, 1.0, 0.0)
-    blocks['w'] = np.array([[1.0], [1.0], [1.0], [-3.0]])   # mean 1, sd 2, se 1
-    passes, mean, se = outweighs(blocks, 'w', 'f', [0])
-    assert not passes and mean == pytest.approx(1.0) and se == pytest.approx(1.0)

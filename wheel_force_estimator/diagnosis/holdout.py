@@ -23,7 +23,6 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from wheel_force_estimator.core.evaluation import HP_MIN_SAMPLES
 from wheel_force_estimator.core.evaluation import rmse_figures
 from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.metrics import rmse_pct
@@ -134,51 +133,6 @@ def evaluate_scores(predict: Callable[[MotionRecording], np.ndarray],
                            rec0.fs_hz, rec0.output_channels)
     values = hp if metric == 'rmse_hp1_pct' else raw
     return dict(zip(rec0.output_channels, (float(v) for v in values)))
-
-
-#: Contiguous blocks the gate half is cut into to judge whether a model's advantage there is
-#: spread over the record or comes from a few moments (:func:`block_errors`).
-GATE_BLOCKS = 8
-
-
-def block_errors(predictions: Sequence[np.ndarray], recordings: Sequence[MotionRecording],
-                 metric: str, n_blocks: int = GATE_BLOCKS) -> np.ndarray:
-    """
-    Return each block's squared error per channel over the variance of its target.
-
-    The records' errors (high-passed per record, as :func:`evaluate_scores` does, for
-    ``'rmse_hp1_pct'``) are joined in time, mean-removed (as :func:`core.metrics.rmse_pct`) and
-    cut into ``n_blocks`` contiguous blocks of equal length; entry ``[b, c]`` is the mean
-    squared error of channel ``c`` in block ``b`` divided by the variance of its target over
-    all blocks, so the mean over the blocks is the squared relative RMSE of the whole
-    (``(RMSE % / 100) ** 2``).  Two models' block rows are comparable block by block: their
-    difference is the advantage of one over the other, and its scatter over the blocks says
-    how much of it a few moments carry.
-
-    Returns
-    -------
-    numpy.ndarray, shape (n_blocks, n_channels)
-
-    """
-    targets, errors = [], []
-    for rec, pred in zip(recordings, predictions):
-        t = np.asarray(rec.outputs, dtype=np.float64)
-        p = np.asarray(pred, dtype=np.float64)
-        if metric == 'rmse_hp1_pct':
-            if t.shape[1] < HP_MIN_SAMPLES:
-                continue                      # left out of the high-passed figure too
-            t, p = highpass(t, rec.fs_hz), highpass(p, rec.fs_hz)
-        targets.append(t)
-        errors.append(t - p)
-    # mean-removed over the whole, as rmse_pct does
-    t = np.concatenate(targets, axis=1)
-    t = t - t.mean(axis=1, keepdims=True)
-    e = np.concatenate(errors, axis=1)
-    e2 = (e - e.mean(axis=1, keepdims=True)) ** 2
-    if e2.shape[1] < n_blocks:
-        raise ValueError(f'block_errors: {e2.shape[1]} samples cannot make {n_blocks} blocks')
-    ms_target = np.maximum(np.mean(t ** 2, axis=1), 1e-300)
-    return np.stack([b.mean(axis=1) for b in np.array_split(e2, n_blocks, axis=1)]) / ms_target
 
 
 def rmse_by_channel(targets, predictions, channels, highpass_hz=0.0, fs_hz=1.0,

@@ -34,7 +34,6 @@ from wheel_force_estimator.core.model_rows import compatible
 from wheel_force_estimator.core.model_rows import compose_rows
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis.features import settle_samples
-from wheel_force_estimator.diagnosis.holdout import block_errors
 from wheel_force_estimator.diagnosis.holdout import evaluate_scores
 from wheel_force_estimator.diagnosis.holdout import holdout_gate
 from wheel_force_estimator.diagnosis.holdout import METRIC
@@ -218,50 +217,19 @@ def mean_score(model, recordings, channels, metric: str) -> Tuple[float, Dict[st
 
 
 def choose(candidates: Mapping[str, object], gate: Sequence, channels: Sequence[str],
-           metric: str, bases: Optional[Mapping[str, str]] = None):
+           metric: str) -> Tuple[str, Dict[str, float], Dict[str, Dict[str, float]]]:
     """
     Return the name of the candidate with the lowest mean RMSE over ``channels`` on ``gate``.
 
-    Ties go to the earlier candidate.  A candidate with terms named in ``bases`` (candidate
-    -> the same FRF without the terms) competes only if it passes :func:`outweighs` against
-    its base over ``channels``.  Also returns every candidate's gate score (mean over
-    ``channels``), its per-channel gate scores and its :func:`holdout.block_errors` (for
-    :func:`compose`).
+    Ties go to the earlier candidate.  Also returns every candidate's gate score (mean over
+    ``channels``) and its per-channel gate scores.
     """
-    bases = dict(bases or {})
-    per_channel, blocks = {}, {}
-    for name, model in candidates.items():
-        preds = _predictions(model, gate)
-        by_record = dict(zip(map(id, gate), preds))
-        per_channel[name] = evaluate_scores(lambda r: by_record[id(r)], gate, metric)
-        blocks[name] = block_errors(preds, gate, metric)
+    per_channel = {name: mean_score(model, gate, channels, metric)[1]
+                   for name, model in candidates.items()}
     scores = {name: float(np.mean([per_channel[name][c] for c in channels]))
               for name in candidates}
-    names = list(candidates)
-    idx = [gate[0].output_channels.index(c) for c in channels]
-    eligible = [n for n in names if n not in bases
-                or outweighs(blocks, n, bases[n], idx)[0]]
-    best = min(eligible, key=lambda n: (scores[n], names.index(n)))
-    return best, scores, per_channel, blocks
-
-
-def outweighs(blocks: Mapping[str, np.ndarray], winner: str, fallback: str,
-              idx: Sequence[int]) -> Tuple[bool, float, float]:
-    """
-    Return whether ``winner``'s gate advantage over ``fallback`` is more than chance.
-
-    The advantage is the block-wise difference of the relative squared error
-    (:func:`holdout.block_errors`, mean over the channels ``idx``); it counts when its mean
-    over the blocks exceeds one standard error of that mean (the one-standard-error rule, as
-    :mod:`core.resolution` chooses a segment length).  A physics term that helps only where a
-    few moments of the gate half excite it (a stop met twice) does not pass: what it does
-    elsewhere - where unseen data may excite it far more - was never tested.  Returns
-    ``(passes, mean, standard error)``.
-    """
-    d = blocks[fallback][:, idx].mean(axis=1) - blocks[winner][:, idx].mean(axis=1)
-    mean = float(d.mean())
-    se = float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else float('inf')
-    return mean > se, mean, se
+    best = min(scores, key=lambda n: (scores[n], list(candidates).index(n)))
+    return best, scores, per_channel
 
 
 def linked_channels(candidates: Mapping[str, object], channels: Sequence[str]) -> List[List[str]]:
@@ -292,9 +260,7 @@ def linked_channels(candidates: Mapping[str, object], channels: Sequence[str]) -
 
 
 def compose(candidates: Mapping[str, object], per_channel: Mapping[str, Mapping[str, float]],
-            channels: Sequence[str], blocks: Optional[Mapping[str, np.ndarray]] = None,
-            bases: Optional[Mapping[str, str]] = None
-            ) -> Tuple[Optional[object], Dict[str, str], str, Tuple[str, ...]]:
+            channels: Sequence[str]) -> Tuple[Optional[object], Dict[str, str], str]:
     """
     Combine the candidates' rows: each linked group of channels from its best gate model.
 
@@ -304,58 +270,36 @@ def compose(candidates: Mapping[str, object], per_channel: Mapping[str, Mapping[
     records fit worse (lower coherence), keep the simulation's rows.  Groups of
     :func:`linked_channels` are chosen together (lowest mean gate RMSE over the group; ties to
     the earlier candidate), and a candidate's terms come along with its rows; a group no term
-    touches chooses among the candidates without terms.  With ``blocks`` (per candidate, the
-    :func:`holdout.block_errors` of the gate, columns in the order of ``channels``) and
-    ``bases`` (candidate with terms -> the same FRF without them), a candidate with terms is
-    eligible for a group only if it passes :func:`outweighs` against its base over the group:
-    its terms must help there throughout the gate half, not only in a few moments.
+    touches chooses among the candidates without terms.
 
-    Returns ``(model, {channel: candidate}, note, refused)``: the model is None when every
-    group chose the same candidate (that candidate is written whole) or when the rows cannot
-    be combined (``note`` says why); ``refused`` says, per group, which candidate with terms
-    would have been chosen but did not pass :func:`outweighs`.
+    Returns ``(model, {channel: candidate}, note)``: the model is None when every group
+    chose the same candidate (that candidate is written whole) or when the rows cannot be
+    combined (``note`` says why).
     """
     names = list(candidates)
     plain = [n for n in names if not candidates[n].physics] or names
     touched = {c for n in names for t in candidates[n].physics_terms for c in t.channels}
     pick: Dict[str, str] = {}
-    refused: List[str] = []
-    bases = {n: b for n, b in (bases or {}).items() if n in candidates and b in candidates}
     for group in linked_channels(candidates, channels):
         # A row no term touches comes from a model without terms: the other candidates'
         # rows there differ from those only by the backfit's refitting noise.
         eligible = names if touched.intersection(group) else plain
-
-        def group_score(n, group=group):
-            return float(np.mean([per_channel[n][c] for c in group])), names.index(n)
-        best = min(eligible, key=group_score)
-        idx = [list(channels).index(c) for c in group]
-        while blocks is not None and best in bases:
-            passes, mean, se = outweighs(blocks, best, bases[best], idx)
-            if passes:
-                break
-            eligible = [n for n in eligible if n != best]
-            refused.append(
-                f'{", ".join(group)}: {best} led on the gate half, but its terms gained over '
-                f'{bases[best]} {mean:.2e} (relative squared error, mean of '
-                f'{blocks[best].shape[0]} blocks), within one standard error ({se:.2e}): not '
-                f'written there')
-            best = min(eligible, key=group_score)
+        best = min(eligible, key=lambda n: (float(np.mean([per_channel[n][c] for c in group])),
+                                            names.index(n)))
         pick.update(dict.fromkeys(group, best))
-    refused = tuple(refused)
     if len(set(pick.values())) < 2:
-        return None, pick, '', refused
+        return None, pick, ''
     models = [candidates[n] for n in names]
     ok, why = compatible(models)
     if not ok:
-        return None, pick, f'rows not combined per channel: {why}', refused
+        return None, pick, f'rows not combined per channel: {why}'
     terms = [t.to_dict() for n in names for t in candidates[n].physics_terms
              if all(pick[c] == n for c in t.channels)]
     base = max(names, key=lambda n: sum(v == n for v in pick.values()))
     fit = dict(candidates[base].fit)
     fit['rows_from'] = dict(pick)
     model = compose_rows(models, [names.index(pick[c]) for c in channels], terms, fit)
-    return model, pick, '', refused
+    return model, pick, ''
 
 
 #: ``fit.model`` of the reference written unchanged, per diagnosis mode.
@@ -428,15 +372,9 @@ def compare(findings, real, reference, mode, holdout, outcomes, channels, source
         choice = next(iter(candidates), None)
         model = candidates.get(choice)
     else:
-        bases = {n: b for n, b in ((AUGMENTED[mode], UNCHANGED[mode]),
-                                   ('real_frf+physics', 'real_linear'))
-                 if n in candidates and b in candidates}
-        choice, gate_scores, per_channel, blocks = choose(candidates, split.gate, named,
-                                                          metric, bases)
+        choice, gate_scores, per_channel = choose(candidates, split.gate, named, metric)
         model = candidates[choice]
-        combined, rows_from, note, refused = compose(candidates, per_channel, channels,
-                                                     blocks, bases)
-        notes.extend(refused)
+        combined, rows_from, note = compose(candidates, per_channel, channels)
         if note:
             notes.append(note)
         if combined is not None:
