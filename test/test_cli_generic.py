@@ -245,6 +245,28 @@ def test_no_more_windows_than_inputs_gives_a_shorter_segment(files, tmp_path, ca
     assert load_model(short).fit['segment_length'] == 128
 
 
+def test_too_few_long_windows_for_the_inputs_fall_back_to_one_resolution(files, tmp_path,
+                                                                         capsys):
+    # One 60 s record at 256 Hz holds 2 windows of the 8192-sample long segment for 2 inputs:
+    # below the crossover H1 would reproduce them exactly, so the default long segment is
+    # dropped with a note (the MR damper's 115 s run beside two 15 s ones held one: the
+    # plain fit scored 162 % on a held-out run).  Three such records (6 windows) keep it; a
+    # long segment asked for explicitly is kept.
+    one, three = tmp_path / 'one.npz', tmp_path / 'three.npz'
+    assert main(['fit', str(files['train.csv']), '-o', str(one)] + ROLES) == 0
+    out = capsys.readouterr().out
+    assert 'the records hold 2 window(s) of the 8192-sample long segment' in out
+    assert 'long_segment_length' not in load_model(one).fit
+    assert main(['fit', str(files['train.csv']), str(files['train.npz']),
+                 str(files['train.mat']), '-o', str(three)] + ROLES) == 0
+    assert 'long segment' not in capsys.readouterr().out
+    assert load_model(three).fit['long_segment_length'] == 8192
+    assert main(['fit', str(files['train.csv']), '-o', str(one), '--long-segment-length',
+                 '8192'] + ROLES) == 0
+    assert 'long segment' not in capsys.readouterr().out
+    assert load_model(one).fit['long_segment_length'] == 8192
+
+
 def test_fit_refuses_records_shorter_than_one_segment(files, tmp_path, capsys):
     rc = main(['fit', str(files['tiny']), '-o', str(tmp_path / 'm.npz')] + ROLES)
     assert rc == 1
