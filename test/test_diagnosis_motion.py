@@ -75,6 +75,31 @@ def test_a_quantised_turning_point_is_not_a_clip():
     assert clip is not None and clip.level == 18.0 and clip.p_value < 1e-10
 
 
+def test_a_rest_at_the_start_of_a_record_is_not_a_clip_nor_is_the_join_of_records():
+    # A rig at rest at its extreme position before the test (the MR damper's runs 4.2 and
+    # 4.3 rest 1.45 and 5.8 s at their lowest displacement), then moving: the rest shows no
+    # entry into the level, so nothing tells it from a rest.  Joined after another record
+    # the record's first sample would look like an entry at speed (the bug: the MR damper's
+    # three runs named `sensor_saturation` at the start position of one of them).
+    rng = np.random.default_rng(4)
+    t = np.arange(3000) / 100.0
+    moving = np.round(0.01 * np.sin(2 * np.pi * 0.7 * t + 0.3) + 1e-4 * rng.standard_normal(
+        t.size), 5)
+    low = float(moving.min()) - 0.005
+    rest = np.concatenate([np.full(300, low), low + np.cumsum(np.full(50, 1e-4)), moving])
+    other = np.round(0.004 * np.sin(2 * np.pi * 0.9 * t), 5)    # inside the rest's level
+    assert clip_test(rest, 'x') is None
+    assert clip_test([other, rest], 'x') is None
+    joined = clip_test(np.concatenate([other, rest]), 'x')
+    assert joined is not None and joined.level == low   # what the list form avoids
+    # a real clip (the top quarter of the motion, entered at speed) in the second record is
+    # still found, counted on its own samples
+    top = float(np.quantile(moving, 0.75))
+    clip = clip_test([other, np.concatenate([rest[:350], np.minimum(moving, top)])], 'x')
+    assert clip is not None and clip.level == top
+    assert clip.count == np.sum(moving >= top)
+
+
 def test_supporting_mass_is_the_outboard_mass_of_a_flying_wheel():
     rng = np.random.default_rng(0)
     az = rng.uniform(-40.0, 30.0, 5000)

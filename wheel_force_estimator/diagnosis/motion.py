@@ -96,8 +96,13 @@ def _windows(spans_s: List[Tuple[float, float]], merge_s: float, limit: int):
     return tuple((round(a, 3), round(b, 3)) for a, b in out[:limit])
 
 
+def _rows(recs, attr, row):
+    """Return one channel of every record, a list (records are never joined)."""
+    return [np.asarray(getattr(r, attr))[row] for r in recs]
+
+
 def _concat(recs, attr, row):
-    return np.concatenate([np.asarray(getattr(r, attr))[row] for r in recs])
+    return np.concatenate(_rows(recs, attr, row))
 
 
 def saturation_finding(real: Sequence, sim: Sequence, sources: Sequence[str],
@@ -125,11 +130,11 @@ def saturation_finding(real: Sequence, sim: Sequence, sources: Sequence[str],
     bound = config.alpha / (2 * len(inputs))
     clips = []
     for i, name in enumerate(inputs):
-        clip = clip_test(_concat(real, 'inputs', i), name, config.min_clip_samples)
+        clip = clip_test(_rows(real, 'inputs', i), name, config.min_clip_samples)
         if clip is None or clip.p_value >= bound:
             continue
         if sim:
-            own = clip_test(_concat(sim, 'inputs', i), name, config.min_clip_samples)
+            own = clip_test(_rows(sim, 'inputs', i), name, config.min_clip_samples)
             if own is not None and own.p_value < bound and own.level == clip.level:
                 continue  # the simulation models the same sensor range
         clips.append(clip)
