@@ -131,6 +131,7 @@ def command(args: argparse.Namespace) -> int:
                              linear=args.linear,
                              fit_fallback=request is not None
                              and 'long_segment_length' not in explicit,
+                             long_window_fallback='long_segment_length' not in explicit,
                              segment_fallback=request is not None
                              and 'segment_length' not in explicit,
                              choose_resolution=request is not None

@@ -121,12 +121,14 @@ def command(args: argparse.Namespace) -> int:
     config = _with_live(config, args)
     data = _bag_data(args) if request is None else _generic_data(request, args.recordings)
     # Bags keep the long-segment refusal; generic records fall back unless the user chose it.
+    # Too few long windows for the inputs fall back for both, unless the user chose it.
     explicit = explicit_fit_keys(args.config, **settings)
-    fallback = request is not None and 'long_segment_length' not in explicit
+    default_long = 'long_segment_length' not in explicit
+    fallback = request is not None and default_long
     chosen = request is not None and 'segment_length' not in explicit
     fitted = fit_design(data.segments, data.fs_hz, config, data.input_channels,
                         data.output_channels, data.input_quantity, data.fit_info, fallback,
-                        chosen, chosen)
+                        chosen, chosen, default_long)
     model = fitted.model
     path = save_model(model, args.out_model)
     summary = coherence_summary(model)

@@ -11,7 +11,7 @@ The linear prediction a diagnosis starts from ("what the simulation can explain"
   on request (``--linear regression`` with ``--sim``) and as a benchmark baseline; never the
   default reference.
 """
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -36,7 +36,7 @@ class FrfReference:
     @classmethod
     def fit(cls, recordings: Sequence[MotionRecording], name: str, fit_config=None,
             short_record_fallback: bool = False, segment_fallback: bool = False,
-            choose_resolution: bool = False):
+            choose_resolution: bool = False, long_window_fallback: Optional[bool] = None):
         """
         Fit the FRF on recordings with the product's design (``wheel-force fit``).
 
@@ -54,6 +54,9 @@ class FrfReference:
             A shorter Welch segment when the records hold no more windows than inputs.
         choose_resolution : bool
             The Welch segment chosen by blocked cross-validation (:mod:`core.resolution`).
+        long_window_fallback : bool or None
+            One resolution when the records hold no more long windows than inputs (None =
+            as ``short_record_fallback``).
 
         Raises
         ------
@@ -71,7 +74,7 @@ class FrfReference:
             fitted = fit_design(segments, rec0.fs_hz, config, rec0.input_channels,
                                 rec0.output_channels, rec0.input_quantity,
                                 {'diagnosis': name}, short_record_fallback, segment_fallback,
-                                choose_resolution)
+                                choose_resolution, long_window_fallback)
         except WheelForceError as err:
             raise DiagnosisError(f'cannot fit the linear FRF on the {name} recordings: '
                                  f'{err}') from err

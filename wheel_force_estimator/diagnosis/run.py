@@ -89,6 +89,11 @@ class DiagnosisConfig:
         Real-data fits may fall back to one resolution for records shorter than the long
         Welch segment, as ``wheel-force fit`` does for generic recordings (the CLI passes
         False for bags and when the long segment was chosen explicitly).
+    long_window_fallback : bool or None
+        Real-data fits may fall back to one resolution when the records hold no more windows
+        of the long segment than inputs, as ``wheel-force fit`` does for bags and generic
+        recordings (the CLI passes False when the long segment was chosen explicitly);
+        None = as ``fit_fallback``.
     segment_fallback : bool
         Real-data fits may shorten the Welch segment when the records hold no more windows
         than inputs, as ``wheel-force fit`` does for generic recordings (the CLI passes False
@@ -118,6 +123,7 @@ class DiagnosisConfig:
     linear: str = 'auto'
     fit: object = None
     fit_fallback: bool = True
+    long_window_fallback: Optional[bool] = None
     segment_fallback: bool = True
     choose_resolution: bool = False
     merge_ratio: float = 0.85
@@ -146,7 +152,8 @@ def _fit_linear(recordings, config, name, rec0):
 def _real_linear(recordings, config, name='real'):
     """Fit the best linear dynamic model on real recordings: ``wheel-force fit``'s design."""
     return FrfReference.fit(recordings, name, config.fit, config.fit_fallback,
-                            config.segment_fallback, config.choose_resolution)
+                            config.segment_fallback, config.choose_resolution,
+                            config.long_window_fallback)
 
 
 def _reference(real, sim_or_model, config):
