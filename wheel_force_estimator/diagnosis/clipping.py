@@ -83,8 +83,8 @@ def clip_test(x, channel: str = '', min_samples: int = MIN_CLIP_SAMPLES) -> Opti
             # runs entered within the record: at[e + 1] and not at[e]
             entries = np.flatnonzero(at[1:] & ~at[:-1])
             # samples at the level, less a run the record starts with (no entry seen)
-            k += int(at.sum()) - (int(np.argmin(at)) if at[0] and not at.all() else
-                                  (r.size if at.all() else 0))
+            lead = r.size if at.all() else int(np.argmin(at))
+            k += int(at.sum()) - lead
             # the full step before the entry (the entry step itself is cut short by the clip)
             before.extend(st[entries[entries >= 1] - 1])
         if k < min_samples or not before or np.median(before) < 0.5 * typical:
