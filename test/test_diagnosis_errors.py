@@ -1,6 +1,9 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """Data a diagnosis must refuse, with the reason named."""
+from dataclasses import replace
+import re
+
 import numpy as np
 import pytest
 
@@ -8,6 +11,7 @@ from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
 from wheel_force_estimator.diagnosis import MotionRecording
+from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.synthetic import make_recording
 from wheel_force_estimator.diagnosis.synthetic import synthetic_pair
 
@@ -51,8 +55,15 @@ def test_too_little_data_to_cross_validate(pair):
     with pytest.raises(DiagnosisError, match='cross-validate|settle'):
         diagnose([short], sim, (), CONFIG)
     tiny, _ = make_recording('bump_stop', 5, duration_s=10.0)
-    with pytest.raises(DiagnosisError, match='settle'):
+    with pytest.raises(DiagnosisError, match='settle') as refused:
         diagnose([tiny], sim, (), CONFIG)
+    # The error names the integrator corner that would fit, and that corner does get past
+    # the settle check (10 s cannot hold 5 cross-validation blocks after it, which is said).
+    corner = re.search(r'--highpass-hz ([0-9.e+-]+) or above', str(refused.value))
+    assert corner, str(refused.value)
+    higher = replace(CONFIG, features=FeatureConfig(float(corner.group(1)) * 1.01))
+    with pytest.raises(DiagnosisError, match='cross-validate'):
+        diagnose([tiny], sim, (), higher)
 
 
 def test_no_overlap_in_operating_range(pair):

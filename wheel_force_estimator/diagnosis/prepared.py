@@ -52,6 +52,30 @@ def edge_samples(reference) -> int:
     return int(getattr(model, 'fir_delay_samples', 0) or 0)
 
 
+def _remedy(recordings, reference, settle: int, config) -> str:
+    """
+    What would let records too short for the feature filters through, as error text.
+
+    The integrators of velocity or acceleration inputs settle in ``3 / highpass_hz``; a
+    higher corner settles sooner but loses the motion below it, so the corner that would fit
+    the shortest record is said with that cost, beside the remedies that keep the motion
+    (longer runs, or a displacement channel, whose features need no integration).
+    """
+    corner_hz = 0.0
+    for rec in recordings:
+        edge = min(edge_samples(reference), rec.n_samples // 4)
+        room = rec.n_samples - 2 * edge - config.selection.min_block_samples - 1
+        if rec.input_quantity == 'displacement' or settle <= edge or room <= edge:
+            return ''
+        corner_hz = max(corner_hz, 3.0 * rec.fs_hz / room)
+    if corner_hz >= 0.25 * recordings[0].fs_hz:
+        return ''
+    return (f'; a higher integrator corner (--highpass-hz {corner_hz:.2g} or above, now '
+            f'{config.features.highpass_hz:g} Hz) would fit every record, but the integrated '
+            f'motion then loses what lies below it: longer runs or a displacement input keep '
+            f'it')
+
+
 def prepare(recordings, reference, sources, partners, config) -> Prepared:
     """
     Predict every recording with ``reference`` and build its channel features.
@@ -75,7 +99,8 @@ def prepare(recordings, reference, sources, partners, config) -> Prepared:
             raise DiagnosisError(
                 f'{rec.name}: {rec.n_samples} samples ({rec.duration_s:.2f} s); the feature '
                 f'filters need {skip / rec.fs_hz:.2f} s to settle and the reference FIR '
-                f'{edge / rec.fs_hz:.2f} s at each end, too little data remains')
+                f'{edge / rec.fs_hz:.2f} s at each end, too little data remains'
+                + _remedy(recordings, reference, settle, config))
         pred = reference.predict(rec)
         ctxs = channel_contexts(rec.inputs, rec.input_channels, rec.fs_hz, rec.input_quantity,
                                 pred, sources, partners, config.features)
