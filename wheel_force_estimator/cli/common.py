@@ -23,7 +23,7 @@ _FIT_KEYS = {
     'segment_length': int, 'overlap': float, 'window': str, 'detrend': str,
     'estimator': str, 'regularisation': float, 'f_min_hz': float, 'f_max_hz': float,
     'coherence_floor': float, 'long_segment_length': int, 'crossover_hz': float,
-    'long_regularisation': float, 'water_level': float,
+    'long_regularisation': float, 'water_level': float, 'unexcited': str,
 }
 
 

@@ -278,6 +278,65 @@ def estimate_frf(spectra: CrossSpectra, config: FrfConfig = FrfConfig()) -> FrfE
                        _multiple_coherence(h, syx, syy), cond, config)
 
 
+def bridge_unexcited(spectra: CrossSpectra, h: np.ndarray, water_level: float) -> np.ndarray:
+    """
+    Return ``h`` with each input's unexcited lines inside its excited band interpolated.
+
+    The water level damps the FRF towards zero where an input holds less than
+    ``water_level`` times its strongest line's power (above 0 Hz): there the data say
+    nothing.  Zero is the right answer above the band (nothing to predict, and a gain there
+    only amplifies noise), but not between the excited lines of a sine test or a stepped
+    sweep, nor below the lowest of them: a rig tested at 1 and 2 Hz and run at 0.5 Hz would
+    then be given no response at all (measured on a displacement rig, 40 s sine records:
+    94 % holdout RMSE).  The smoothest answer the data allow is taken instead, per input
+    column: complex linear interpolation between the excited lines, and below the lowest
+    one towards its real part at 0 Hz (the flat extrapolation ``keep_dc`` gives the DC line:
+    a real system's DC gain is real), i.e. the stiffness held and the in-quadrature part
+    shrinking with frequency, as a spring-damper's does.  Lines above an input's highest
+    excited line keep the water level's damping.
+
+    Parameters
+    ----------
+    spectra : CrossSpectra
+        The spectra ``h`` was estimated from (``sxx`` gives each input's power per line).
+    h : numpy.ndarray, shape (nf, n_out, n_in)
+        FRF on ``spectra.f_hz``.
+    water_level : float
+        As in :class:`FrfConfig`; 0 returns ``h`` unchanged.
+
+    Returns
+    -------
+    numpy.ndarray
+        A new array (``h`` itself when nothing is bridged).
+
+    """
+    f_hz = np.asarray(spectra.f_hz, dtype=np.float64)
+    above = f_hz > 0.0
+    if water_level <= 0.0 or not above.any():
+        return h
+    power = np.diagonal(spectra.sxx, axis1=1, axis2=2).real          # (nf, n_in)
+    out = None
+    for i in range(power.shape[1]):
+        strongest = power[above, i].max()
+        if not strongest > 0.0:
+            continue
+        excited = above & (power[:, i] >= water_level * strongest)
+        f_ex = f_hz[excited]
+        gap = above & ~excited & (f_hz < f_ex.max())
+        if not gap.any():
+            continue
+        if out is None:
+            out = np.array(h, dtype=np.complex128, copy=True)
+        col = out[:, :, i]                                              # (nf, n_out) view
+        f_knots = np.concatenate([[0.0], f_ex])
+        for o in range(col.shape[1]):
+            known = col[excited, o]
+            re = np.interp(f_hz[gap], f_knots, np.concatenate([[known[0].real], known.real]))
+            im = np.interp(f_hz[gap], f_knots, np.concatenate([[0.0], known.imag]))
+            col[gap, o] = re + 1j * im
+    return h if out is None else out
+
+
 def _strongest(power: np.ndarray, f_hz: np.ndarray) -> float:
     """
     Return the water level's reference: the largest ``power`` over the lines above 0 Hz.

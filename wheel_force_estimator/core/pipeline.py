@@ -29,6 +29,7 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.filtering import fir_from_frf
 from wheel_force_estimator.core.filtering import FirFilter
+from wheel_force_estimator.core.frf import bridge_unexcited
 from wheel_force_estimator.core.frf import estimate_frf
 from wheel_force_estimator.core.frf import FrfConfig
 from wheel_force_estimator.core.frf import FrfEstimate
@@ -40,6 +41,9 @@ from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spectra import cross_spectra
 from wheel_force_estimator.core.spectra import WelchConfig
 from wheel_force_estimator.core.validation import as_signals
+
+#: What ``FitConfig.unexcited`` may say (see :func:`.frf.bridge_unexcited`).
+UNEXCITED = ('interpolate', 'zero')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -88,6 +92,11 @@ class FitConfig:
         of typical 16-24 bit acquisition; on the proving-ground simulator it damps only lines
         above 100 Hz (the weakest is 68 dB down), where the forces hold little: its mean
         holdout RMSE moved 26.18 -> 26.14 %; 0 = off.
+    unexcited : str
+        What the FRF is between and below the lines the inputs excited, where the water level
+        damps it: ``'interpolate'`` (default) bridges them from the excited lines
+        (:func:`.frf.bridge_unexcited`: a sine test's response at an untested frequency),
+        ``'zero'`` leaves them damped.  Lines above an input's band are damped either way.
     live : LiveDesign or None
         Also design the live (causal) estimators (correlations accumulated from the same
         segments while they are in memory); ``None`` = none.
@@ -112,6 +121,7 @@ class FitConfig:
     crossover_hz: float = 2.0
     long_regularisation: float = 5e-2
     water_level: float = 1e-6
+    unexcited: str = 'interpolate'
     live: Optional[LiveDesign] = None
 
     def __post_init__(self):
@@ -142,6 +152,9 @@ class FitConfig:
                 'water_level needs detrended Welch windows: with detrend none the sensor '
                 'offsets leak into the low lines and no line is a clean reference; set '
                 'water_level: 0 or detrend: constant')
+        if self.unexcited not in UNEXCITED:
+            raise ConfigError(f'unexcited must be one of {list(UNEXCITED)}, got '
+                              f'{self.unexcited!r}')
         if self.f_max_hz is not None and not self.f_max_hz > self.f_min_hz:
             raise ConfigError(
                 f'f_max_hz ({self.f_max_hz!r}) must be > f_min_hz ({self.f_min_hz!r})')
@@ -246,6 +259,8 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     est = estimate_frf(combined, config.frf())
     f_max = config.f_max_hz
     h = est.h * coherence_weight(est.coherence_multiple, config.coherence_floor)[:, :, None]
+    if config.unexcited == 'interpolate':
+        h = bridge_unexcited(combined, h, config.water_level)
     fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
                        keep_dc=config.f_min_hz == 0.0)
     extra = {}
@@ -260,6 +275,8 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         long_est = estimate_frf(long_combined, config.long_frf())
         h_long = long_est.h * coherence_weight(long_est.coherence_multiple,
                                                config.coherence_floor)[:, :, None]
+        if config.unexcited == 'interpolate':
+            h_long = bridge_unexcited(long_combined, h_long, config.water_level)
         est, h = splice_estimates(long_est, h_long, est, fir, config.crossover_hz)
         fir = fir_from_frf(est.f_hz, h, fs_hz, f_max_hz=f_max, keep_dc=True)
         extra = {'long_segment_length': config.long_segment_length,
@@ -274,6 +291,7 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         'window': config.window, 'segment_length': config.segment_length,
         'overlap': config.overlap, 'detrend': config.detrend,
         'regularisation': config.regularisation, 'water_level': config.water_level,
+        'unexcited': config.unexcited,
         'f_min_hz': config.f_min_hz, 'f_max_hz': f_max,
         'coherence_floor': config.coherence_floor,
     }
