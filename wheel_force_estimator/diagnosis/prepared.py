@@ -54,7 +54,7 @@ def edge_samples(reference) -> int:
 
 def _remedy(recordings, reference, settle: int, config) -> str:
     """
-    What would let records too short for the feature filters through, as error text.
+    Return what would let records too short for the feature filters through (error text).
 
     The integrators of velocity or acceleration inputs settle in ``3 / highpass_hz``; a
     higher corner settles sooner but loses the motion below it, so the corner that would fit
