@@ -316,6 +316,21 @@ def test_fit_user_errors_exit_1(roles, match, files, tmp_path, capsys):
     assert re.search(match, capsys.readouterr().err)
 
 
+@pytest.mark.parametrize('value', ['zero', 'interpolate', 'hold'])
+def test_params_file_sets_what_the_fit_does_at_unexcited_lines(value, files, tmp_path, capsys):
+    config = tmp_path / 'fit.yaml'
+    config.write_text(f'wheel_force_fit:\n  ros__parameters:\n    unexcited: {value}\n')
+    out = tmp_path / 'm.npz'
+    rc = main(['fit', str(files['train.npz']), '-o', str(out), '--config', str(config)] + ROLES)
+    if value == 'hold':
+        assert rc == 1
+        err = capsys.readouterr().err
+        assert f'{config}: ' in err and "unexcited must be one of ['interpolate', 'zero']" in err
+        return
+    assert rc == 0
+    assert load_model(out).fit['unexcited'] == value
+
+
 def test_missing_file_exit_1(model_path, tmp_path, capsys):
     assert main(['evaluate', str(model_path), str(tmp_path / 'gone.csv')] + ROLES) == 1
     assert 'gone.csv: no such file' in capsys.readouterr().err
