@@ -220,6 +220,16 @@ def _sine_rig(name, f_hz, amp_m, seconds, seed, backlash=False, fs_hz=1024.0):
                            input_quantity='displacement')
 
 
+def _sine_tests(seconds, backlash):
+    """Return (real, None, holdout) as the friction damper's tests: 1 Hz x2 and 2 Hz; 1, 0.5 Hz."""
+    real = [_sine_rig('r1', 1.0, 0.005, seconds, 1, backlash),
+            _sine_rig('r2', 1.0, 0.015, seconds, 2, backlash),
+            _sine_rig('r3', 2.0, 0.005, seconds / 2, 3, backlash)]
+    hold = [_sine_rig('h1', 1.0, 0.01, seconds, 4, backlash),
+            _sine_rig('h2', 0.5, 0.01, 2 * seconds, 5, backlash)]
+    return real, None, hold
+
+
 @pytest.mark.parametrize('backlash', [False, True])
 def test_sine_tests_of_a_rig_name_lost_motion_only_when_it_is_there(backlash):
     # Sine tests as the friction damper's (1 Hz at two amplitudes and 2 Hz decide nothing;
@@ -227,12 +237,7 @@ def test_sine_tests_of_a_rig_name_lost_motion_only_when_it_is_there(backlash):
     # the shifted-feature null must not shift them by whole periods (where a null explains as
     # much as the aligned feature) nor be so weak that the FIR's linear misfit passes as a
     # time delay (it explains 51 % of the linear rig's residual; the nulls 44-60 %).
-    real = [_sine_rig('r1', 1.0, 0.005, 7, 1, backlash),
-            _sine_rig('r2', 1.0, 0.015, 7, 2, backlash),
-            _sine_rig('r3', 2.0, 0.005, 3.5, 3, backlash)]
-    hold = [_sine_rig('h1', 1.0, 0.01, 7, 4, backlash),
-            _sine_rig('h2', 0.5, 0.01, 14, 5, backlash)]
-    result = diagnose(real, None, hold)
+    result = diagnose(*_sine_tests(7.0, backlash))
     if not backlash:
         assert not result.findings
         assert result.fit.model == 'real_linear'
@@ -251,12 +256,7 @@ def test_longer_sine_tests_give_the_untested_frequency_a_response(backlash):
     # (linear) / 94.2 % (lost motion), and the written FIR + backlash 105 %.  Bridged from
     # the tested lines (core.frf.bridge_unexcited): measured 5.9 % and 9.2 %, the backlash
     # written at 5.2 %, and still nothing named on the linear rig.
-    real = [_sine_rig('r1', 1.0, 0.005, 20, 1, backlash),
-            _sine_rig('r2', 1.0, 0.015, 20, 2, backlash),
-            _sine_rig('r3', 2.0, 0.005, 10, 3, backlash)]
-    hold = [_sine_rig('h1', 1.0, 0.01, 20, 4, backlash),
-            _sine_rig('h2', 0.5, 0.01, 40, 5, backlash)]
-    result = diagnose(real, None, hold)
+    result = diagnose(*_sine_tests(20.0, backlash))
     assert result.baseline.model.fit['long_segment_length'] == 8192
     assert result.fit.real_linear['f'] < 12.0
     if not backlash:
