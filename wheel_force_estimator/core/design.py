@@ -171,7 +171,7 @@ def _cross_validated(config: FitConfig, segments, fs_hz: float, input_channels,
             # H1 from no more windows than inputs reproduces them exactly: not a candidate
             raise InsufficientDataError(f'{length}: too few Welch windows')
         model = fit_model([TrainingSegment(x, y, 'fold') for x, y in pieces], fs_hz, cfg,
-                          input_channels, output_channels)
+                          input_channels, output_channels, input_quantity=input_quantity)
         return lambda x: predict_forces(model, x)
     choice = choose_segment_length([(s.accel_mps2, s.force_n) for s in segments],
                                    config.segment_length, fit, fs_hz,
@@ -271,7 +271,8 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
                        f'{config.segment_length}' for s in short)
         used = [s for s in used if s.accel_mps2.shape[1] >= config.segment_length]
     note = '\n'.join(n for n in notes if n)
-    model = fit_model(used, fs_hz, config, input_channels, output_channels, fit_info=fit_info)
+    model = fit_model(used, fs_hz, config, input_channels, output_channels, fit_info=fit_info,
+                      input_quantity=input_quantity)
     model = dataclasses.replace(model, units={'input': INPUT_UNITS[input_quantity],
                                               'output': 'N'})
     return DesignedFit(model, config, tuple(used), tuple(skipped), note)

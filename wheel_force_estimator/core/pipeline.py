@@ -44,6 +44,8 @@ from wheel_force_estimator.core.validation import as_signals
 
 #: What ``FitConfig.unexcited`` may say (see :func:`.frf.bridge_unexcited`).
 UNEXCITED = ('interpolate', 'zero')
+#: Time derivatives of displacement each input quantity is.
+INPUT_ORDER = {'displacement': 0, 'velocity': 1, 'acceleration': 2}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -202,7 +204,8 @@ class TrainingSegment:
 
 def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConfig,
               input_channels: Sequence[str], output_channels: Sequence[str],
-              fit_info: Optional[Mapping] = None) -> FrfModel:
+              fit_info: Optional[Mapping] = None,
+              input_quantity: str = 'acceleration') -> FrfModel:
     """
     Fit an :class:`FrfModel` from one or more segments.
 
@@ -220,6 +223,9 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         Channel names in array order.
     fit_info : mapping, optional
         Extra provenance stored in the model's ``fit`` metadata (e.g. bag paths).
+    input_quantity : str
+        What the inputs are (``'acceleration'``, ``'velocity'``, ``'displacement'``): the
+        domain unexcited lines are bridged in (:func:`.frf.bridge_unexcited`).
 
     Returns
     -------
@@ -236,6 +242,10 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     """
     if not segments:
         raise InsufficientDataError('no recording segments to fit')
+    if input_quantity not in INPUT_ORDER:
+        raise ConfigError(f'input_quantity must be one of {list(INPUT_ORDER)}, got '
+                          f'{input_quantity!r}')
+    order = INPUT_ORDER[input_quantity]
     welch = config.welch(fs_hz)
     long_welch = config.long_welch(fs_hz) if config.long_segment_length else None
     spectra, long_spectra = [], []
@@ -260,7 +270,7 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     f_max = config.f_max_hz
     h = est.h * coherence_weight(est.coherence_multiple, config.coherence_floor)[:, :, None]
     if config.unexcited == 'interpolate':
-        h = bridge_unexcited(combined, h, config.water_level)
+        h = bridge_unexcited(combined, h, config.water_level, order)
     fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
                        keep_dc=config.f_min_hz == 0.0)
     extra = {}
@@ -276,7 +286,7 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         h_long = long_est.h * coherence_weight(long_est.coherence_multiple,
                                                config.coherence_floor)[:, :, None]
         if config.unexcited == 'interpolate':
-            h_long = bridge_unexcited(long_combined, h_long, config.water_level)
+            h_long = bridge_unexcited(long_combined, h_long, config.water_level, order)
         est, h = splice_estimates(long_est, h_long, est, fir, config.crossover_hz)
         fir = fir_from_frf(est.f_hz, h, fs_hz, f_max_hz=f_max, keep_dc=True)
         extra = {'long_segment_length': config.long_segment_length,
