@@ -279,7 +279,7 @@ def estimate_frf(spectra: CrossSpectra, config: FrfConfig = FrfConfig()) -> FrfE
 
 
 def bridge_unexcited(spectra: CrossSpectra, h: np.ndarray, water_level: float,
-                     input_order: int = 0) -> np.ndarray:
+                     input_order: int = 0, below_as_displacement: bool = False) -> np.ndarray:
     """
     Return ``h`` with each input's unexcited lines inside its excited band interpolated.
 
@@ -303,7 +303,9 @@ def bridge_unexcited(spectra: CrossSpectra, h: np.ndarray, water_level: float,
     interpolation between 1 and 2 Hz misses it by 40 % at 1.5 Hz).  Below the lowest excited
     line the rule above holds in the recorded quantity: the response of a velocity or
     acceleration input to quasi-static motion grows without bound towards 0 Hz, and
-    extrapolating that would amplify every sensor offset and drift.
+    extrapolating that would amplify every sensor offset and drift - unless
+    ``below_as_displacement`` asks for it (a sine-tested rig recorded with an accelerometer,
+    whose users want its quasi-static response and keep the sensor's drift out themselves).
 
     Parameters
     ----------
@@ -316,6 +318,9 @@ def bridge_unexcited(spectra: CrossSpectra, h: np.ndarray, water_level: float,
     input_order : int
         Time derivatives of displacement the inputs are: 0 displacement, 1 velocity,
         2 acceleration.
+    below_as_displacement : bool
+        Apply the rule below the lowest excited line to the response to displacement too
+        (its response to the recorded quantity then grows like ``f**-input_order``).
 
     Returns
     -------
@@ -344,11 +349,14 @@ def bridge_unexcited(spectra: CrossSpectra, h: np.ndarray, water_level: float,
         below = gap & (f_hz < f_ex[0])
         inside = gap & ~below
         to_disp = (2j * np.pi * f_hz) ** input_order
+        scale = to_disp if below_as_displacement else np.ones_like(to_disp)
         for o in range(col.shape[1]):
             known = col[excited, o]
             lo = f_hz[below]
-            col[below, o] = (np.interp(lo, [0.0, f_ex[0]], [known[0].real] * 2)
-                             + 1j * np.interp(lo, [0.0, f_ex[0]], [0.0, known[0].imag]))
+            first = known[0] * scale[excited][0]
+            col[below, o] = (np.interp(lo, [0.0, f_ex[0]], [first.real] * 2)
+                             + 1j * np.interp(lo, [0.0, f_ex[0]], [0.0, first.imag])
+                             ) / scale[below]
             disp = known * to_disp[excited]
             col[inside, o] = (np.interp(f_hz[inside], f_ex, disp.real)
                               + 1j * np.interp(f_hz[inside], f_ex, disp.imag)

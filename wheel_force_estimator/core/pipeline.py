@@ -43,7 +43,7 @@ from wheel_force_estimator.core.spectra import WelchConfig
 from wheel_force_estimator.core.validation import as_signals
 
 #: What ``FitConfig.unexcited`` may say (see :func:`.frf.bridge_unexcited`).
-UNEXCITED = ('interpolate', 'zero')
+UNEXCITED = ('interpolate', 'spring_damper', 'zero')
 #: Time derivatives of displacement each input quantity is.
 INPUT_ORDER = {'displacement': 0, 'velocity': 1, 'acceleration': 2}
 
@@ -98,7 +98,10 @@ class FitConfig:
         What the FRF is between and below the lines the inputs excited, where the water level
         damps it: ``'interpolate'`` (default) bridges them from the excited lines
         (:func:`.frf.bridge_unexcited`: a sine test's response at an untested frequency),
-        ``'zero'`` leaves them damped.  Lines above an input's band are damped either way.
+        ``'spring_damper'`` also extends the response to displacement below the lowest
+        excited line for velocity and acceleration inputs (it then grows like ``1/f`` or
+        ``1/f^2`` towards 0 Hz: opt-in, as it amplifies sensor drift), ``'zero'`` leaves them
+        damped.  Lines above an input's band are damped either way.
     live : LiveDesign or None
         Also design the live (causal) estimators (correlations accumulated from the same
         segments while they are in memory); ``None`` = none.
@@ -269,8 +272,9 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     est = estimate_frf(combined, config.frf())
     f_max = config.f_max_hz
     h = est.h * coherence_weight(est.coherence_multiple, config.coherence_floor)[:, :, None]
-    if config.unexcited == 'interpolate':
-        h = bridge_unexcited(combined, h, config.water_level, order)
+    if config.unexcited != 'zero':
+        h = bridge_unexcited(combined, h, config.water_level, order,
+                             config.unexcited == 'spring_damper')
     fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
                        keep_dc=config.f_min_hz == 0.0)
     extra = {}
@@ -285,8 +289,9 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         long_est = estimate_frf(long_combined, config.long_frf())
         h_long = long_est.h * coherence_weight(long_est.coherence_multiple,
                                                config.coherence_floor)[:, :, None]
-        if config.unexcited == 'interpolate':
-            h_long = bridge_unexcited(long_combined, h_long, config.water_level, order)
+        if config.unexcited != 'zero':
+            h_long = bridge_unexcited(long_combined, h_long, config.water_level, order,
+                                      config.unexcited == 'spring_damper')
         est, h = splice_estimates(long_est, h_long, est, fir, config.crossover_hz)
         fir = fir_from_frf(est.f_hz, h, fs_hz, f_max_hz=f_max, keep_dc=True)
         extra = {'long_segment_length': config.long_segment_length,
