@@ -331,6 +331,27 @@ def test_params_file_sets_what_the_fit_does_at_unexcited_lines(value, files, tmp
     assert load_model(out).fit['unexcited'] == value
 
 
+def test_fit_says_which_lines_it_bridged(tmp_path, capsys):
+    # Sine tests at 1 and 2 Hz, 64 s at 256 Hz: the 8192-sample long segment's 0.03 Hz
+    # lines between and below them were not excited; `fit` bridges them and says so.
+    rng = np.random.default_rng(5)
+    paths = []
+    for f_hz in (1.0, 2.0):
+        t = np.arange(int(64 * FS_HZ)) / FS_HZ
+        x = 0.01 * np.sin(2 * np.pi * f_hz * t)
+        y = 2e4 * x + 800 * np.gradient(x, t) + 0.01 * 200.0 * rng.standard_normal(t.size)
+        paths.append(tmp_path / f'sine_{f_hz:g}.npz')
+        np.savez(paths[-1], x=x, f=y)
+    rc = main(['fit', *map(str, paths), '-o', str(tmp_path / 'm.npz'), '--input',
+               'x:displacement:m', '--output', 'f:force:N', '--fs', '256'])
+    assert rc == 0
+    out = capsys.readouterr().out
+    line = re.search(r'unexcited lines inside the band, bridged from the excited ones '
+                     r'\(8192-sample segments; unexcited: interpolate\): x (\d+)', out)
+    assert line, out
+    assert int(line.group(1)) == load_model(tmp_path / 'm.npz').fit['bridged_lines_long']['x']
+
+
 def test_missing_file_exit_1(model_path, tmp_path, capsys):
     assert main(['evaluate', str(model_path), str(tmp_path / 'gone.csv')] + ROLES) == 1
     assert 'gone.csv: no such file' in capsys.readouterr().err

@@ -529,6 +529,12 @@ def test_a_fitted_model_runs_a_sine_test_at_an_untested_frequency():
     for mode in ('interpolate', 'zero'):
         model = fit_model(segs, fs, FitConfig(segment_length=2048, unexcited=mode), ['x'], ['f'])
         assert model.fit['unexcited'] == mode
+        # said in the model (and by `fit`): 2048-sample lines of 0.125 Hz, excited near 1
+        # and 2 Hz only
+        if mode == 'zero':
+            assert model.fit['bridged_lines'] == {}
+        else:
+            assert model.fit['bridged_lines']['x'] > 0
         p = predict_forces(model, x[None])[0]
         rmse[mode] = 100 * np.std(y - p) / np.std(y)
     assert rmse['interpolate'] < 5.0, rmse

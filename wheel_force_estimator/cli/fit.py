@@ -158,6 +158,18 @@ def _with_live(config, args):
                                                        + SWEEP_LOOK_AHEADS_S))
 
 
+def _print_bridged(model) -> None:
+    """Say which inputs left lines unexcited inside their band (bridged, not fitted)."""
+    for key, length in (('bridged_lines', 'segment_length'),
+                        ('bridged_lines_long', 'long_segment_length')):
+        counts = {k: v for k, v in (model.fit.get(key) or {}).items() if v}
+        if counts:
+            text = ', '.join(f'{k} {v}' for k, v in counts.items())
+            print(f'unexcited lines inside the band, bridged from the excited ones '
+                  f'({model.fit.get(length)}-sample segments; unexcited: '
+                  f'{model.fit.get("unexcited")}): {text}')
+
+
 def _print_summary(model, summary, fitted, data: _TrainingData) -> None:
     config, note = fitted.config, fitted.note
     used = sum(s.accel_mps2.shape[1] for s in fitted.used)
@@ -173,6 +185,7 @@ def _print_summary(model, summary, fitted, data: _TrainingData) -> None:
     if config.long_segment_length:
         print(f'below {config.crossover_hz:g} Hz: segment {config.long_segment_length}, '
               f'windows averaged: {model.fit["n_windows_long"]}   FIR taps: {model.n_taps}')
+    _print_bridged(model)
     print('multiple coherence (mean 0.5-50 Hz) and bands with coherence < 0.5:')
     for name in model.output_channels:
         bands = summary['low_bands_hz'][name]

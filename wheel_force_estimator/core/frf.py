@@ -329,20 +329,11 @@ def bridge_unexcited(spectra: CrossSpectra, h: np.ndarray, water_level: float,
 
     """
     f_hz = np.asarray(spectra.f_hz, dtype=np.float64)
-    above = f_hz > 0.0
-    if water_level <= 0.0 or not above.any():
-        return h
-    power = np.diagonal(spectra.sxx, axis1=1, axis2=2).real          # (nf, n_in)
     out = None
-    for i in range(power.shape[1]):
-        strongest = power[above, i].max()
-        if not strongest > 0.0:
-            continue
-        excited = above & (power[:, i] >= water_level * strongest)
-        f_ex = f_hz[excited]
-        gap = above & ~excited & (f_hz < f_ex.max())
+    for i, (excited, gap) in enumerate(_bridge_masks(spectra, water_level)):
         if not gap.any():
             continue
+        f_ex = f_hz[excited]
         if out is None:
             out = np.array(h, dtype=np.complex128, copy=True)
         col = out[:, :, i]                                              # (nf, n_out) view
@@ -362,6 +353,31 @@ def bridge_unexcited(spectra: CrossSpectra, h: np.ndarray, water_level: float,
                               + 1j * np.interp(f_hz[inside], f_ex, disp.imag)
                               ) / to_disp[inside]
     return h if out is None else out
+
+
+def _bridge_masks(spectra: CrossSpectra, water_level: float):
+    """
+    Per input: the lines it excited and the unexcited ones below its highest excited line.
+
+    Empty gaps for an input with no power, and for every input when ``water_level`` is 0.
+    """
+    f_hz = np.asarray(spectra.f_hz, dtype=np.float64)
+    above = f_hz > 0.0
+    power = np.diagonal(spectra.sxx, axis1=1, axis2=2).real          # (nf, n_in)
+    masks = []
+    for i in range(power.shape[1]):
+        strongest = power[above, i].max() if above.any() else 0.0
+        if water_level <= 0.0 or not strongest > 0.0:
+            masks.append((above, np.zeros(f_hz.shape, dtype=bool)))
+            continue
+        excited = above & (power[:, i] >= water_level * strongest)
+        masks.append((excited, above & ~excited & (f_hz < f_hz[excited].max())))
+    return masks
+
+
+def bridged_line_counts(spectra: CrossSpectra, water_level: float) -> list:
+    """Return, per input, how many lines :func:`bridge_unexcited` fills in from the others."""
+    return [int(gap.sum()) for _, gap in _bridge_masks(spectra, water_level)]
 
 
 def _strongest(power: np.ndarray, f_hz: np.ndarray) -> float:

@@ -30,6 +30,7 @@ from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.filtering import fir_from_frf
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.frf import bridge_unexcited
+from wheel_force_estimator.core.frf import bridged_line_counts
 from wheel_force_estimator.core.frf import estimate_frf
 from wheel_force_estimator.core.frf import FrfConfig
 from wheel_force_estimator.core.frf import FrfEstimate
@@ -296,6 +297,9 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         fir = fir_from_frf(est.f_hz, h, fs_hz, f_max_hz=f_max, keep_dc=True)
         extra = {'long_segment_length': config.long_segment_length,
                  'n_windows_long': int(long_combined.n_windows),
+                 'bridged_lines_long': (dict(zip(input_channels, bridged_line_counts(
+                     long_combined, config.water_level))) if config.unexcited != 'zero'
+                     else {}),
                  'crossover_hz': config.crossover_hz,
                  'long_regularisation': config.long_regularisation}
     info = {
@@ -307,6 +311,8 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         'overlap': config.overlap, 'detrend': config.detrend,
         'regularisation': config.regularisation, 'water_level': config.water_level,
         'unexcited': config.unexcited,
+        'bridged_lines': (dict(zip(input_channels, bridged_line_counts(
+            combined, config.water_level))) if config.unexcited != 'zero' else {}),
         'f_min_hz': config.f_min_hz, 'f_max_hz': f_max,
         'coherence_floor': config.coherence_floor,
     }
