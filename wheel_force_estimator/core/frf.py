@@ -375,9 +375,16 @@ def _bridge_masks(spectra: CrossSpectra, water_level: float):
     return masks
 
 
-def bridged_line_counts(spectra: CrossSpectra, water_level: float) -> list:
-    """Return, per input, how many lines :func:`bridge_unexcited` fills in from the others."""
-    return [int(gap.sum()) for _, gap in _bridge_masks(spectra, water_level)]
+def bridged_line_counts(spectra: CrossSpectra, water_level: float,
+                        below_hz: float = np.inf) -> list:
+    """
+    Return, per input, how many lines below ``below_hz`` :func:`bridge_unexcited` fills in.
+
+    ``below_hz`` limits the count to the band an estimate is used in (the long-segment
+    estimate of a two-resolution fit serves only below ``1.5 * crossover_hz``).
+    """
+    used = np.asarray(spectra.f_hz) < below_hz
+    return [int((gap & used).sum()) for _, gap in _bridge_masks(spectra, water_level)]
 
 
 def _strongest(power: np.ndarray, f_hz: np.ndarray) -> float:

@@ -297,9 +297,10 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         fir = fir_from_frf(est.f_hz, h, fs_hz, f_max_hz=f_max, keep_dc=True)
         extra = {'long_segment_length': config.long_segment_length,
                  'n_windows_long': int(long_combined.n_windows),
+                 # counted where the long estimate is used (see splice_estimates)
                  'bridged_lines_long': (dict(zip(input_channels, bridged_line_counts(
-                     long_combined, config.water_level))) if config.unexcited != 'zero'
-                     else {}),
+                     long_combined, config.water_level, 1.5 * config.crossover_hz)))
+                     if config.unexcited != 'zero' else {}),
                  'crossover_hz': config.crossover_hz,
                  'long_regularisation': config.long_regularisation}
     info = {
