@@ -329,6 +329,8 @@ def bridge_unexcited(spectra: CrossSpectra, h: np.ndarray, water_level: float,
 
     """
     f_hz = np.asarray(spectra.f_hz, dtype=np.float64)
+    to_disp = (2j * np.pi * f_hz) ** input_order
+    scale = to_disp if below_as_displacement else np.ones_like(to_disp)
     out = None
     for i, (excited, gap) in enumerate(_bridge_masks(spectra, water_level)):
         if not gap.any():
@@ -339,8 +341,6 @@ def bridge_unexcited(spectra: CrossSpectra, h: np.ndarray, water_level: float,
         col = out[:, :, i]                                              # (nf, n_out) view
         below = gap & (f_hz < f_ex[0])
         inside = gap & ~below
-        to_disp = (2j * np.pi * f_hz) ** input_order
-        scale = to_disp if below_as_displacement else np.ones_like(to_disp)
         for o in range(col.shape[1]):
             known = col[excited, o]
             lo = f_hz[below]

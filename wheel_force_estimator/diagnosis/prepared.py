@@ -8,6 +8,7 @@ channel out of it for the selection (:class:`diagnosis.selection.Piece`).
 """
 from dataclasses import dataclass
 from dataclasses import replace
+import math
 from typing import List, Sequence, Tuple
 
 import numpy as np
@@ -64,12 +65,17 @@ def _remedy(recordings, reference, settle: int, config) -> str:
     corner_hz = 0.0
     for rec in recordings:
         edge = min(edge_samples(reference), rec.n_samples // 4)
-        room = rec.n_samples - 2 * edge - config.selection.min_block_samples - 1
+        # prepare keeps n - edge - max(settle, edge) > min_block samples: the most settling
+        # a record allows, and whether any corner can help (not when the FIR edges alone
+        # leave too little)
+        room = rec.n_samples - edge - config.selection.min_block_samples - 1
         if rec.input_quantity == 'displacement' or settle <= edge or room <= edge:
             return ''
         corner_hz = max(corner_hz, 3.0 * rec.fs_hz / room)
     if corner_hz >= 0.25 * recordings[0].fs_hz:
         return ''
+    step = 10.0 ** (math.floor(math.log10(corner_hz)) - 1)
+    corner_hz = math.ceil(corner_hz / step) * step      # 2 digits, rounded up: it must fit
     return (f'; a higher integrator corner (--highpass-hz {corner_hz:.2g} or above, now '
             f'{config.features.highpass_hz:g} Hz) would fit every record, but the integrated '
             f'motion then loses what lies below it: longer runs or a displacement input keep '
