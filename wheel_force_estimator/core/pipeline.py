@@ -38,6 +38,7 @@ from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import design_live
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.model import FrfModel
+from wheel_force_estimator.core.physics_laws import QUANTITIES
 from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spectra import cross_spectra
 from wheel_force_estimator.core.spectra import WelchConfig
@@ -45,8 +46,6 @@ from wheel_force_estimator.core.validation import as_signals
 
 #: What ``FitConfig.unexcited`` may say (see :func:`.frf.bridge_unexcited`).
 UNEXCITED = ('interpolate', 'spring_damper', 'zero')
-#: Time derivatives of displacement each input quantity is.
-INPUT_ORDER = {'displacement': 0, 'velocity': 1, 'acceleration': 2}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -246,10 +245,10 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     """
     if not segments:
         raise InsufficientDataError('no recording segments to fit')
-    if input_quantity not in INPUT_ORDER:
-        raise ConfigError(f'input_quantity must be one of {list(INPUT_ORDER)}, got '
+    if input_quantity not in QUANTITIES:
+        raise ConfigError(f'input_quantity must be one of {list(QUANTITIES)}, got '
                           f'{input_quantity!r}')
-    order = INPUT_ORDER[input_quantity]
+    order = QUANTITIES.index(input_quantity)     # time derivatives of displacement
     welch = config.welch(fs_hz)
     long_welch = config.long_welch(fs_hz) if config.long_segment_length else None
     spectra, long_spectra = [], []
@@ -273,9 +272,7 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     est = estimate_frf(combined, config.frf())
     f_max = config.f_max_hz
     h = est.h * coherence_weight(est.coherence_multiple, config.coherence_floor)[:, :, None]
-    if config.unexcited != 'zero':
-        h = bridge_unexcited(combined, h, config.water_level, order,
-                             config.unexcited == 'spring_damper')
+    h, bridged = _bridged(combined, h, config, order, input_channels)
     fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
                        keep_dc=config.f_min_hz == 0.0)
     extra = {}
@@ -290,17 +287,14 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         long_est = estimate_frf(long_combined, config.long_frf())
         h_long = long_est.h * coherence_weight(long_est.coherence_multiple,
                                                config.coherence_floor)[:, :, None]
-        if config.unexcited != 'zero':
-            h_long = bridge_unexcited(long_combined, h_long, config.water_level, order,
-                                      config.unexcited == 'spring_damper')
+        # counted where the long estimate is used (see splice_estimates)
+        h_long, bridged_long = _bridged(long_combined, h_long, config, order, input_channels,
+                                        1.5 * config.crossover_hz)
         est, h = splice_estimates(long_est, h_long, est, fir, config.crossover_hz)
         fir = fir_from_frf(est.f_hz, h, fs_hz, f_max_hz=f_max, keep_dc=True)
         extra = {'long_segment_length': config.long_segment_length,
                  'n_windows_long': int(long_combined.n_windows),
-                 # counted where the long estimate is used (see splice_estimates)
-                 'bridged_lines_long': (dict(zip(input_channels, bridged_line_counts(
-                     long_combined, config.water_level, 1.5 * config.crossover_hz)))
-                     if config.unexcited != 'zero' else {}),
+                 'bridged_lines_long': bridged_long,
                  'crossover_hz': config.crossover_hz,
                  'long_regularisation': config.long_regularisation}
     info = {
@@ -312,8 +306,7 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         'overlap': config.overlap, 'detrend': config.detrend,
         'regularisation': config.regularisation, 'water_level': config.water_level,
         'unexcited': config.unexcited,
-        'bridged_lines': (dict(zip(input_channels, bridged_line_counts(
-            combined, config.water_level))) if config.unexcited != 'zero' else {}),
+        'bridged_lines': bridged,
         'f_min_hz': config.f_min_hz, 'f_max_hz': f_max,
         'coherence_floor': config.coherence_floor,
     }
@@ -397,6 +390,22 @@ def splice_estimates(long_est: FrfEstimate, h_long: np.ndarray, short_est: FrfEs
         blend(long_est.coherence_multiple, short_est.coherence_multiple),
         np.where(w >= 0.5, long_est.cond_sxx, short_cond), long_est.config)
     return est, h
+
+
+def _bridged(spectra, h, config: FitConfig, order: int, input_channels,
+             below_hz: float = np.inf):
+    """
+    Return ``h`` with its unexcited lines bridged as ``config.unexcited`` says, and the count.
+
+    The count (per input channel, lines below ``below_hz``) is ``{}`` when nothing is bridged
+    by configuration (``'zero'``).
+    """
+    if config.unexcited == 'zero':
+        return h, {}
+    h = bridge_unexcited(spectra, h, config.water_level, order,
+                         config.unexcited == 'spring_damper')
+    return h, dict(zip(input_channels, bridged_line_counts(spectra, config.water_level,
+                                                           below_hz)))
 
 
 def coherence_weight(coherence_multiple: np.ndarray, floor: float) -> np.ndarray:
