@@ -444,3 +444,30 @@ def test_fit_chooses_the_resolution_of_a_lightly_damped_mode_unless_told(tmp_pat
                 + roles) == 0
     assert 'cross-validation' not in capsys.readouterr().out
     assert load_model(model).fit['segment_length'] == 1024
+
+
+def test_quantised_stepped_sines_fit_with_singular_lines_capped(tmp_path, capsys):
+    # Three displacement actuators, each record a different combination of 1-3 Hz sines,
+    # recorded with an 8-bit ADC: at some lines an input has exactly no power, the CSD
+    # matrix has an exactly zero eigenvalue and its condition number is inf.  fit used to
+    # die on its own model validation ("cond_sxx contains NaN or infinity"); the model now
+    # holds the cap 1/eps there (singular to working precision either way).
+    fs = 512.0
+    t = np.arange(int(40 * fs)) / fs
+    paths = []
+    for k, freqs in enumerate(((1.0, 1.5, 2.0), (2.0, 3.0, 1.0), (3.0, 1.0, 1.5))):
+        rng = np.random.default_rng(k + 1)
+        x = np.stack([0.005 * np.sin(2 * np.pi * f * t + rng.uniform(0, 6)) for f in freqs])
+        step = (x.max() - x.min()) / 2 ** 8
+        x = np.round(x / step) * step
+        y = np.array([2e4, 5e3, 0.0]) @ x + rng.standard_normal(t.size)
+        paths.append(tmp_path / f'sine{k}.npz')
+        np.savez(paths[-1], a=x[0], b=x[1], c=x[2], f=y)
+    roles = ['--input', 'a:displacement:m', '--input', 'b:displacement:m', '--input',
+             'c:displacement:m', '--output', 'f:force:N', '--fs', '512']
+    model = tmp_path / 'm.npz'
+    assert main(['fit', *map(str, paths), '-o', str(model), '--segment-length', '1024']
+                + roles) == 0, capsys.readouterr()
+    cond = load_model(model).cond_sxx
+    assert np.all(np.isfinite(cond))
+    assert cond.max() == 1.0 / np.finfo(np.float64).eps

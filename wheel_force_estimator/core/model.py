@@ -91,7 +91,8 @@ class FrfModel:
     coherence_multiple : numpy.ndarray, shape (nf, no)
         Multiple coherence of every output with all inputs [-].
     cond_sxx : numpy.ndarray, shape (nf,)
-        Condition number of the input cross-spectral matrix [-].
+        Condition number of the input cross-spectral matrix [-]; singular lines hold the
+        cap ``1 / eps`` (about 4.5e15), never ``inf``.
     fir_taps : numpy.ndarray, shape (no, ni, nt)
         Two-sided FIR realisation of ``h`` [N/(m/s²)], lag zero at ``fir_delay_samples``.
     fir_delay_samples : int

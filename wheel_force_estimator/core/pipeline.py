@@ -317,10 +317,24 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         fs_hz=fs_hz, input_channels=tuple(input_channels),
         output_channels=tuple(output_channels), f_hz=est.f_hz, h=h,
         coherence_ordinary=est.coherence_ordinary, coherence_multiple=est.coherence_multiple,
-        cond_sxx=est.cond_sxx, fir_taps=fir.taps, fir_delay_samples=fir.delay_samples,
+        cond_sxx=stored_condition(est.cond_sxx), fir_taps=fir.taps,
+        fir_delay_samples=fir.delay_samples,
         static_force_n=sum_y / n_total, static_accel_mps2=sum_x / n_total,
         estimator=config.estimator, fit=info, live=live,
         created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds'))
+
+
+def stored_condition(cond_sxx: np.ndarray) -> np.ndarray:
+    """
+    Condition numbers as a model file holds them: capped at ``1 / eps`` (float64).
+
+    An estimate reports ``inf`` where an eigenvalue of the input CSD matrix is exactly 0 (a
+    line where an input carries no power at all, e.g. between the lines of a quantised sine
+    test).  A model file holds no infinities, and beyond ``1 / eps`` the matrix is singular
+    to working precision anyway: the cap keeps that meaning and lets such a recording be
+    fitted (it made ``fit`` fail on its own model's validation).
+    """
+    return np.minimum(cond_sxx, 1.0 / np.finfo(np.float64).eps)
 
 
 def _fir_response_on_grid(fir: FirFilter, n_fft: int) -> np.ndarray:

@@ -191,3 +191,62 @@ def channel_contexts(inputs: np.ndarray, input_channels: Sequence[str], fs_hz: f
             partner_disp=None if partner is None else feats['displacement'][idx[partner]],
             fs_hz=fs_hz, filters=filters))
     return tuple(out)
+
+
+#: Phase lag [deg] the sharper differentiator low-pass may leave at the top of the band that
+#: carries the coherent velocity power (see :func:`sharper_lowpass_hz`).
+SHARP_LAG_DEG = 5.0
+#: Fraction of the coherent velocity power below the frequency the lag is judged at.
+SHARP_POWER_FRACTION = 0.99
+#: Highest corner as a fraction of the sample rate (the feature filters need it < fs / 2).
+SHARP_MAX_FRACTION = 0.4
+
+
+def _butter2_ratio(lag_deg: float) -> float:
+    """Return ``f / fc`` at which a 2nd-order Butterworth low-pass lags by ``lag_deg``."""
+    # tan(phi) = sqrt(2) r / (1 - r^2)  ->  tan(phi) r^2 + sqrt(2) r - tan(phi) = 0
+    t = np.tan(np.radians(lag_deg))
+    return float((-np.sqrt(2.0) + np.sqrt(2.0 + 4.0 * t * t)) / (2.0 * t))
+
+
+def sharper_lowpass_hz(recordings, config: FeatureConfig) -> Optional[float]:
+    """
+    Return a differentiator low-pass corner sharper than ``fs / 8``, or None.
+
+    The differentiated features (velocity of a displacement input, every feature of a
+    velocity input) go through a 2nd-order low-pass at ``fs / 8`` by default: at 25 Hz on a
+    256 Hz rig it lags 30 degrees, which smears a friction or damper-asymmetry force that
+    flips with the velocity.  The alternative corner leaves at most :data:`SHARP_LAG_DEG` of
+    lag at the frequency below which :data:`SHARP_POWER_FRACTION` of the *coherent* velocity
+    power lies (velocity power spectrum times the largest input-output coherence, so a noise
+    floor that no output follows does not push the corner up), clamped to
+    ``[fs / 8, 0.4 fs]``.  Neither corner is right for every rig (the real MR damper's
+    hysteresis is followed better by the lagged velocity), so the diagnosis tries both and
+    the gate half of the holdout chooses (:func:`diagnosis.run.diagnose`).
+
+    Returns None for acceleration inputs (nothing is differentiated), when the corner is set
+    explicitly, or when the sharper corner would not be above the default one.
+    """
+    from scipy import signal
+    rec0 = recordings[0]
+    quantity, fs = rec0.input_quantity, float(rec0.fs_hz)
+    if quantity == 'acceleration' or config.lowpass_hz > 0.0:
+        return None
+    default = config.resolved(fs, quantity)[1]
+    order_in = ('displacement', 'velocity').index(quantity)
+    top = 0.0
+    # one Welch grid for all records (the shortest record sets it)
+    nperseg = int(min(1024, max(8, min(rec.inputs.shape[1] for rec in recordings) // 4)))
+    for i in range(rec0.inputs.shape[0]):
+        power = 0.0
+        for rec in recordings:
+            x = np.asarray(rec.inputs[i], dtype=np.float64)
+            f, pxx = signal.welch(x, fs, nperseg=nperseg)
+            coh = np.max([signal.coherence(x, y, fs, nperseg=nperseg)[1]
+                          for y in np.asarray(rec.outputs, dtype=np.float64)], axis=0)
+            power = power + pxx * (2.0 * np.pi * f) ** (2 * (1 - order_in)) * coh
+        cum = np.cumsum(power)
+        if cum[-1] > 0.0:
+            top = max(top, float(f[np.searchsorted(cum, SHARP_POWER_FRACTION * cum[-1])]))
+    corner = min(top / _butter2_ratio(SHARP_LAG_DEG), SHARP_MAX_FRACTION * fs)
+    return corner if corner > default else None

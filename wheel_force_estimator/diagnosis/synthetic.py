@@ -56,7 +56,7 @@ def linear_force(m: Motion) -> np.ndarray:
     return STATIC_N + STIFFNESS_N_PER_M * m.x + DAMPING_NS_PER_M * m.v + MASS_KG * m.a
 
 
-def _effect(name: str, m: Motion, lin: np.ndarray, fs_hz: float) -> np.ndarray:
+def effect_force(name: str, m: Motion, lin: np.ndarray, fs_hz: float) -> np.ndarray:
     """Extra force of ``name`` on both corners (zero where it does not act) [N]."""
     e = np.zeros_like(lin)
     x, v, a = m.x[0], m.v[0], m.a[0]
@@ -108,7 +108,7 @@ def make_recording(effect: str, seed: int, duration_s: float = 60.0, fs_hz: floa
         # Static load ~1.9 dynamic RMS: the linear law would pull on the road on ~3 % samples.
         static = 1.9 * float(np.std(lin[0]))
         lin = lin - STATIC_N + static
-    e = _effect(effect, m, lin, fs_hz)
+    e = effect_force(effect, m, lin, fs_hz)
     if effect == 'tire_lift_off':
         e[0] = np.maximum(lin[0], 0.0) - lin[0]
     noise_n = noise * np.std(lin - static, axis=1, keepdims=True)
