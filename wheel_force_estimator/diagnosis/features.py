@@ -76,11 +76,8 @@ def pairing(output_channels: Sequence[str], input_channels: Sequence[str], recor
 
     """
     inputs = tuple(input_channels)
-    try:
-        sources = tuple(default_source(c) for c in output_channels)
-    except ConfigError:
-        sources = ()
-    if sources and all(s in inputs for s in sources):
+    sources = _named_sources(output_channels, inputs)
+    if sources:
         partners = []
         for s in sources:
             # A roll bar couples the vertical motion of the two sides of an axle only.
@@ -97,6 +94,21 @@ def pairing(output_channels: Sequence[str], input_channels: Sequence[str], recor
     share = explained_shares(recordings)
     return (tuple(inputs[int(np.argmax(row))] for row in share),
             (None,) * len(output_channels))
+
+
+def _named_sources(output_channels, inputs) -> Tuple[str, ...]:
+    """Vehicle-name sources (``lf_fz`` -> ``lf_az``) when every one is an input, else ()."""
+    try:
+        sources = tuple(default_source(c) for c in output_channels)
+    except ConfigError:
+        return ()
+    return sources if all(s in inputs for s in sources) else ()
+
+
+def paired_by_coherence(output_channels: Sequence[str], input_channels: Sequence[str]) -> bool:
+    """Return True when :func:`pairing` falls back to coherence (several inputs, no names)."""
+    inputs = tuple(input_channels)
+    return len(inputs) > 1 and not _named_sources(output_channels, inputs)
 
 
 def explained_shares(recordings) -> np.ndarray:

@@ -34,6 +34,7 @@ from wheel_force_estimator.diagnosis.agreement import AgreementConfig
 from wheel_force_estimator.diagnosis.coupling import left_right_coupling
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.features import motion_features
+from wheel_force_estimator.diagnosis.features import paired_by_coherence
 from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.features import settle_samples
 from wheel_force_estimator.diagnosis.features import SHARP_LAG_DEG
@@ -465,6 +466,42 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     return replace(keep, fit=fit, summary=keep.summary + (note,))
 
 
+def _sources_by_selection(real, sim, reference, sources, outcomes, config, companions,
+                          candidates):
+    """
+    Return the input that drives each output's physics, chosen by the selection itself.
+
+    The coherence pairing names the input that explains an output best *linearly*; a
+    nonlinear element may hang on another one (a rig whose reaction force is dominated by
+    actuator A while a stop or friction acts on actuator B's stroke).  For every other input
+    the same selection runs with that input's features; an output takes the input whose
+    accepted terms leave the lowest cross-validated RMSE (its own outcome replaces the one
+    in ``outcomes``), and keeps the coherence pick when no other input's terms pass the
+    selection's tests or none does better.  Cost: one selection per input.
+    """
+    rec0 = real[0]
+    channels = rec0.output_channels
+    n_out = len(channels)
+    chosen = list(sources)
+    for inp in rec0.input_channels:
+        todo = [o for o in range(n_out) if sources[o] != inp]
+        if not todo:
+            continue
+        alt = (inp,) * n_out
+        alt_prep = prepare(real, reference, alt, (None,) * n_out, config)
+        alt_sim = prepare(sim, reference, alt, (None,) * n_out, config) if sim else None
+        for o in todo:
+            ch = channels[o]
+            out = Selector(pieces(alt_prep, o, ch), config.selection, companions,
+                           pieces(alt_sim, o, ch) if alt_sim else None).run(candidates)
+            best = outcomes[ch]
+            if out.accepted and out.cv_after_pct < (best.cv_after_pct if best.accepted
+                                                    else best.cv_before_pct):
+                outcomes[ch] = out
+                chosen[o] = inp
+    return tuple(chosen)
+
+
 def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
     """One diagnosis with fixed feature corners (see :func:`diagnose`)."""
     check_compatible(real, 'real')
@@ -498,6 +535,13 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
         sim_pieces = pieces(sim_prep, o, ch) if sim_prep else None
         outcomes[ch] = Selector(pieces(prep, o, ch), config.selection, companions,
                                 sim_pieces).run(candidates)
+    if paired_by_coherence(channels, rec0.input_channels):
+        chosen = _sources_by_selection(real, sim, reference, sources, outcomes, config,
+                                       companions, candidates)
+        if chosen != sources:
+            sources = chosen
+            prep = prepare(real, reference, sources, partners, config)
+            sim_prep = prepare(sim, reference, sources, partners, config) if sim else None
     builder = _Builder(prep, outcomes, channels, sources, partners, config, companions,
                        sim_prep)
     findings = builder.findings()
