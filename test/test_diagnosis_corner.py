@@ -95,3 +95,18 @@ def test_a_linear_rig_names_nothing_with_either_corner(quantity):
     assert result.fit.after == result.fit.real_linear
     note, = [n for n in result.fit.notes if n.startswith('Differentiator low-pass')]
     assert note.startswith('Differentiator low-pass: 32 Hz kept over 102 Hz')
+
+
+def test_a_model_reference_gets_both_corners_a_simulation_one():
+    from wheel_force_estimator.diagnosis.run import _real_linear
+    real = [_rig('coulomb_friction', 1), _rig('coulomb_friction', 2)]
+    holdout = [_rig('coulomb_friction', 3), _rig('coulomb_friction', 4)]
+    model = _real_linear(real, DiagnosisConfig()).model
+    with_model = diagnose(real, model, holdout)
+    note, = [n for n in with_model.fit.notes if n.startswith('Differentiator low-pass')]
+    assert '102 Hz' in note and '32 Hz' in note
+    # A simulation's linear law reads the features: one corner, fs / 8.
+    sim = [_rig('none', 5), _rig('none', 6)]
+    with_sim = diagnose(real, sim, holdout)
+    assert not [n for n in with_sim.fit.notes if n.startswith('Differentiator')]
+    assert all(t.lowpass_hz == FS_HZ / 8 for t in with_sim.terms)
