@@ -110,3 +110,26 @@ def test_a_model_reference_gets_both_corners_a_simulation_one():
     with_sim = diagnose(real, sim, holdout)
     assert not [n for n in with_sim.fit.notes if n.startswith('Differentiator')]
     assert all(t.lowpass_hz == FS_HZ / 8 for t in with_sim.terms)
+
+
+def test_a_second_corner_that_cannot_run_leaves_the_first_with_a_note(monkeypatch):
+    from wheel_force_estimator.core.errors import DiagnosisError
+    from wheel_force_estimator.diagnosis import run
+    once = run._diagnose_once
+    corners = []
+
+    def refuse_sharp(real, sim, holdout, config):
+        corners.append(config.features.lowpass_hz)
+        if config.features.lowpass_hz > 0.0:
+            raise DiagnosisError('rig3: too short (test)')
+        return once(real, sim, holdout, config)
+
+    monkeypatch.setattr(run, '_diagnose_once', refuse_sharp)
+    real = [_rig('none', 1), _rig('none', 2)]
+    holdout = [_rig('none', 3), _rig('none', 4)]
+    result = diagnose(real, None, holdout)
+    assert corners == [0.0, pytest.approx(0.4 * FS_HZ)]
+    assert result.fit.model == 'real_linear'
+    assert result.fit.notes[-1] == ('Differentiator low-pass 102 Hz not tried: rig3: too short '
+                                    '(test)')
+    assert result.summary[-1] == result.fit.notes[-1]

@@ -446,8 +446,14 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     sharp = sharper_lowpass_hz(real, config.features)
     if sharp is None:
         return result
-    other = _diagnose_once(real, sim_or_model, holdout,
-                           replace(config, features=replace(config.features, lowpass_hz=sharp)))
+    try:
+        other = _diagnose_once(real, sim_or_model, holdout, replace(
+            config, features=replace(config.features, lowpass_hz=sharp)))
+    except DiagnosisError as err:
+        # the default corner's diagnosis stands; say why the other was not compared
+        note = f'Differentiator low-pass {sharp:.3g} Hz not tried: {err}'
+        return replace(result, fit=replace(result.fit, notes=result.fit.notes + (note,)),
+                       summary=result.summary + (note,))
     if other.model is None:
         return result
     rec0 = real[0]
