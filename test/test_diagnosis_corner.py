@@ -8,8 +8,8 @@ from wheel_force_estimator.core import physics_laws as law
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
 from wheel_force_estimator.diagnosis import synthetic as sy
+from wheel_force_estimator.diagnosis.corner import sharper_lowpass_hz
 from wheel_force_estimator.diagnosis.features import FeatureConfig
-from wheel_force_estimator.diagnosis.features import sharper_lowpass_hz
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 
 FS_HZ = 256.0

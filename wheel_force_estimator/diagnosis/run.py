@@ -31,21 +31,18 @@ from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis import text
 from wheel_force_estimator.diagnosis.agreement import agreed_findings
 from wheel_force_estimator.diagnosis.agreement import AgreementConfig
+from wheel_force_estimator.diagnosis.corner import with_sharper_corner
 from wheel_force_estimator.diagnosis.coupling import left_right_coupling
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.features import motion_features
 from wheel_force_estimator.diagnosis.features import paired_by_coherence
 from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.features import settle_samples
-from wheel_force_estimator.diagnosis.features import SHARP_LAG_DEG
-from wheel_force_estimator.diagnosis.features import sharper_lowpass_hz
 from wheel_force_estimator.diagnosis.hardening import add_omissions
 from wheel_force_estimator.diagnosis.hardening import hardening_winner
 from wheel_force_estimator.diagnosis.hardening import HARDENINGS
 from wheel_force_estimator.diagnosis.hardening import pooled_gain
 from wheel_force_estimator.diagnosis.hardening import settle_hardening
-from wheel_force_estimator.diagnosis.holdout import METRIC
-from wheel_force_estimator.diagnosis.holdout import split_holdout
 from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
 from wheel_force_estimator.diagnosis.hypotheses import BY_NAME
 from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
@@ -67,8 +64,8 @@ from wheel_force_estimator.diagnosis.result import DiagnosisResult
 from wheel_force_estimator.diagnosis.result import Finding
 from wheel_force_estimator.diagnosis.selection import SelectionConfig
 from wheel_force_estimator.diagnosis.selection import Selector
+from wheel_force_estimator.diagnosis.sources import sources_by_selection
 from wheel_force_estimator.diagnosis.written import compare
-from wheel_force_estimator.diagnosis.written import mean_score
 
 
 @dataclass(frozen=True)
@@ -405,7 +402,7 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     Without a simulation (none, or a model), for displacement or velocity inputs whose
     differentiator low-pass is left to the default (``fs / 8``) and a holdout to judge on,
     the diagnosis runs a second time with the sharper corner of
-    :func:`features.sharper_lowpass_hz`; the gate half of the holdout chooses between the
+    :func:`corner.sharper_lowpass_hz`; the gate half of the holdout chooses between the
     two written models (mean RMSE over all output channels; a tie keeps the default), and a
     note in ``fit.notes`` says which was kept.
 
@@ -443,73 +440,10 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     # (measured on travel -> Fz: 23.8 -> 78.8 % before, the written model no better).
     if not holdout or result.model is None or _is_simulation(sim_or_model):
         return result
-    sharp = sharper_lowpass_hz(real, config.features)
-    if sharp is None:
-        return result
-    try:
-        other = _diagnose_once(real, sim_or_model, holdout, replace(
-            config, features=replace(config.features, lowpass_hz=sharp)))
-    except DiagnosisError as err:
-        # the default corner's diagnosis stands; say why the other was not compared
-        note = f'Differentiator low-pass {sharp:.3g} Hz not tried: {err}'
-        return replace(result, fit=replace(result.fit, notes=result.fit.notes + (note,)),
-                       summary=result.summary + (note,))
-    if other.model is None:
-        return result
-    rec0 = real[0]
-    gate = split_holdout(holdout).gate
-    metric = METRIC[rec0.input_quantity]
-    channels = rec0.output_channels
-    default = rec0.fs_hz / 8.0
-    scores = [mean_score(r.model, gate, channels, metric)[0] for r in (result, other)]
-    keep, lost = (other, result) if scores[1] < scores[0] else (result, other)
-    corners = (default, sharp) if keep is result else (sharp, default)
-    note = (f'Differentiator low-pass: {corners[0]:.3g} Hz kept over {corners[1]:.3g} Hz '
-            f'(default fs/8 = {default:.3g} Hz; sharper = {SHARP_LAG_DEG:g} deg lag at the top '
-            f'of the coherent velocity band), chosen on the gate half of the holdout: mean '
-            f'RMSE over all outputs {min(scores):.2f} % vs {max(scores):.2f} %'
-            + (f'; with {corners[1]:.3g} Hz it named '
-               f'{", ".join(f.physics for f in lost.findings) or "nothing"}'
-               if [f.physics for f in lost.findings] != [f.physics for f in keep.findings]
-               else '') + '.')
-    fit = replace(keep.fit, notes=keep.fit.notes + (note,))
-    return replace(keep, fit=fit, summary=keep.summary + (note,))
 
-
-def _sources_by_selection(real, sim, reference, sources, outcomes, config, companions,
-                          candidates):
-    """
-    Return the input that drives each output's physics, chosen by the selection itself.
-
-    The coherence pairing names the input that explains an output best *linearly*; a
-    nonlinear element may hang on another one (a rig whose reaction force is dominated by
-    actuator A while a stop or friction acts on actuator B's stroke).  For every other input
-    the same selection runs with that input's features; an output takes the input whose
-    accepted terms leave the lowest cross-validated RMSE (its own outcome replaces the one
-    in ``outcomes``), and keeps the coherence pick when no other input's terms pass the
-    selection's tests or none does better.  Cost: one selection per input.
-    """
-    rec0 = real[0]
-    channels = rec0.output_channels
-    n_out = len(channels)
-    chosen = list(sources)
-    for inp in rec0.input_channels:
-        todo = [o for o in range(n_out) if sources[o] != inp]
-        if not todo:
-            continue
-        alt = (inp,) * n_out
-        alt_prep = prepare(real, reference, alt, (None,) * n_out, config)
-        alt_sim = prepare(sim, reference, alt, (None,) * n_out, config) if sim else None
-        for o in todo:
-            ch = channels[o]
-            out = Selector(pieces(alt_prep, o, ch), config.selection, companions,
-                           pieces(alt_sim, o, ch) if alt_sim else None).run(candidates)
-            best = outcomes[ch]
-            if out.accepted and out.cv_after_pct < (best.cv_after_pct if best.accepted
-                                                    else best.cv_before_pct):
-                outcomes[ch] = out
-                chosen[o] = inp
-    return tuple(chosen)
+    def once(cfg):
+        return _diagnose_once(real, sim_or_model, holdout, cfg)
+    return with_sharper_corner(result, once, real, holdout, config)
 
 
 def _is_simulation(sim_or_model) -> bool:
@@ -553,8 +487,8 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
         outcomes[ch] = Selector(pieces(prep, o, ch), config.selection, companions,
                                 sim_pieces).run(candidates)
     if paired_by_coherence(channels, rec0.input_channels):
-        chosen = _sources_by_selection(real, sim, reference, sources, outcomes, config,
-                                       companions, candidates)
+        chosen = sources_by_selection(real, sim, reference, sources, outcomes, config,
+                                      companions, candidates)
         if chosen != sources:
             sources = chosen
             prep = prepare(real, reference, sources, partners, config)
