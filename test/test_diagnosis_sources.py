@@ -63,3 +63,23 @@ def test_a_linear_two_actuator_rig_names_nothing():
     result = diagnose(real, None, holdout, DiagnosisConfig(choose_resolution=True))
     assert result.findings == ()
     assert result.fit.model == 'real_linear'
+
+
+def test_the_input_search_shows_progress_on_a_terminal(monkeypatch):
+    import io
+    import sys
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    real = [_two_actuators('none', 1), _two_actuators('none', 2)]
+    holdout = [_two_actuators('none', 3), _two_actuators('none', 4)]
+    quiet = Terminal()
+    monkeypatch.setattr(sys, 'stderr', quiet)
+    diagnose(real, None, holdout)
+    assert quiet.getvalue() == ''  # the library default prints nothing
+    shown = Terminal()
+    monkeypatch.setattr(sys, 'stderr', shown)
+    diagnose(real, None, holdout, DiagnosisConfig(progress=True))
+    assert 'physics on each input' in shown.getvalue()

@@ -135,7 +135,7 @@ def command(args: argparse.Namespace) -> int:
                              segment_fallback=request is not None
                              and 'segment_length' not in explicit,
                              choose_resolution=request is not None
-                             and 'segment_length' not in explicit)
+                             and 'segment_length' not in explicit, progress=True)
     result = diagnose(real, reference, holdout, config)
     path = result.write_json(args.json)
     for m in result.mismatch[:4]:

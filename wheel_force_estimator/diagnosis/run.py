@@ -118,6 +118,9 @@ class DiagnosisConfig:
     agreement : AgreementConfig
         When the corners of an axis that agree on a candidate name it together
         (:mod:`diagnosis.agreement`; against a simulation or a model only).
+    progress : bool
+        Show a tqdm bar on stderr, when it is a terminal, for the search over inputs
+        (:mod:`diagnosis.sources`; minutes for a dozen unnamed inputs).
 
     """
 
@@ -133,6 +136,7 @@ class DiagnosisConfig:
     range_ratio: float = 10.0
     residual_highpass_hz: Optional[float] = None
     agreement: AgreementConfig = field(default_factory=AgreementConfig)
+    progress: bool = False
 
     def __post_init__(self):
         if self.linear not in ('auto', 'frf', 'regression'):

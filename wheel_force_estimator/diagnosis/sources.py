@@ -8,6 +8,8 @@ element may hang on another one (a rig whose reaction force is dominated by actu
 a stop or friction acts on actuator B's stroke).  :func:`sources_by_selection` lets the
 selection itself choose.
 """
+import sys
+
 from wheel_force_estimator.diagnosis.prepared import pieces
 from wheel_force_estimator.diagnosis.prepared import prepare
 from wheel_force_estimator.diagnosis.selection import Selector
@@ -28,7 +30,11 @@ def sources_by_selection(real, sim, reference, sources, outcomes, config, compan
     channels = rec0.output_channels
     n_out = len(channels)
     chosen = list(sources)
-    for inp in rec0.input_channels:
+    inputs = rec0.input_channels
+    if config.progress and sys.stderr.isatty():
+        from tqdm import tqdm
+        inputs = tqdm(inputs, desc='physics on each input', unit='input', leave=False)
+    for inp in inputs:
         todo = [o for o in range(n_out) if sources[o] != inp]
         if not todo:
             continue
