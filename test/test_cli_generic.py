@@ -471,3 +471,21 @@ def test_quantised_stepped_sines_fit_with_singular_lines_capped(tmp_path, capsys
     cond = load_model(model).cond_sxx
     assert np.all(np.isfinite(cond))
     assert cond.max() == 1.0 / np.finfo(np.float64).eps
+
+
+def test_a_european_text_export_fits_like_the_csv(files, tmp_path):
+    # The training CSV rewritten as a rig controller exports it: metadata, names, units,
+    # ';' separators, decimal commas, a .txt suffix.  The same numbers, the same model.
+    lines = files['train.csv'].read_text().splitlines()
+    body = [ln.replace(',', ';').replace('.', ',') for ln in lines[1:]]
+    txt = tmp_path / 'train.txt'
+    txt.write_text('Rig 3 export; 2026-11-26\ntime;x1;x2;f1;f2\ns;in;in;kip;kip\n'
+                   + '\n'.join(body) + '\n')
+    models = []
+    for path in (files['train.csv'], txt):
+        models.append(tmp_path / f'{path.suffix[1:]}.npz')
+        assert main(['fit', str(path), '-o', str(models[-1]), '--segment-length', '1024']
+                    + ROLES) == 0
+    csv_model, txt_model = (load_model(m) for m in models)
+    np.testing.assert_array_equal(txt_model.h, csv_model.h)
+    np.testing.assert_array_equal(txt_model.static_force_n, csv_model.static_force_n)

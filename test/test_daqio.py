@@ -120,3 +120,47 @@ def test_daqio_imports_without_ros_or_matplotlib():
     proc = subprocess.run([sys.executable, '-c', script], cwd=ROOT, capture_output=True,
                           text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
+
+
+def test_text_tables_as_daq_software_exports_them(tmp_path):
+    # A European export: comment, metadata, names, units; ';' separators, decimal commas.
+    (tmp_path / 'rig.csv').write_text(
+        '# exported by the rig controller\n'
+        'Sample rate;1024 Hz\n'
+        'Time;x;f\n'
+        's;g;lbf\n'
+        '0,000;1,5;-2,25\n'
+        '\n'
+        '0,001;0,5;1e1\n')
+    rec = read_daq(tmp_path / 'rig.csv', IN, OUT, 1024.0)
+    np.testing.assert_allclose(rec.inputs[0], np.array([1.5, 0.5]) * 9.80665, rtol=1e-15)
+    np.testing.assert_allclose(rec.outputs[0], np.array([-2.25, 10.0]) * 4.4482216152605,
+                               rtol=1e-15)
+    # Tab-separated with decimal points; a units row under the names.
+    (tmp_path / 'rig.tsv').write_text('x\tf\ng\tlbf\n1.5\t-2.25\n0.5\t10\n')
+    np.testing.assert_array_equal(read_daq(tmp_path / 'rig.tsv', IN, OUT, 1024.0).inputs,
+                                  rec.inputs)
+    # White space, no header: columns by number; ';' with decimal points is not comma-read.
+    (tmp_path / 'rig.txt').write_text('% ASCII export\n  1.5   -2.25\n  0.5   10\n')
+    cols = [parse_spec('0:acceleration:g', 'input')], [parse_spec('1:force:lbf', 'output')]
+    np.testing.assert_array_equal(read_daq(tmp_path / 'rig.txt', *cols, 1024.0).outputs,
+                                  rec.outputs)
+    (tmp_path / 'point.csv').write_text('x;f\n1.5;-2.25\n0.5;10\n')
+    np.testing.assert_array_equal(read_daq(tmp_path / 'point.csv', IN, OUT, 1024.0).outputs,
+                                  rec.outputs)
+
+
+def test_text_tables_name_the_bad_line(tmp_path):
+    (tmp_path / 'a.csv').write_text('x;f\ng;lbf\n1,5;2\n0,5;overload\n')
+    with pytest.raises(RecordingError,
+                       match=r'a\.csv: non-numeric value on line 4: .0,5;overload.'):
+        read_daq(tmp_path / 'a.csv', IN, OUT, 100.0)
+    (tmp_path / 'b.txt').write_text('1 2\n3 4\n5\n')
+    with pytest.raises(RecordingError, match='line 3 has 1 fields, the first row 2'):
+        read_daq(tmp_path / 'b.txt', IN, OUT, 100.0)
+    (tmp_path / 'c.csv').write_text('# only a comment\n')
+    with pytest.raises(RecordingError, match='empty text table'):
+        read_daq(tmp_path / 'c.csv', IN, OUT, 100.0)
+    (tmp_path / 'd.csv').write_text('x,f\n')
+    with pytest.raises(RecordingError, match='d.csv: no samples'):
+        read_daq(tmp_path / 'd.csv', IN, OUT, 100.0)

@@ -94,9 +94,9 @@ def test_generic_errors(tmp_path):
                      100.0)
     with pytest.raises(DiagnosisError, match='no such file'):
         load_generic(tmp_path / 'missing.csv', inp, out, 100.0)
-    (tmp_path / 'd.txt').write_text('1,2\n')
+    (tmp_path / 'd.xlsx').write_text('1,2\n')
     with pytest.raises(DiagnosisError, match='unsupported file type'):
-        load_generic(tmp_path / 'd.txt', inp, out, 100.0)
+        load_generic(tmp_path / 'd.xlsx', inp, out, 100.0)
     (tmp_path / 'e.csv').write_text('x,force\n1,2\n3\n')
     with pytest.raises(DiagnosisError, match='line 3 has 1 fields'):
         load_generic(tmp_path / 'e.csv', inp, out, 100.0)

@@ -184,8 +184,8 @@ _BAG_SUFFIXES = ('.bag', '.mcap', '.db3', '.yaml')
 def add_generic_arguments(parser: argparse.ArgumentParser) -> None:
     """Register ``--input``, ``--output`` and ``--fs`` (generic recordings) on ``parser``."""
     g = parser.add_argument_group(
-        'generic recordings (DAQ exports: .csv, .mat, .npz, .json; one gap-free segment per '
-        'file)')
+        'generic recordings (DAQ exports: .csv/.txt/.tsv, .mat, .npz, .json; one gap-free '
+        'segment per file)')
     g.add_argument('--input', action='append', default=[], metavar='NAME:QUANTITY:UNIT',
                    help='input channel, e.g. disp:displacement:m, data[1]:displacement:in '
                         '(repeatable; quantity displacement, velocity or acceleration, the '

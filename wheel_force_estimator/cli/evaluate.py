@@ -30,7 +30,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('model', metavar='MODEL', help='model file (.npz)')
     p.add_argument('recordings', nargs='+', metavar='RECORDING',
                    help='validation recordings with measured force: bags, or '
-                        '.csv/.mat/.npz/.json files with --input/--output/--fs')
+                        '.csv/.txt/.mat/.npz/.json files with --input/--output/--fs')
     p.add_argument('--json', metavar='FILE', help='write the figures as JSON')
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     p.add_argument('--config', metavar='YAML', help='params file (topic names, sn_slope)')

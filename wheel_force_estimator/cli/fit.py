@@ -41,7 +41,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     'with --input/--output/--fs), fit the MIMO FRF (Welch, per gap-free '
                     'segment, averaged) and save a model file.')
     p.add_argument('recordings', nargs='+', metavar='RECORDING',
-                   help='training recordings: bags, or .csv/.mat/.npz/.json files with '
+                   help='training recordings: bags, or .csv/.txt/.mat/.npz/.json files with '
                         '--input/--output/--fs')
     p.add_argument('-o', '--out-model', dest='out_model', required=True, metavar='MODEL',
                    help='model file (.npz)')

@@ -1,7 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Read one generic recording (CSV, MAT, NPZ, JSON) into SI arrays with declared channel roles.
+Read one generic recording (text table, MAT, NPZ, JSON) into SI arrays with declared roles.
 
 Each file is one gap-free segment sampled at the declared rate: files carry no time stamps
 that could be checked, so none are read.  Nothing is resampled, padded or cleaned: unequal
@@ -10,8 +10,16 @@ channel named.
 
 File formats (by suffix):
 
-- ``.csv``: one column per channel; a first row that is not all numbers is the header
-  (names), otherwise the columns are named ``0``, ``1``, ...
+- ``.csv``, ``.txt``, ``.tsv`` (text tables, as DAQ software exports them): one column per
+  channel, separated by ``;``, tab or ``,`` (the first, in that order, that splits most of
+  the last lines of the file alike into two or more fields) or else by white space; lines
+  starting with ``#`` or ``%`` and blank lines are comments.  Rows before the first
+  all-numeric row are header rows: the first with one field per column names the columns
+  (units rows and other metadata lines below or above it hold no samples and are not
+  read); with no such row the columns are named ``0``, ``1``, ...  With ``;``, tab or
+  white-space separators a decimal comma (``1,25``) is read as a decimal point when the
+  file writes no decimal point.  Every row from the first all-numeric one on must be
+  numbers with one field per column, else the line is named.
 - ``.mat``: MATLAB v4 - v7.2 (``scipy.io.loadmat``; v7.3 files are HDF5 and refused).
 - ``.npz``: numpy archive, read with ``allow_pickle=False``.
 - ``.json``: one object whose keys hold numbers or arrays.
@@ -20,7 +28,8 @@ import csv
 from dataclasses import dataclass
 import json
 from pathlib import Path
-from typing import Dict, Sequence, Tuple
+import re
+from typing import Dict, Optional, Sequence, Tuple
 import zipfile
 
 import numpy as np
@@ -33,7 +42,8 @@ from wheel_force_estimator.daqio.channels import check_specs
 from wheel_force_estimator.daqio.channels import INPUT_QUANTITIES
 from wheel_force_estimator.daqio.channels import SI_UNITS
 
-SUFFIXES = ('.csv', '.mat', '.npz', '.json')
+TEXT_SUFFIXES = ('.csv', '.txt', '.tsv')
+SUFFIXES = TEXT_SUFFIXES + ('.mat', '.npz', '.json')
 
 
 def is_generic_path(path) -> bool:
@@ -102,24 +112,90 @@ class DaqRecording:
         return np.round(np.arange(self.n_samples) * (1e9 / self.fs_hz)).astype(np.int64)
 
 
-def _load_csv(path: Path) -> Dict[str, np.ndarray]:
-    with path.open(newline='') as fh:
-        rows = list(csv.reader(fh))
-    if not rows:
-        raise RecordingError(f'{path}: empty CSV file')
+#: Field separators tried for text tables, in order of preference (None = white space).
+_SEPARATORS = (';', '\t', ',')
+#: Content lines at the end of a table looked at to choose the separator.
+_SNIFF_LINES = 20
+
+
+def _separator(lines) -> Optional[str]:
+    """Return the separator that splits most of the last lines alike (None: white space)."""
+    # The last lines are samples, whatever metadata the export writes above them; "most"
+    # rather than "all" so that one ragged line is reported as such, not misread.
+    tail = lines[-_SNIFF_LINES:]
+    for sep in _SEPARATORS:
+        counts = [len(next(csv.reader([ln], delimiter=sep))) for _, ln in tail]
+        modal = max(set(counts), key=counts.count)
+        if modal > 1 and 2 * counts.count(modal) > len(counts):
+            return sep
+    return None
+
+
+def _fields(line: str, sep: Optional[str]):
+    if sep is None:
+        return line.split()
+    return [f.strip() for f in next(csv.reader([line], delimiter=sep))]
+
+
+_DECIMAL_COMMA = re.compile(r'[+-]?\d*,\d+(?:[eE][+-]?\d+)?')
+_DECIMAL_POINT = re.compile(r'[+-]?\d*\.\d+(?:[eE][+-]?\d+)?')
+
+
+def _numbers(fields, decimal_comma: bool):
+    """Return the fields as floats, or None when one is not a number."""
     try:
-        [float(v) for v in rows[0]]
-        header, body = [str(i) for i in range(len(rows[0]))], rows
+        return [float(f.replace(',', '.') if decimal_comma else f) for f in fields]
     except ValueError:
-        header, body = [h.strip() for h in rows[0]], rows[1:]
-    for i, row in enumerate(body):
-        if len(row) != len(header):
-            raise RecordingError(f'{path}: line {i + 1 + (header[0] != "0")} has {len(row)} '
-                                 f'fields, the header {len(header)}')
+        return None
+
+
+def _load_text(path: Path) -> Dict[str, np.ndarray]:
+    # Hand-written rather than numpy.loadtxt / csv.Sniffer: DAQ exports put names, units and
+    # metadata lines above the samples and use ';' with decimal commas, and an error must name
+    # the offending line of the file (loadtxt skips a fixed count; the sniffer takes digits
+    # for separators on numeric tables).
+    text = path.read_text(encoding='utf-8-sig', errors='replace')
+    lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
+             if ln.strip() and not ln.lstrip().startswith(('#', '%'))]
+    if not lines:
+        raise RecordingError(f'{path}: empty text table (no lines besides comments)')
+    sep = _separator(lines)
+    # A decimal comma only where ',' cannot separate fields and the file writes no decimal
+    # point (one convention per file; looked for in the leading lines).
+    head = [f for _, ln in lines[:200] for f in _fields(ln, sep)]
+    decimal_comma = (sep != ',' and any(_DECIMAL_COMMA.fullmatch(f) for f in head)
+                     and not any(_DECIMAL_POINT.fullmatch(f) for f in head))
+    first = len(lines)
+    leading = []
+    for k, (_, ln) in enumerate(lines):
+        fields = _fields(ln, sep)
+        if _numbers(fields, decimal_comma) is not None:
+            first, n_cols = k, len(fields)
+            break
+        leading.append(fields)
+    else:
+        n_cols = len(leading[0])
+    names = next((f for f in leading if len(f) == n_cols), None)
+    if first == len(lines) and names is None:
+        raise RecordingError(f'{path}: no header row with one name per column and no samples')
+    header = ([h.strip().strip('"') for h in names] if names is not None
+              else [str(i) for i in range(n_cols)])
+    body = lines[first:]
+    texts = [ln.replace(',', '.') if decimal_comma else ln for _, ln in body]
+    rows = list(csv.reader(texts, delimiter=sep)) if sep else [t.split() for t in texts]
     try:
-        data = np.array(body, dtype=np.float64).reshape(len(body), len(header))
+        data = np.array(rows, dtype=np.float64).reshape(len(rows), n_cols)
     except ValueError as err:
-        raise RecordingError(f'{path}: non-numeric CSV value: {err}') from err
+        # name the first bad line (the bulk conversion cannot say which)
+        for (line_no, line), fields in zip(body, rows):
+            if len(fields) != n_cols:
+                raise RecordingError(
+                    f'{path}: line {line_no} has {len(fields)} fields, the '
+                    f'{"header" if names is not None else "first row"} {n_cols}') from err
+            if _numbers(fields, False) is None:
+                raise RecordingError(f'{path}: non-numeric value on line {line_no}: '
+                                     f'{line!r}') from err
+        raise RecordingError(f'{path}: cannot read the text table: {err}') from err
     return {h: data[:, i] for i, h in enumerate(header)}
 
 
@@ -147,8 +223,8 @@ def _load_mat(path: Path) -> Dict:
 def _load(path: Path) -> Dict:
     suffix = path.suffix.lower()
     try:
-        if suffix == '.csv':
-            return _load_csv(path)
+        if suffix in TEXT_SUFFIXES:
+            return _load_text(path)
         if suffix == '.json':
             return _load_json(path)
         if suffix == '.mat':
