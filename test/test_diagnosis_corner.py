@@ -133,3 +133,19 @@ def test_a_second_corner_that_cannot_run_leaves_the_first_with_a_note(monkeypatc
     assert result.fit.notes[-1] == ('Differentiator low-pass 102 Hz not tried: rig3: too short '
                                     '(test)')
     assert result.summary[-1] == result.fit.notes[-1]
+
+
+def test_without_a_holdout_the_cross_validation_blocks_choose_the_corner():
+    real = [_rig('coulomb_friction', 1), _rig('coulomb_friction', 2),
+            _rig('coulomb_friction', 3)]
+    result = diagnose(real, None, (), DiagnosisConfig(choose_resolution=True))
+    assert result.findings[0].physics == 'coulomb_friction'
+    note, = [n for n in result.fit.notes if n.startswith('Differentiator low-pass')]
+    assert note.startswith('Differentiator low-pass: 102 Hz kept over 32 Hz')
+    assert 'chosen on the cross-validation blocks (no holdout)' in note
+    assert result.fit.data == 'cross_validation'
+    # Nothing to choose without terms: the default corner stays.
+    linear = diagnose([_rig('none', 1), _rig('none', 2), _rig('none', 3)], None, (),
+                      DiagnosisConfig(choose_resolution=True))
+    note, = [n for n in linear.fit.notes if n.startswith('Differentiator low-pass')]
+    assert note.startswith('Differentiator low-pass: 32 Hz kept over 102 Hz')

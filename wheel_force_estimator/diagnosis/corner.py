@@ -82,7 +82,9 @@ def with_sharper_corner(result, diagnose_once: Callable, real, holdout, config):
     ``diagnose_once(config) -> DiagnosisResult`` diagnoses with fixed corners; ``result`` is
     its answer at ``config`` (the default corner).  When :func:`sharper_lowpass_hz` offers a
     corner, the diagnosis runs again there and the gate half of the holdout keeps the written
-    model with the lower mean RMSE over all outputs (a tie keeps the default).  A note in
+    model with the lower mean RMSE over all outputs (a tie keeps the default); without a
+    holdout the cross-validated RMSE after the terms (``fit.after``, held-out time blocks of
+    the real records) decides.  A note in
     ``fit.notes`` and the summary says which corner was kept, both gate scores and what the
     other corner named; when the second run cannot be made (``DiagnosisError``) the first
     stands and the note says why.
@@ -98,20 +100,29 @@ def with_sharper_corner(result, diagnose_once: Callable, real, holdout, config):
     if other.model is None:
         return result
     rec0 = real[0]
-    gate = split_holdout(holdout).gate
-    metric = METRIC[rec0.input_quantity]
     channels = rec0.output_channels
     default = rec0.fs_hz / 8.0
-    scores = [mean_score(r.model, gate, channels, metric)[0] for r in (result, other)]
-    keep, lost = (other, result) if scores[1] < scores[0] else (result, other)
+    if holdout:
+        gate = split_holdout(holdout).gate
+        metric = METRIC[rec0.input_quantity]
+        scores = [mean_score(r.model, gate, channels, metric)[0] for r in (result, other)]
+        judge = 'the gate half of the holdout'
+    else:
+        # no holdout: the cross-validated RMSE after the terms (held-out time blocks)
+        scores = [float(np.mean([r.fit.after[c] for c in channels])) for r in (result, other)]
+        judge = 'the cross-validation blocks (no holdout)'
+    # Without terms at either corner the written models are the same linear fit: nothing to
+    # choose (their scores differ only by the samples each corner's settle time leaves out).
+    sharper_wins = scores[1] < scores[0] and bool(result.terms or other.terms)
+    keep, lost = (other, result) if sharper_wins else (result, other)
     corners = (default, sharp) if keep is result else (sharp, default)
     named = [f.physics for f in keep.findings]
     other_named = [f.physics for f in lost.findings]
     return _noted(keep, (
         f'Differentiator low-pass: {corners[0]:.3g} Hz kept over {corners[1]:.3g} Hz '
         f'(default fs/8 = {default:.3g} Hz; sharper = {SHARP_LAG_DEG:g} deg lag at the top of '
-        f'the coherent velocity band), chosen on the gate half of the holdout: mean RMSE over '
-        f'all outputs {min(scores):.2f} % vs {max(scores):.2f} %'
+        f'the coherent velocity band), chosen on {judge}: mean RMSE over all outputs '
+        f'{min(scores):.2f} % vs {max(scores):.2f} %'
         + (f'; with {corners[1]:.3g} Hz it named {", ".join(other_named) or "nothing"}'
            if other_named != named else '') + '.'))
 

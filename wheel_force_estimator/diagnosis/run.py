@@ -404,11 +404,11 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     Diagnose what the reference leaves out of the real recordings.
 
     Without a simulation (none, or a model), for displacement or velocity inputs whose
-    differentiator low-pass is left to the default (``fs / 8``) and a holdout to judge on,
-    the diagnosis runs a second time with the sharper corner of
-    :func:`corner.sharper_lowpass_hz`; the gate half of the holdout chooses between the
-    two written models (mean RMSE over all output channels; a tie keeps the default), and a
-    note in ``fit.notes`` says which was kept.
+    differentiator low-pass is left to the default (``fs / 8``), the diagnosis runs a second
+    time with the sharper corner of :func:`corner.sharper_lowpass_hz`; the gate half of the
+    holdout (without one: the cross-validation blocks) chooses between the two written
+    models (mean RMSE over all output channels; a tie keeps the default), and a note in
+    ``fit.notes`` says which was kept.
 
     Parameters
     ----------
@@ -442,7 +442,7 @@ def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
     # A simulation's linear law for displacement / velocity inputs reads the features itself
     # (F0 + k x + c v + m a): a second corner would change the "before" it is judged against
     # (measured on travel -> Fz: 23.8 -> 78.8 % before, the written model no better).
-    if not holdout or result.model is None or _is_simulation(sim_or_model):
+    if result.model is None or _is_simulation(sim_or_model):
         return result
 
     def once(cfg):
