@@ -29,6 +29,8 @@ setup(
         'tqdm>=4.60',
         'numba>=0.58',
         'rosbags>=0.11',
+        # MATLAB v7.3 (HDF5) generic recordings
+        'h5py>=3.0',
         # wheel-force fleet: one task per bag on a Dask cluster (local or remote)
         'dask>=2024.1',
         'distributed>=2024.1',

@@ -164,3 +164,41 @@ def test_text_tables_name_the_bad_line(tmp_path):
     (tmp_path / 'd.csv').write_text('x,f\n')
     with pytest.raises(RecordingError, match='d.csv: no samples'):
         read_daq(tmp_path / 'd.csv', IN, OUT, 100.0)
+
+
+def _mat73(path, arrays, struct=None):
+    """Write a file laid out as MATLAB's save -v7.3 writes it (HDF5, 512-byte header)."""
+    import h5py  # a dependency of the package (setup.py): fail, never skip, when missing
+    with h5py.File(path, 'w', userblock_size=512) as fh:
+        for name, value in arrays.items():
+            # MATLAB is column-major: an n x k array is stored as k x n
+            fh.create_dataset(name, data=np.asarray(value).T)
+            fh[name].attrs['MATLAB_class'] = np.bytes_('double')
+        if struct:
+            grp = fh.create_group(struct[0])
+            grp.attrs['MATLAB_class'] = np.bytes_('struct')
+            for name, value in struct[1].items():
+                grp.create_dataset(name, data=np.asarray(value).T)
+                grp[name].attrs['MATLAB_class'] = np.bytes_('double')
+        fh.create_dataset('label', data=np.frombuffer(b'r\0i\0g\0', np.uint16))
+        fh['label'].attrs['MATLAB_class'] = np.bytes_('char')
+    text = b'MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Thu Nov 26 12:00:00 2026 HDF5'
+    header = text.ljust(116, b' ') + b'\0' * 8 + b'\x00\x02' + b'IM'
+    with open(path, 'r+b') as fh:
+        fh.write(header)
+
+
+def test_matlab_v73_files_are_read(tmp_path):
+    from scipy.io.matlab import matfile_version
+    x = np.array([1.0, 0.5, 0.0])
+    f = np.array([2.0, -1.0, 0.0])
+    _mat73(tmp_path / 'r.mat', {'x': x[:, None], 'table': np.column_stack([x, f])},
+           struct=('run', {'force': f[:, None]}))
+    assert matfile_version(str(tmp_path / 'r.mat'))[0] == 2
+    rec = read_daq(tmp_path / 'r.mat', IN, [parse_spec('table[1]:force:lbf', 'output')], 100.0)
+    np.testing.assert_allclose(rec.inputs[0], x * 9.80665, rtol=1e-15)
+    np.testing.assert_allclose(rec.outputs[0], f * 4.4482216152605, rtol=1e-15)
+    rec = read_daq(tmp_path / 'r.mat', IN, [parse_spec('run.force:force:lbf', 'output')], 100.0)
+    np.testing.assert_allclose(rec.outputs[0], f * 4.4482216152605, rtol=1e-15)
+    with pytest.raises(RecordingError, match=r"no channel 'label' \(has: run.force, table, x\)"):
+        read_daq(tmp_path / 'r.mat', [parse_spec('label:acceleration:g', 'input')], OUT, 100.0)

@@ -38,6 +38,8 @@ RUN_KEYS = {
     'compression': None, 'backports': None, 'zstandard': None, 'lz4': None, 'apsw': None,
     # other engineers' work in progress (fleet command)
     'dask': 'python3-dask', 'distributed': 'python3-distributed',
+    # MATLAB v7.3 (HDF5) recordings
+    'h5py': 'python3-h5py',
 }
 TEST_KEYS = {
     'pytest': 'python3-pytest', 'pytest_timeout': 'python3-pytest-timeout',

@@ -20,7 +20,8 @@ File formats (by suffix):
   white-space separators a decimal comma (``1,25``) is read as a decimal point when the
   file writes no decimal point.  Every row from the first all-numeric one on must be
   numbers with one field per column, else the line is named.
-- ``.mat``: MATLAB v4 - v7.2 (``scipy.io.loadmat``; v7.3 files are HDF5 and refused).
+- ``.mat``: MATLAB v4 - v7.2 (``scipy.io.loadmat``) and v7.3 (HDF5, read with ``h5py``: real
+  numeric arrays, struct fields named ``struct.field``).
 - ``.npz``: numpy archive, read with ``allow_pickle=False``.
 - ``.json``: one object whose keys hold numbers or arrays.
 """
@@ -212,12 +213,52 @@ def _load_json(path: Path) -> Dict[str, np.ndarray]:
 def _load_mat(path: Path) -> Dict:
     import scipy.io
     from scipy.io.matlab import MatReadError
+    from scipy.io.matlab import matfile_version
     try:
+        if matfile_version(str(path))[0] == 2:
+            return _load_mat73(path)
         return scipy.io.loadmat(str(path))
     except (MatReadError, IndexError, TypeError, EOFError) as err:
         # scipy's header parser fails on garbage with these rather than MatReadError
         detail = str(err) or type(err).__name__
         raise RecordingError(f'{path}: cannot read MAT file: {detail}') from err
+
+
+#: MATLAB classes of real numeric arrays (``MATLAB_class`` attribute of a v7.3 dataset).
+_MAT_NUMERIC = ('double', 'single', 'int8', 'uint8', 'int16', 'uint16', 'int32', 'uint32',
+                'int64', 'uint64', 'logical')
+
+
+def _load_mat73(path: Path) -> Dict[str, np.ndarray]:
+    """
+    Read the real numeric arrays of a MATLAB v7.3 (HDF5) file, named as in MATLAB.
+
+    MATLAB stores arrays column-major, so each dataset is transposed back to MATLAB's shape
+    (an ``n x 1`` vector or ``n x k`` table of samples).  Struct fields are named
+    ``struct.field``; strings, cells, sparse and complex arrays are not channels and are
+    left out.
+    """
+    try:
+        import h5py
+    except ImportError as err:
+        raise RecordingError(f'{path}: a MATLAB v7.3 (HDF5) file needs h5py '
+                             f'(pip install h5py)') from err
+    out: Dict[str, np.ndarray] = {}
+
+    def visit(name, obj):
+        if not isinstance(obj, h5py.Dataset) or name.startswith('#'):
+            return
+        cls = obj.attrs.get('MATLAB_class', b'')
+        cls = cls.decode() if isinstance(cls, bytes) else str(cls)
+        if cls in _MAT_NUMERIC and obj.dtype.kind in 'biuf' and 'MATLAB_sparse' not in obj.attrs:
+            out[name.replace('/', '.')] = np.asarray(obj[()]).T
+
+    try:
+        with h5py.File(path, 'r') as fh:
+            fh.visititems(visit)
+    except OSError as err:
+        raise RecordingError(f'{path}: cannot read MATLAB v7.3 (HDF5) file: {err}') from err
+    return out
 
 
 def _load(path: Path) -> Dict:
