@@ -202,3 +202,16 @@ def test_matlab_v73_files_are_read(tmp_path):
     np.testing.assert_allclose(rec.outputs[0], f * 4.4482216152605, rtol=1e-15)
     with pytest.raises(RecordingError, match=r"no channel 'label' \(has: run.force, table, x\)"):
         read_daq(tmp_path / 'r.mat', [parse_spec('label:acceleration:g', 'input')], OUT, 100.0)
+
+
+def test_matlab_struct_fields_are_channels(tmp_path):
+    import scipy.io
+    x = np.array([1.0, 0.5, 0.0])
+    f = np.array([2.0, -1.0, 0.0])
+    scipy.io.savemat(tmp_path / 's.mat', {'run': {'x': x[:, None], 'meta': {'f': f[:, None]}}})
+    rec = read_daq(tmp_path / 's.mat', [parse_spec('run.x:acceleration:g', 'input')],
+                   [parse_spec('run.meta.f:force:lbf', 'output')], 100.0)
+    np.testing.assert_allclose(rec.inputs[0], x * 9.80665, rtol=1e-15)
+    np.testing.assert_allclose(rec.outputs[0], f * 4.4482216152605, rtol=1e-15)
+    with pytest.raises(RecordingError, match="'run' is not numeric"):
+        read_daq(tmp_path / 's.mat', [parse_spec('run:acceleration:g', 'input')], OUT, 100.0)

@@ -21,7 +21,7 @@ File formats (by suffix):
   file writes no decimal point.  Every row from the first all-numeric one on must be
   numbers with one field per column, else the line is named.
 - ``.mat``: MATLAB v4 - v7.2 (``scipy.io.loadmat``) and v7.3 (HDF5, read with ``h5py``: real
-  numeric arrays, struct fields named ``struct.field``).
+  numeric arrays); fields of a struct are channels named ``struct.field``.
 - ``.npz``: numpy archive, read with ``allow_pickle=False``.
 - ``.json``: one object whose keys hold numbers or arrays.
 """
@@ -217,11 +217,25 @@ def _load_mat(path: Path) -> Dict:
     try:
         if matfile_version(str(path))[0] == 2:
             return _load_mat73(path)
-        return scipy.io.loadmat(str(path))
+        return _flat_structs(scipy.io.loadmat(str(path)))
     except (MatReadError, IndexError, TypeError, EOFError) as err:
         # scipy's header parser fails on garbage with these rather than MatReadError
         detail = str(err) or type(err).__name__
         raise RecordingError(f'{path}: cannot read MAT file: {detail}') from err
+
+
+def _flat_structs(contents: Dict) -> Dict:
+    """Add every field of a (1 x 1) MATLAB struct as ``struct.field`` (nested: ``a.b.c``)."""
+    out = dict(contents)
+    todo = [(k, v) for k, v in contents.items() if not k.startswith('__')]
+    while todo:
+        name, value = todo.pop()
+        if isinstance(value, np.ndarray) and value.dtype.names and value.size == 1:
+            for field in value.dtype.names:
+                sub = value.reshape(-1)[0][field]
+                out[f'{name}.{field}'] = sub
+                todo.append((f'{name}.{field}', sub))
+    return out
 
 
 #: MATLAB classes of real numeric arrays (``MATLAB_class`` attribute of a v7.3 dataset).
