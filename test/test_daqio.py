@@ -1,6 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """The neutral generic-recording reader (``daqio``) and the diagnosis façade over it."""
+import json
 from pathlib import Path
 import subprocess
 import sys
@@ -215,3 +216,21 @@ def test_matlab_struct_fields_are_channels(tmp_path):
     np.testing.assert_allclose(rec.outputs[0], f * 4.4482216152605, rtol=1e-15)
     with pytest.raises(RecordingError, match="'run' is not numeric"):
         read_daq(tmp_path / 's.mat', [parse_spec('run:acceleration:g', 'input')], OUT, 100.0)
+
+
+def test_channels_stored_as_rows_and_nested_json(tmp_path):
+    x = np.array([1.0, 0.5, 0.0, 0.25])
+    f = np.array([2.0, -1.0, 0.0, 3.0])
+    np.savez(tmp_path / 'rows.npz', data=np.stack([x, f]))  # 2 channels x 4 samples
+    spec = [parse_spec('data[0]:acceleration:g', 'input')], [
+        parse_spec('data[1]:force:lbf', 'output')]
+    by_rows = read_daq(tmp_path / 'rows.npz', *spec, 100.0)
+    np.savez(tmp_path / 'cols.npz', data=np.stack([x, f], axis=1))  # 4 samples x 2 channels
+    by_cols = read_daq(tmp_path / 'cols.npz', *spec, 100.0)
+    np.testing.assert_array_equal(by_rows.inputs, by_cols.inputs)
+    np.testing.assert_array_equal(by_rows.outputs, by_cols.outputs)
+    np.testing.assert_allclose(by_rows.inputs[0], x * 9.80665, rtol=1e-15)
+    (tmp_path / 'n.json').write_text(json.dumps({'run': {'x': x.tolist(), 'f': f.tolist()}}))
+    nested = read_daq(tmp_path / 'n.json', [parse_spec('run.x:acceleration:g', 'input')],
+                      [parse_spec('run.f:force:lbf', 'output')], 100.0)
+    np.testing.assert_array_equal(nested.outputs, by_cols.outputs)

@@ -23,7 +23,11 @@ File formats (by suffix):
 - ``.mat``: MATLAB v4 - v7.2 (``scipy.io.loadmat``) and v7.3 (HDF5, read with ``h5py``: real
   numeric arrays); fields of a struct are channels named ``struct.field``.
 - ``.npz``: numpy archive, read with ``allow_pickle=False``.
-- ``.json``: one object whose keys hold numbers or arrays.
+- ``.json``: one object whose keys hold numbers or arrays (nested objects: ``outer.inner``).
+
+``NAME[i]`` picks channel ``i`` of a 2-D array: a column when the array has at least as many
+rows as columns (rows = samples), a row otherwise (channels x samples, as MATLAB users often
+store them; time runs along the longer axis).
 """
 import csv
 from dataclasses import dataclass
@@ -207,7 +211,15 @@ def _load_json(path: Path) -> Dict[str, np.ndarray]:
         raise RecordingError(f'{path}: invalid JSON: {err}') from err
     if not isinstance(doc, dict):
         raise RecordingError(f'{path}: expected a JSON object of arrays')
-    return doc
+    out = dict(doc)
+    todo = list(doc.items())
+    while todo:  # nested objects: their keys are channels named ``outer.inner``
+        name, value = todo.pop()
+        if isinstance(value, dict):
+            for key, sub in value.items():
+                out[f'{name}.{key}'] = sub
+                todo.append((f'{name}.{key}', sub))
+    return out
 
 
 def _load_mat(path: Path) -> Dict:
@@ -306,6 +318,10 @@ def _column(path: Path, contents: Dict, spec: ChannelSpec) -> np.ndarray:
     if arr.ndim == 2 and 1 in arr.shape and spec.column is None:
         arr = arr.reshape(-1)
     if spec.column is not None:
+        if arr.ndim == 2 and arr.shape[0] < arr.shape[1]:
+            # channels stored as rows (channels x samples): time runs along the longer axis,
+            # since no recording holds fewer samples than channels
+            arr = arr.T
         if arr.ndim != 2 or spec.column >= arr.shape[1]:
             raise RecordingError(f'{path}: {spec.label}: {spec.key!r} has shape {arr.shape}, '
                                  f'no column {spec.column}')
