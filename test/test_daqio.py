@@ -128,6 +128,7 @@ def test_text_tables_as_daq_software_exports_them(tmp_path):
     (tmp_path / 'rig.csv').write_text(
         '# exported by the rig controller\n'
         'Sample rate;1024 Hz\n'
+        '1024\n'
         'Time;x;f\n'
         's;g;lbf\n'
         '0,000;1,5;-2,25\n'
@@ -157,7 +158,7 @@ def test_text_tables_name_the_bad_line(tmp_path):
                        match=r'a\.csv: non-numeric value on line 4: .0,5;overload.'):
         read_daq(tmp_path / 'a.csv', IN, OUT, 100.0)
     (tmp_path / 'b.txt').write_text('1 2\n3 4\n5\n')
-    with pytest.raises(RecordingError, match='line 3 has 1 fields, the first row 2'):
+    with pytest.raises(RecordingError, match='line 3 has 1 fields, the table 2 columns'):
         read_daq(tmp_path / 'b.txt', IN, OUT, 100.0)
     (tmp_path / 'c.csv').write_text('# only a comment\n')
     with pytest.raises(RecordingError, match='empty text table'):

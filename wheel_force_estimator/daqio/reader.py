@@ -12,14 +12,15 @@ File formats (by suffix):
 
 - ``.csv``, ``.txt``, ``.tsv`` (text tables, as DAQ software exports them): one column per
   channel, separated by ``;``, tab or ``,`` (the first, in that order, that splits most of
-  the last lines of the file alike into two or more fields) or else by white space; lines
-  starting with ``#`` or ``%`` and blank lines are comments.  Rows before the first
-  all-numeric row are header rows: the first with one field per column names the columns
-  (units rows and other metadata lines below or above it hold no samples and are not
-  read); with no such row the columns are named ``0``, ``1``, ...  With ``;``, tab or
-  white-space separators a decimal comma (``1,25``) is read as a decimal point when the
-  file writes no decimal point.  Every row from the first all-numeric one on must be
-  numbers with one field per column, else the line is named.
+  the last lines of the file alike into two or more fields) or else by white space, which
+  also gives the number of columns; lines starting with ``#`` or ``%`` and blank lines are
+  comments.  Rows before the first all-numeric row with one field per column are header
+  rows: the first with one field per column names the columns (units rows and other
+  metadata lines below or above it hold no samples and are not read); with no such row the
+  columns are named ``0``, ``1``, ...  With ``;``, tab or white-space separators a decimal
+  comma (``1,25``) is read as a decimal point when the file writes no decimal point.
+  Every row from the first sample row on must be numbers with one field per column, else
+  the line is named.
 - ``.mat``: MATLAB v4 - v7.2 (``scipy.io.loadmat``) and v7.3 (HDF5, read with ``h5py``: real
   numeric arrays); fields of a struct are channels named ``struct.field``.
 - ``.npz``: numpy archive, read with ``allow_pickle=False``.
@@ -123,17 +124,22 @@ _SEPARATORS = (';', '\t', ',')
 _SNIFF_LINES = 20
 
 
-def _separator(lines) -> Optional[str]:
-    """Return the separator that splits most of the last lines alike (None: white space)."""
-    # The last lines are samples, whatever metadata the export writes above them; "most"
-    # rather than "all" so that one ragged line is reported as such, not misread.
+def _layout(lines) -> Tuple[Optional[str], int]:
+    """
+    Return ``(separator, columns)`` of a text table from its last lines.
+
+    The first of :data:`_SEPARATORS` that splits most of the last lines alike into two or
+    more fields, with that count; else white space (None) and its most common count.  The
+    last lines are samples, whatever metadata the export writes above them; "most" rather
+    than "all" so that one ragged line is reported as such, not misread.
+    """
     tail = lines[-_SNIFF_LINES:]
-    for sep in _SEPARATORS:
-        counts = [len(next(csv.reader([ln], delimiter=sep))) for _, ln in tail]
+    for sep in _SEPARATORS + (None,):
+        counts = [len(_fields(ln, sep)) for _, ln in tail]
         modal = max(set(counts), key=counts.count)
-        if modal > 1 and 2 * counts.count(modal) > len(counts):
-            return sep
-    return None
+        if sep is None or (modal > 1 and 2 * counts.count(modal) > len(counts)):
+            return sep, modal
+    raise AssertionError('unreachable: white space always decides')
 
 
 def _fields(line: str, sep: Optional[str]):
@@ -164,22 +170,22 @@ def _load_text(path: Path) -> Dict[str, np.ndarray]:
              if ln.strip() and not ln.lstrip().startswith(('#', '%'))]
     if not lines:
         raise RecordingError(f'{path}: empty text table (no lines besides comments)')
-    sep = _separator(lines)
+    sep, n_cols = _layout(lines)
     # A decimal comma only where ',' cannot separate fields and the file writes no decimal
     # point (one convention per file; looked for in the leading lines).
     head = [f for _, ln in lines[:200] for f in _fields(ln, sep)]
     decimal_comma = (sep != ',' and any(_DECIMAL_COMMA.fullmatch(f) for f in head)
                      and not any(_DECIMAL_POINT.fullmatch(f) for f in head))
+    # The samples start at the first all-numeric row with one field per column; rows above
+    # it are header rows (a numeric metadata line such as a lone sample rate among them).
     first = len(lines)
     leading = []
     for k, (_, ln) in enumerate(lines):
         fields = _fields(ln, sep)
-        if _numbers(fields, decimal_comma) is not None:
-            first, n_cols = k, len(fields)
+        if len(fields) == n_cols and _numbers(fields, decimal_comma) is not None:
+            first = k
             break
         leading.append(fields)
-    else:
-        n_cols = len(leading[0])
     names = next((f for f in leading if len(f) == n_cols), None)
     if first == len(lines) and names is None:
         raise RecordingError(f'{path}: no header row with one name per column and no samples')
@@ -194,9 +200,8 @@ def _load_text(path: Path) -> Dict[str, np.ndarray]:
         # name the first bad line (the bulk conversion cannot say which)
         for (line_no, line), fields in zip(body, rows):
             if len(fields) != n_cols:
-                raise RecordingError(
-                    f'{path}: line {line_no} has {len(fields)} fields, the '
-                    f'{"header" if names is not None else "first row"} {n_cols}') from err
+                raise RecordingError(f'{path}: line {line_no} has {len(fields)} fields, the '
+                                     f'table {n_cols} columns') from err
             if _numbers(fields, False) is None:
                 raise RecordingError(f'{path}: non-numeric value on line {line_no}: '
                                      f'{line!r}') from err
