@@ -349,7 +349,7 @@ def read_daq(path, inputs: Sequence[ChannelSpec], outputs: Sequence[ChannelSpec]
     Parameters
     ----------
     path : str or os.PathLike
-        ``.csv``, ``.mat``, ``.npz`` or ``.json`` file.
+        ``.csv``/``.txt``/``.tsv``, ``.mat``, ``.npz`` or ``.json`` file.
     inputs : sequence of ChannelSpec
         Motion channels (one quantity for all), in the order of the result's rows.
     outputs : sequence of ChannelSpec

@@ -4,7 +4,7 @@
 Sim-vs-real diagnosis: residual location, physics hypotheses, cross-validated selection.
 
 ``diagnose(real, sim_or_model, holdout, config)`` is the entry point; recordings are
-:class:`MotionRecording` (from bags via ``recording.from_bag_recording`` or from CSV / MAT /
+:class:`MotionRecording` (from bags via ``recording.from_bag_recording`` or from text tables / MAT /
 NPZ / JSON via ``generic.load_generic``).
 """
 from wheel_force_estimator.diagnosis.recording import MotionRecording

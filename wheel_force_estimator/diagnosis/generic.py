@@ -1,7 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Generic recordings (CSV, MAT, NPZ, JSON) as the diagnosis sees them.
+Generic recordings (text tables, MAT, NPZ, JSON) as the diagnosis sees them.
 
 The reader and the ``NAME:QUANTITY:UNIT`` role specs live in :mod:`wheel_force_estimator.daqio`
 (shared with ``fit`` and ``evaluate``); this façade turns its records into
@@ -56,7 +56,7 @@ def load_generic(path, inputs: Sequence[ChannelSpec], outputs: Sequence[ChannelS
     Parameters
     ----------
     path : str or os.PathLike
-        ``.csv``, ``.mat``, ``.npz`` or ``.json`` file.
+        ``.csv``/``.txt``/``.tsv``, ``.mat``, ``.npz`` or ``.json`` file.
     inputs, outputs : sequence of ChannelSpec
         Declared motion and force channels (:func:`parse_spec`).
     fs_hz : float
