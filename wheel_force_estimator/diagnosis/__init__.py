@@ -4,8 +4,8 @@
 Sim-vs-real diagnosis: residual location, physics hypotheses, cross-validated selection.
 
 ``diagnose(real, sim_or_model, holdout, config)`` is the entry point; recordings are
-:class:`MotionRecording` (from bags via ``recording.from_bag_recording`` or from text tables / MAT /
-NPZ / JSON via ``generic.load_generic``).
+:class:`MotionRecording` (from bags via ``recording.from_bag_recording`` or from text tables /
+MAT / NPZ / JSON via ``generic.load_generic``).
 """
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 from wheel_force_estimator.diagnosis.result import DiagnosisResult
