@@ -152,20 +152,17 @@ def test_text_tables_as_daq_software_exports_them(tmp_path):
                                   rec.outputs)
 
 
-def test_text_tables_name_the_bad_line(tmp_path):
-    (tmp_path / 'a.csv').write_text('x;f\ng;lbf\n1,5;2\n0,5;overload\n')
-    with pytest.raises(RecordingError,
-                       match=r'a\.csv: non-numeric value on line 4: .0,5;overload.'):
-        read_daq(tmp_path / 'a.csv', IN, OUT, 100.0)
-    (tmp_path / 'b.txt').write_text('1 2\n3 4\n5\n')
-    with pytest.raises(RecordingError, match='line 3 has 1 fields, the table 2 columns'):
-        read_daq(tmp_path / 'b.txt', IN, OUT, 100.0)
-    (tmp_path / 'c.csv').write_text('# only a comment\n')
-    with pytest.raises(RecordingError, match='empty text table'):
-        read_daq(tmp_path / 'c.csv', IN, OUT, 100.0)
-    (tmp_path / 'd.csv').write_text('x,f\n')
-    with pytest.raises(RecordingError, match='d.csv: no samples'):
-        read_daq(tmp_path / 'd.csv', IN, OUT, 100.0)
+@pytest.mark.parametrize('name, text, match', [
+    ('a.csv', 'x;f\ng;lbf\n1,5;2\n0,5;overload\n',
+     r'a\.csv: non-numeric value on line 4: .0,5;overload.'),
+    ('b.txt', '1 2\n3 4\n5\n', 'line 3 has 1 fields, the table 2 columns'),
+    ('c.csv', '# only a comment\n', 'empty text table'),
+    ('d.csv', 'x,f\n', r'd\.csv: no samples'),
+])
+def test_text_tables_name_the_bad_line(tmp_path, name, text, match):
+    (tmp_path / name).write_text(text)
+    with pytest.raises(RecordingError, match=match):
+        read_daq(tmp_path / name, IN, OUT, 100.0)
 
 
 def _mat73(path, arrays, struct=None):
