@@ -216,15 +216,7 @@ def _load_json(path: Path) -> Dict[str, np.ndarray]:
         raise RecordingError(f'{path}: invalid JSON: {err}') from err
     if not isinstance(doc, dict):
         raise RecordingError(f'{path}: expected a JSON object of arrays')
-    out = dict(doc)
-    todo = list(doc.items())
-    while todo:  # nested objects: their keys are channels named ``outer.inner``
-        name, value = todo.pop()
-        if isinstance(value, dict):
-            for key, sub in value.items():
-                out[f'{name}.{key}'] = sub
-                todo.append((f'{name}.{key}', sub))
-    return out
+    return _with_dotted_fields(doc, lambda v: v.items() if isinstance(v, dict) else ())
 
 
 def _load_mat(path: Path) -> Dict:
@@ -234,25 +226,35 @@ def _load_mat(path: Path) -> Dict:
     try:
         if matfile_version(str(path))[0] == 2:
             return _load_mat73(path)
-        return _flat_structs(scipy.io.loadmat(str(path)))
+        return _with_dotted_fields(scipy.io.loadmat(str(path)), _struct_fields)
     except (MatReadError, IndexError, TypeError, EOFError) as err:
         # scipy's header parser fails on garbage with these rather than MatReadError
         detail = str(err) or type(err).__name__
         raise RecordingError(f'{path}: cannot read MAT file: {detail}') from err
 
 
-def _flat_structs(contents: Dict) -> Dict:
-    """Add every field of a (1 x 1) MATLAB struct as ``struct.field`` (nested: ``a.b.c``)."""
+def _with_dotted_fields(contents: Dict, fields) -> Dict:
+    """
+    Return ``contents`` plus every nested field as a channel ``outer.inner`` (``a.b.c``).
+
+    ``fields(value)`` gives the ``(name, value)`` pairs inside a value (none for an array):
+    the keys of a JSON object, the fields of a MATLAB struct.
+    """
     out = dict(contents)
     todo = [(k, v) for k, v in contents.items() if not k.startswith('__')]
     while todo:
         name, value = todo.pop()
-        if isinstance(value, np.ndarray) and value.dtype.names and value.size == 1:
-            for field in value.dtype.names:
-                sub = value.reshape(-1)[0][field]
-                out[f'{name}.{field}'] = sub
-                todo.append((f'{name}.{field}', sub))
+        for key, sub in fields(value):
+            out[f'{name}.{key}'] = sub
+            todo.append((f'{name}.{key}', sub))
     return out
+
+
+def _struct_fields(value):
+    """Fields of a (1 x 1) struct as ``scipy.io.loadmat`` gives it (a record array), else ()."""
+    if isinstance(value, np.ndarray) and value.dtype.names and value.size == 1:
+        return [(field, value.reshape(-1)[0][field]) for field in value.dtype.names]
+    return ()
 
 
 #: MATLAB classes of real numeric arrays (``MATLAB_class`` attribute of a v7.3 dataset).
