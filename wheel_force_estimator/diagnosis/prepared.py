@@ -82,9 +82,13 @@ def _remedy(recordings, reference, settle: int, config) -> str:
             f'it')
 
 
-def prepare(recordings, reference, sources, partners, config) -> Prepared:
+def prepare(recordings, reference, sources, partners, config,
+            predictions=None) -> Prepared:
     """
     Predict every recording with ``reference`` and build its channel features.
+
+    ``predictions`` (one ``(n_out, n)`` array per recording, e.g. an earlier
+    ``Prepared.full_predictions`` of the same reference) skips the prediction.
 
     Raises
     ------
@@ -95,7 +99,7 @@ def prepare(recordings, reference, sources, partners, config) -> Prepared:
     rec0 = recordings[0]
     settle = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
     prep = Prepared(tuple(recordings), [], [], [], [], [], [])
-    for rec in recordings:
+    for i, rec in enumerate(recordings):
         # A FIR as long as the record (the two-resolution fit on a short record) may not
         # take more than half of it: the transient is largest right at the ends.
         edge = min(edge_samples(reference), rec.n_samples // 4)
@@ -107,7 +111,7 @@ def prepare(recordings, reference, sources, partners, config) -> Prepared:
                 f'filters need {skip / rec.fs_hz:.2f} s to settle and the reference FIR '
                 f'{edge / rec.fs_hz:.2f} s at each end, too little data remains'
                 + _remedy(recordings, reference, settle, config))
-        pred = reference.predict(rec)
+        pred = reference.predict(rec) if predictions is None else predictions[i]
         ctxs = channel_contexts(rec.inputs, rec.input_channels, rec.fs_hz, rec.input_quantity,
                                 pred, sources, partners, config.features)
         prep.targets.append(np.asarray(rec.outputs)[:, skip:stop])

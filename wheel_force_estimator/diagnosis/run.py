@@ -491,7 +491,7 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
         outcomes[ch] = Selector(pieces(prep, o, ch), config.selection, companions,
                                 sim_pieces).run(candidates)
     if paired_by_coherence(channels, rec0.input_channels):
-        chosen = sources_by_selection(real, sim, reference, sources, outcomes, config,
+        chosen = sources_by_selection(prep, sim_prep, reference, sources, outcomes, config,
                                       companions, candidates)
         if chosen != sources:
             sources = chosen

@@ -15,7 +15,7 @@ from wheel_force_estimator.diagnosis.prepared import prepare
 from wheel_force_estimator.diagnosis.selection import Selector
 
 
-def sources_by_selection(real, sim, reference, sources, outcomes, config, companions,
+def sources_by_selection(prep, sim_prep, reference, sources, outcomes, config, companions,
                          candidates):
     """
     Return the input that drives each output's physics, chosen by the selection itself.
@@ -24,8 +24,11 @@ def sources_by_selection(real, sim, reference, sources, outcomes, config, compan
     runs with that input's features; an output takes the input whose accepted terms leave
     the lowest cross-validated RMSE (its outcome then replaces the one in ``outcomes``, which
     is updated in place), and keeps the coherence pick when no other input's terms pass the
-    selection's tests or none does better.  Cost: one selection per input.
+    selection's tests or none does better.  Cost: one selection per input (``prep`` and
+    ``sim_prep``, the :class:`Prepared` real and simulation records of the coherence pick,
+    lend their reference predictions).
     """
+    real, sim = prep.recordings, (sim_prep.recordings if sim_prep is not None else ())
     rec0 = real[0]
     channels = rec0.output_channels
     n_out = len(channels)
@@ -39,8 +42,10 @@ def sources_by_selection(real, sim, reference, sources, outcomes, config, compan
         if not todo:
             continue
         alt = (inp,) * n_out
-        alt_prep = prepare(real, reference, alt, (None,) * n_out, config)
-        alt_sim = prepare(sim, reference, alt, (None,) * n_out, config) if sim else None
+        alt_prep = prepare(real, reference, alt, (None,) * n_out, config,
+                           prep.full_predictions)
+        alt_sim = (prepare(sim, reference, alt, (None,) * n_out, config,
+                           sim_prep.full_predictions) if sim else None)
         for o in todo:
             ch = channels[o]
             out = Selector(pieces(alt_prep, o, ch), config.selection, companions,
