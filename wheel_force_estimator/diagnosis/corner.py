@@ -84,10 +84,9 @@ def with_sharper_corner(result, diagnose_once: Callable, real, holdout, config):
     corner, the diagnosis runs again there and the gate half of the holdout keeps the written
     model with the lower mean RMSE over all outputs (a tie keeps the default); without a
     holdout the cross-validated RMSE after the terms (``fit.after``, held-out time blocks of
-    the real records) decides.  A note in
-    ``fit.notes`` and the summary says which corner was kept, both gate scores and what the
-    other corner named; when the second run cannot be made (``DiagnosisError``) the first
-    stands and the note says why.
+    the real records) decides.  A note in ``fit.notes`` and the summary says which corner
+    was kept, both scores and what the other corner named; when the second run cannot be
+    made (``DiagnosisError``) the first stands and the note says why.
     """
     sharp = sharper_lowpass_hz(real, config.features)
     if sharp is None:
@@ -101,7 +100,7 @@ def with_sharper_corner(result, diagnose_once: Callable, real, holdout, config):
         return result
     rec0 = real[0]
     channels = rec0.output_channels
-    default = rec0.fs_hz / 8.0
+    default = config.features.resolved(rec0.fs_hz, rec0.input_quantity)[1]
     if holdout:
         gate = split_holdout(holdout).gate
         metric = METRIC[rec0.input_quantity]
