@@ -1,6 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """Physics terms: hand-checked force laws, feature filters, term validation, streaming stage."""
+import dataclasses
 import json
 
 import numpy as np
@@ -219,6 +220,11 @@ def _term(physics, channels=('lf_fz',), **parameters):
      'hysteretic'),
     (_term('sensor_saturation', limit=1.0, force_n=1.0, integration=3.0), 'integration'),
     (_term('stiffness_error', ('force',), stiffness_n_per_m=1.0), 'source'),
+    (dict(_term('mass_error', mass_kg=1.0), response_taps=(1.0, float('nan'))),
+     r'mass_error\.response_taps\[1\] must be finite'),
+    (dict(_term('mass_error', mass_kg=1.0), response_taps='1.0'), 'list of numbers'),
+    (dict(_term('mass_error', mass_kg=1.0), response_taps=np.zeros(ph.MAX_RESPONSE_TAPS + 1)),
+     'at most'),
 ])
 def test_term_validation(kwargs, match):
     with pytest.raises(ConfigError, match=match):
@@ -379,7 +385,8 @@ def _load_terms():
                 ('cubic_stiffness', {'center_n': 3000.0, 'gain': 0.2}),
                 ('backlash', {'center_n': 3000.0, 'threshold_n': 10.0, 'gain': 0.8}),
                 ('mass_error', {'center_n': 3000.0, 'gain': 0.1}),
-                ('stiffness_error', {'center_n': 3000.0, 'gain': 0.1}))]
+                ('stiffness_error', {'center_n': 3000.0, 'gain': 0.1}),
+                ('coulomb_friction', {'friction_n': 30.0, 'rate_scale_n_per_s': 1e4}))]
 
 
 def test_every_registered_strength_scales_the_force_and_nothing_else():
@@ -439,3 +446,43 @@ def test_feature_terms_fade_in_while_the_filters_settle_and_force_terms_do_not()
     parts = [stage.process(accel[:, i:i + 777], force[:, i:i + 777])
              for i in range(0, 12000, 777)]
     assert np.array_equal(np.concatenate(parts, axis=1) - force, added)
+
+
+def test_load_friction_through_a_response_hand_values_and_stage():
+    # Known answer: the load state (first-order low-pass started at the first sample), its
+    # backward-difference rate, the regularised friction law, then the causal response FIR.
+    taps = (0.0, 0.5, -0.25)
+    term = ph.PhysicsTerm('coulomb_friction', ('lf_fx',),
+                          {'friction_n': 40.0, 'rate_scale_n_per_s': 5e3},
+                          state='load', state_lowpass_hz=20.0, response_taps=taps)
+    accel, force = _signals()
+    batch = ph.apply_physics([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force)
+    b, a = signal.butter(1, 20.0, fs=FS)
+    o = OUTPUT_CHANNELS.index('lf_fx')
+    state = signal.lfilter(b, a, force[o], zi=signal.lfilter_zi(b, a) * force[o, 0])[0]
+    rate = np.diff(state, prepend=state[0]) * FS
+    friction = 40.0 * np.tanh(rate / 5e3)
+    expected = force[o] + np.convolve(friction, taps)[:friction.size]
+    np.testing.assert_allclose(batch[o], expected, rtol=0.0, atol=1e-9)
+    assert np.array_equal(np.delete(batch, o, 0), np.delete(force, o, 0))
+    stage = ph.PhysicsStage([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS)
+    parts = [stage.process(accel[:, i:i + m], force[:, i:i + m])
+             for i, m in ((0, 1), (1, 2), (3, 997), (1000, 5000))]
+    assert np.array_equal(np.concatenate(parts, axis=1), batch)
+    back = ph.PhysicsTerm.from_dict(json.loads(json.dumps(term.to_dict())))
+    assert back == term and back.response_taps == taps
+
+
+def test_a_unit_response_is_the_static_term_and_a_delayed_one_shifts_it():
+    accel, force = _signals(n=800)
+    static = ph.PhysicsTerm('cubic_stiffness', ('rr_fz',), {'stiffness_n_per_m3': 1e7})
+    args = (FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force)
+    added = ph.apply_physics([static], *args) - force
+    unit = dataclasses.replace(static, response_taps=(1.0,))
+    assert np.array_equal(ph.apply_physics([unit], *args), ph.apply_physics([static], *args))
+    shifted = dataclasses.replace(static, response_taps=(0.0, 0.0, 2.0))
+    out = ph.apply_physics([shifted], *args) - force
+    o = OUTPUT_CHANNELS.index('rr_fz')
+    np.testing.assert_allclose(out[o, 2:], 2.0 * added[o, :-2], rtol=1e-12, atol=1e-9)
+    assert np.all(out[o, :2] == 0.0)
+    assert 'response_taps' not in static.to_dict()

@@ -36,6 +36,7 @@ from wheel_force_estimator.core.physics_laws import QUANTITIES
 from wheel_force_estimator.core.physics_params import TermParams  # noqa: F401
 from wheel_force_estimator.core.physics_terms import default_source  # noqa: F401
 from wheel_force_estimator.core.physics_terms import LOAD_PARAMETERS  # noqa: F401
+from wheel_force_estimator.core.physics_terms import MAX_RESPONSE_TAPS  # noqa: F401
 from wheel_force_estimator.core.physics_terms import PARAMETERS  # noqa: F401
 from wheel_force_estimator.core.physics_terms import PhysicsTerm
 from wheel_force_estimator.core.physics_terms import term_kind  # noqa: F401
@@ -209,6 +210,20 @@ class TermView:
         y, self._stage._load_zi[key] = signal.lfilter(b, a, force, zi=zi)
         return y
 
+    def load_rate(self) -> np.ndarray:
+        """
+        Return the rate of :meth:`load` [N/s].
+
+        Backward difference, the last state of the previous block carried over (the first
+        sample of a run has rate 0).  Call it instead of :meth:`load`, not as well: both
+        advance the same low-pass state.
+        """
+        y = self.load()
+        key = self._key + ('rate',)
+        prev = self._stage._rate_prev.get(key, y[0])
+        self._stage._rate_prev[key] = y[-1]
+        return np.diff(y, prepend=prev) * self._stage.fs_hz
+
     def delayed(self, delay_s: float) -> np.ndarray:
         """Return the channel's force ``delay_s`` ago (held at its first value at the start)."""
         return delayed_signal(self._delayed[self._o], delay_s * self._stage.fs_hz,
@@ -317,6 +332,8 @@ class PhysicsStage:
         self._n_seen = -self._lead
         self._clip_banks = {}
         self._load_zi = {}
+        self._rate_prev = {}
+        self._response_zi = {}
         self._play = {}
         self._history = None
 
@@ -360,9 +377,27 @@ class PhysicsStage:
                 view = TermView(self, (n_term, j), term, feat, s,
                                 partners[j] if partners else None, o, x, f, delayed)
                 added = kind.force(term.params, view)
-                out[o] += added if weight is None else added * weight
+                if weight is not None:
+                    added = added * weight
+                if term.response_taps:
+                    added = self._response(term.response_taps, (n_term, j), added)
+                out[o] += added
         self._n_seen += n
         return out
+
+    def _response(self, taps, key, added):
+        """
+        Return the term's force through its causal response FIR, state carried over.
+
+        Zero before the first sample: the term adds no force before the run starts.
+        """
+        zi = self._response_zi.get(key)
+        if zi is None:
+            zi = np.zeros(len(taps) - 1)
+        if len(taps) == 1:
+            return taps[0] * added
+        y, self._response_zi[key] = signal.lfilter(taps, (1.0,), added, zi=zi)
+        return y
 
     def _delay_line(self, f):
         if not self._max_delay:

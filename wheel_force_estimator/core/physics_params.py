@@ -137,6 +137,14 @@ class CoulombFrictionParams(TermParams):
 
 
 @dataclass(frozen=True)
+class LoadFrictionParams(TermParams):
+    """Friction level and its regularising rate of the predicted load (its deflection rate)."""
+
+    friction_n: float = _field()
+    rate_scale_n_per_s: float = _field(0.0, strict=True)
+
+
+@dataclass(frozen=True)
 class BacklashParams(TermParams):
     """Clearance of half-width ``gap_m`` in a spring; ``hysteretic`` = play operator."""
 

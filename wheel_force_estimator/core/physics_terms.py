@@ -15,7 +15,13 @@ The force law of a kind reads what it needs from a *view* of one output channel 
 (:class:`core.physics.TermView`): ``disp``/``vel``/``acc``/``partner_disp`` (features of the
 source and partner input channels), ``force`` (the linear prediction, static force
 included), and the stateful helpers ``load(lowpass_hz)``, ``delayed(delay_s)``,
-``play(gap_m)`` and ``clip_feature(limit, integration)`` that keep their state in the stage.
+``load_rate()``, ``play(gap_m)`` and ``clip_feature(limit, integration)`` that keep their
+state in the stage.
+
+A term may carry a causal *response* (``response_taps``): its force then passes through that
+FIR before it is added.  A nonlinear element inside a structure (a friction joint between a
+measured base and an unmeasured mass) does not add its force to the measured one: the force
+reaches the sensor through the structure's dynamics (:mod:`diagnosis.dynamic`).
 """
 import dataclasses
 from dataclasses import dataclass
@@ -36,6 +42,7 @@ from wheel_force_estimator.core.physics_params import DampingErrorParams
 from wheel_force_estimator.core.physics_params import finite_number
 from wheel_force_estimator.core.physics_params import LiftOffParams
 from wheel_force_estimator.core.physics_params import LoadBacklashParams
+from wheel_force_estimator.core.physics_params import LoadFrictionParams
 from wheel_force_estimator.core.physics_params import LoadLinearParams
 from wheel_force_estimator.core.physics_params import LoadRollParams
 from wheel_force_estimator.core.physics_params import LoadStopParams
@@ -156,6 +163,9 @@ _KINDS = (
     TermKind('rebound_stop', 'load', LoadStopParams, _stop_load(-1.0), 'gain'),
     TermKind('cubic_stiffness', 'load', LoadLinearParams,
              lambda p, v: law.load_cubic_force(v.load(), p.center_n, p.gain), 'gain'),
+    TermKind('coulomb_friction', 'load', LoadFrictionParams,
+             lambda p, v: law.coulomb_friction_force(v.load_rate(), p.friction_n,
+                                                     p.rate_scale_n_per_s), 'friction_n'),
     TermKind('backlash', 'load', LoadBacklashParams,
              lambda p, v: law.load_backlash_force(v.load(), p.center_n, p.threshold_n, p.gain),
              'gain'),
@@ -212,7 +222,9 @@ def default_source(output_channel: str) -> str:
 
 #: Keys of :meth:`PhysicsTerm.to_dict`; the first three are required.
 _KEYS = ('physics', 'channels', 'parameters', 'sources', 'partners', 'input_quantity',
-         'highpass_hz', 'lowpass_hz', 'state', 'state_lowpass_hz')
+         'highpass_hz', 'lowpass_hz', 'state', 'state_lowpass_hz', 'response_taps')
+#: Longest response FIR a term may carry [taps] (a model file from a stranger is bounded).
+MAX_RESPONSE_TAPS = 65536
 
 
 @dataclass(frozen=True)
@@ -249,6 +261,11 @@ class PhysicsTerm:
         prediction low-passed at ``state_lowpass_hz``; :data:`LOAD_PARAMETERS` names).
     state_lowpass_hz : float
         First-order low-pass corner of the load state [Hz].
+    response_taps : tuple of float
+        Causal FIR [-] (lag 0 first) the term's force passes through before it is added to
+        the channel; empty (default) = added as it is.  Through it a term inside a structure
+        reaches the sensor through the structure's dynamics.  At most
+        :data:`MAX_RESPONSE_TAPS` finite taps.
 
     Raises
     ------
@@ -267,6 +284,7 @@ class PhysicsTerm:
     lowpass_hz: float = 0.0
     state: str = 'motion'
     state_lowpass_hz: float = 0.0
+    response_taps: Tuple[float, ...] = ()
     params: TermParams = dataclasses.field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -309,6 +327,7 @@ class PhysicsTerm:
         for field_name in ('highpass_hz', 'lowpass_hz'):
             if finite_number(getattr(self, field_name), field_name) < 0.0:
                 raise ConfigError(f'{name}: {field_name} must be >= 0')
+        object.__setattr__(self, 'response_taps', _response_taps(self.response_taps, name))
         object.__setattr__(self, 'channels', channels)
         object.__setattr__(self, 'params', params)
         object.__setattr__(self, 'parameters', types.MappingProxyType(params.as_dict()))
@@ -365,6 +384,8 @@ class PhysicsTerm:
         if self.state != 'motion':
             out['state'] = self.state
             out['state_lowpass_hz'] = self.state_lowpass_hz
+        if self.response_taps:
+            out['response_taps'] = list(self.response_taps)
         return out
 
     @classmethod
@@ -384,7 +405,7 @@ class PhysicsTerm:
         missing = sorted(set(_KEYS[:3]) - set(data))
         if unknown or missing:
             raise ConfigError(f'physics term: unknown keys {unknown}, missing keys {missing}')
-        for key in ('channels', 'sources', 'partners'):
+        for key in ('channels', 'sources', 'partners', 'response_taps'):
             if isinstance(data.get(key, ()), (str, bytes)):
                 raise ConfigError(f'{data["physics"]}: {key} must be a list of channel names, '
                                   f'got {data[key]!r}')
@@ -395,4 +416,21 @@ class PhysicsTerm:
                    highpass_hz=data.get('highpass_hz', 0.5),
                    lowpass_hz=data.get('lowpass_hz', 0.0),
                    state=str(data.get('state', 'motion')),
-                   state_lowpass_hz=data.get('state_lowpass_hz', 0.0))
+                   state_lowpass_hz=data.get('state_lowpass_hz', 0.0),
+                   response_taps=tuple(data.get('response_taps', ())))
+
+
+def _response_taps(taps, name: str) -> Tuple[float, ...]:
+    """Validate a response FIR: a sequence of at most MAX_RESPONSE_TAPS finite numbers."""
+    if isinstance(taps, (str, bytes)) or not hasattr(taps, '__len__'):
+        raise ConfigError(f'{name}: response_taps must be a list of numbers, got {taps!r}')
+    if len(taps) > MAX_RESPONSE_TAPS:
+        raise ConfigError(f'{name}: response_taps has {len(taps)} taps, at most '
+                          f'{MAX_RESPONSE_TAPS} allowed')
+    out = []
+    for i, t in enumerate(taps):
+        try:
+            out.append(finite_number(t, f'response_taps[{i}]'))
+        except ConfigError as err:
+            raise ConfigError(f'{name}.{err}') from err
+    return tuple(out)
