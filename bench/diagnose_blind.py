@@ -374,53 +374,6 @@ def _report_real(title, real, hold):
             print(f'   not kept: {line}')
 
 
-def _structure_records(case, seed, seconds=60.0, fs_hz=512.0):
-    """One run of a base-excited structure: inputs base accelerations, outputs base forces."""
-    import numpy as np
-    from scipy import signal
-    rng = np.random.default_rng(seed)
-    n = int(seconds * fs_hz)
-    b, a = signal.butter(4, [1.0 / (fs_hz / 2), 40.0 / (fs_hz / 2)], 'bandpass')
-    n_in = 3 if case == 'linear, 3 inputs' else 1
-    accel = 2.0 * signal.lfilter(b, a, rng.standard_normal((n_in, n)), axis=1)
-    accel *= 0.7 + 0.15 * (seed % 5)
-
-    def mode(u, fn_hz, zeta, restoring=None):
-        # m r'' + c r' + k r + restoring(r, r') = -m u'', F = c r' + k r + restoring (RK4)
-        m, wn = 100.0, 2 * np.pi * fn_hz
-        k, c, dt = m * wn ** 2, 2 * zeta * m * wn, 1.0 / fs_hz
-        if restoring is None:
-            sys_ = signal.lti([-c, -k], [1.0, 2 * zeta * wn, wn ** 2])
-            return signal.lsim(sys_, u, np.arange(u.size) * dt)[1]
-
-        def deriv(r, v, ua):
-            f = c * v + k * r + restoring(r, v, k)
-            return -f / m - ua, f
-        r = v = 0.0
-        force = np.empty(u.size)
-        for i, ua in enumerate(u):
-            a1, force[i] = deriv(r, v, ua)
-            a2, _ = deriv(r + 0.5 * dt * v, v + 0.5 * dt * a1, ua)
-            a3, _ = deriv(r + 0.5 * dt * (v + 0.5 * dt * a1), v + 0.5 * dt * a2, ua)
-            a4, _ = deriv(r + dt * (v + 0.5 * dt * a2), v + dt * a3, ua)
-            r, v = r + dt * (v + dt * (a1 + a2 + a3) / 6), v + dt * (a1 + 2 * a2 + 2 * a3
-                                                                     + a4) / 6
-        return force
-    rs = 5.4e-4  # RMS relative displacement of the 8 Hz mode at this excitation [m]
-    restoring = {'hardening in the loop': lambda r, v, k: 0.05 * k / rs ** 2 * r ** 3,
-                 'friction in the loop': lambda r, v, k: 0.1 * k * rs * np.tanh(v / 1e-3)
-                 }.get(case)
-    if n_in == 1:
-        force = mode(accel[0], 8.0, 0.05, restoring)[None]
-    else:
-        force = np.stack([mode(accel[0], 8.0, 0.02) + 0.5 * mode(accel[1], 13.0, 0.05),
-                          mode(accel[2], 11.0, 0.03) + 0.3 * mode(accel[0], 5.0, 0.05)])
-    force += 0.02 * force.std(axis=1, keepdims=True) * rng.standard_normal(force.shape)
-    return MotionRecording(f'{case} run {seed}', fs_hz, accel, force,
-                           tuple(f'a{i}' for i in range(n_in)),
-                           tuple(f'f{o}' for o in range(force.shape[0])))
-
-
 RIG_EFFECTS = ('none', 'coulomb_friction', 'damper_asymmetry', 'cubic_stiffness', 'backlash',
                'bump_stop')
 
@@ -478,19 +431,17 @@ def run_rigs(seeds=range(3)):
           f'rigs (chosen): {false}/{2 * len(seeds)}')
 
 
-STRUCTURES = ('linear, 1 input', 'linear, 3 inputs', 'hardening in the loop',
-              'friction in the loop')
-
-
 def run_structures():
     import numpy as np
+    from wheel_force_estimator.diagnosis.synthetic import structure_recording
+    from wheel_force_estimator.diagnosis.synthetic import STRUCTURES
     print('\n== lightly damped structures (base-excited 5-13 Hz modes, 2-5 % damping; 2 x 60 s '
           'to fit, 60 s holdout; RMSE %, 1 Hz high-pass, mean over outputs, report half)')
     print(f'{"case":24s} {"paper segment: named":28s} {"fit":>6s} {"written":>8s}   '
           f'{"segment chosen: named":28s} {"fit":>6s} {"written":>8s}')
     for case in STRUCTURES:
-        real = [_structure_records(case, s) for s in (1, 2)]
-        hold = [_structure_records(case, 3)]
+        real = [structure_recording(case, s) for s in (1, 2)]
+        hold = [structure_recording(case, 3)]
         cells = []
         for choose in (False, True):
             result = diagnose(real, None, hold, DiagnosisConfig(choose_resolution=choose))

@@ -29,9 +29,11 @@ class FrfReference:
 
     kind = 'frf'
 
-    def __init__(self, model, name: str):
+    def __init__(self, model, name: str, design=None):
         self.model = model
         self.name = name
+        #: The ``FitConfig`` the model was fitted with (segment chosen), when fitted here.
+        self.design = design
 
     @classmethod
     def fit(cls, recordings: Sequence[MotionRecording], name: str, fit_config=None,
@@ -78,7 +80,7 @@ class FrfReference:
         except WheelForceError as err:
             raise DiagnosisError(f'cannot fit the linear FRF on the {name} recordings: '
                                  f'{err}') from err
-        return cls(fitted.model, name)
+        return cls(fitted.model, name, fitted.config)
 
     def check(self, rec: MotionRecording):
         """Refuse a recording whose channels, rate or input quantity differ from the model's."""

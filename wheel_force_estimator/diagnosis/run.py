@@ -33,6 +33,7 @@ from wheel_force_estimator.diagnosis.agreement import agreed_findings
 from wheel_force_estimator.diagnosis.agreement import AgreementConfig
 from wheel_force_estimator.diagnosis.corner import with_sharper_corner
 from wheel_force_estimator.diagnosis.coupling import left_right_coupling
+from wheel_force_estimator.diagnosis.dynamic import dynamic_findings
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.features import motion_features
 from wheel_force_estimator.diagnosis.features import paired_by_coherence
@@ -500,6 +501,8 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
     builder = _Builder(prep, outcomes, channels, sources, partners, config, companions,
                        sim_prep)
     findings = builder.findings()
+    if mode == 'linear':
+        findings += dynamic_findings(prep, reference, channels, sources, outcomes, config)
     if mode != 'linear':
         findings += agreed_findings(outcomes, channels, prep, sim_prep, builder, config,
                                     config.agreement)
