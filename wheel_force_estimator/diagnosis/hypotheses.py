@@ -107,8 +107,13 @@ LOAD_LOWPASS_HZ = (2.5, 5.0, 10.0)
 
 def load_state(ctx: ChannelContext, lowpass_hz: float) -> np.ndarray:
     """Predicted load low-passed like :class:`PhysicsStage` does for ``state='load'``."""
-    b, a = butter_ba(1, float(lowpass_hz), 'lowpass', float(ctx.fs_hz))
-    return signal.lfilter(b, a, ctx.load, zi=signal.lfilter_zi(b, a) * ctx.load[0])[0]
+    return lowpassed_load(ctx.load, ctx.fs_hz, lowpass_hz)
+
+
+def lowpassed_load(load_n: np.ndarray, fs_hz: float, lowpass_hz: float) -> np.ndarray:
+    """Return ``load_n`` low-passed like the stage's load state (started at its first value)."""
+    b, a = butter_ba(1, float(lowpass_hz), 'lowpass', float(fs_hz))
+    return signal.lfilter(b, a, load_n, zi=signal.lfilter_zi(b, a) * load_n[0])[0]
 
 
 def _load_stop_grid(sign):
