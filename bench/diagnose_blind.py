@@ -27,7 +27,9 @@ Four parts, each printed with a baseline measured in the same run:
 4. The real datasets in ../shared/data (friction damper, MR damper) through the generic path.
 5. Lightly damped structures (base-excited modes, one or three inputs) through the generic
    path as ``wheel-force diagnose`` runs it on DAQ files: the Welch segment chosen by
-   blocked cross-validation (core/resolution.py), baseline the paper's 1024 samples.
+   blocked cross-validation (core/resolution.py), baseline the paper's 1024 samples.  The
+   elements inside the loop (hardening, friction between base and an unmeasured mass) are
+   named through the structure's response (diagnosis/dynamic.py), also at smaller sizes.
 6. Displacement / velocity rigs (one corner of the synthetic law driven by its displacement
    or velocity, 2 x 60 s to fit, 2 x 60 s holdout, 3 seeds) through the generic path as the
    CLI runs it: the differentiator low-pass chosen between fs/8 and the sharper corner by
@@ -439,9 +441,13 @@ def run_structures():
           'to fit, 60 s holdout; RMSE %, 1 Hz high-pass, mean over outputs, report half)')
     print(f'{"case":24s} {"paper segment: named":28s} {"fit":>6s} {"written":>8s}   '
           f'{"segment chosen: named":28s} {"fit":>6s} {"written":>8s}')
-    for case in STRUCTURES:
-        real = [structure_recording(case, s) for s in (1, 2)]
-        hold = [structure_recording(case, 3)]
+    # The elements inside the loop also at a fifth / a third of their size (2 % / 3.3 % of the
+    # spring force at the RMS deflection), where the plain FIR's load is still a usable state.
+    cases = [(c, 1.0) for c in STRUCTURES]
+    cases += [('hardening in the loop', 0.2), ('friction in the loop', 0.33)]
+    for case, strength in cases:
+        real = [structure_recording(case, s, strength=strength) for s in (1, 2)]
+        hold = [structure_recording(case, 3, strength=strength)]
         cells = []
         for choose in (False, True):
             result = diagnose(real, None, hold, DiagnosisConfig(choose_resolution=choose))
@@ -449,7 +455,8 @@ def run_structures():
             fit, after = (float(np.mean([getattr(result.fit, k)[c] for c in chans]))
                           for k in ('real_linear', 'after'))
             cells.append(f'{named(result):28s} {fit:6.1f} {after:8.1f}')
-        print(f'{case:24s} {cells[0]}   {cells[1]}', flush=True)
+        label = case if strength == 1.0 else f'{case} x{strength:g}'
+        print(f'{label:24s} {cells[0]}   {cells[1]}', flush=True)
 
 
 def main(argv=None) -> int:

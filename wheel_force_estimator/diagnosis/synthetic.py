@@ -181,7 +181,7 @@ def _mode_force(u, fs_hz: float, fn_hz: float, zeta: float, restoring=None) -> n
 
 
 def structure_recording(case: str, seed: int, seconds: float = 60.0,
-                        fs_hz: float = 512.0) -> MotionRecording:
+                        fs_hz: float = 512.0, strength: float = 1.0) -> MotionRecording:
     """
     One run of a lightly damped base-excited structure: base accelerations in, base forces out.
 
@@ -190,7 +190,7 @@ def structure_recording(case: str, seed: int, seconds: float = 60.0,
     of three inputs; ``'hardening in the loop'`` / ``'friction in the loop'``: the 8 Hz mode
     with a cubic spring (5 % of the linear force at the RMS deflection) or a friction joint
     (10 % of it, regularised at 1 mm/s) between base and mass: the element acts on the
-    unmeasured relative motion, inside the structure.
+    unmeasured relative motion, inside the structure; ``strength`` scales that element.
     """
     from scipy import signal
     if case not in STRUCTURES:
@@ -202,9 +202,10 @@ def structure_recording(case: str, seed: int, seconds: float = 60.0,
     accel = 2.0 * signal.lfilter(b, a, rng.standard_normal((n_in, n)), axis=1)
     accel *= 0.7 + 0.15 * (seed % 5)
     rs = _STRUCTURE_RMS_M
-    restoring = {'hardening in the loop': lambda r, v, k: 0.05 * k / rs ** 2 * r ** 3,
-                 'friction in the loop': lambda r, v, k: 0.1 * k * rs * np.tanh(v / 1e-3)
-                 }.get(case)
+    restoring = {'hardening in the loop':
+                 lambda r, v, k: strength * 0.05 * k / rs ** 2 * r ** 3,
+                 'friction in the loop':
+                 lambda r, v, k: strength * 0.1 * k * rs * np.tanh(v / 1e-3)}.get(case)
     if n_in == 1:
         force = _mode_force(accel[0], fs_hz, 8.0, 0.05, restoring)[None]
     else:
