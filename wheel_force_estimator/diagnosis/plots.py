@@ -81,7 +81,7 @@ def _asd_plot(plt, path, rec, o, before, after):
     plt.close(fig)
 
 
-def _regime_plot(plt, path, rec, o, before, finding):
+def _regime_plot(plt, path, rec, o, before, finding, after=None):
     term = finding.terms[0] if finding.terms else None
     hp = term.highpass_hz if term else FeatureConfig().highpass_hz
     feats = motion_features(rec.inputs, rec.fs_hz, rec.input_quantity, FeatureConfig(hp or 0.2))
@@ -92,7 +92,13 @@ def _regime_plot(plt, path, rec, o, before, finding):
         source = pairing(rec.output_channels, rec.input_channels, (rec,))[0][o]
     s = rec.input_channels.index(source)
     key, label = _STATE.get(finding.physics, ('displacement', 'displacement [m]'))
-    state = {'level': rec.inputs[s], 'load': before[o]}.get(key)
+    if term is not None and term.response_taps and after is not None:
+        # Inside the structure no motion state shows it (the force arrives through the
+        # structure's response, with the FIR refitted around it): what the written model
+        # adds to the reference is what the residual should follow, on the diagonal.
+        key, label = 'added', 'written model minus reference [N]'
+    state = {'level': rec.inputs[s], 'load': before[o],
+             'added': None if after is None else after[o] - before[o]}.get(key)
     if state is None:
         state = feats[key][s]
     skip = min(rec.n_samples // 4, int(3.0 / (hp or 1.0) * rec.fs_hz)) if hp else 0
@@ -106,7 +112,7 @@ def _regime_plot(plt, path, rec, o, before, finding):
     centres = [x[idx == i].mean() for i in range(25) if np.any(idx == i)]
     means = [r[idx == i].mean() for i in range(25) if np.any(idx == i)]
     ax.plot(centres, means, 'C3o-', ms=4, label='binned mean')
-    ax.set_xlabel(f'{source} {label}')
+    ax.set_xlabel(label if key == 'added' else f'{source} {label}')
     ax.set_ylabel(f'{rec.output_channels[o]} residual [N]')
     ax.set_title(f'{finding.physics}: the regime that reveals it')
     ax.legend(loc='best')
@@ -147,7 +153,7 @@ def write_report(directory, result, real: Sequence, holdout: Sequence = ()) -> P
         images.append(name)
     for k, f in enumerate(result.findings):
         name = f'regime_{k}_{f.physics}.png'
-        _regime_plot(plt, out / name, rec, channels.index(f.channels[0]), before, f)
+        _regime_plot(plt, out / name, rec, channels.index(f.channels[0]), before, f, after)
         images.append(name)
     report = out / 'report.md'
     try:
