@@ -141,13 +141,22 @@ def _partialled_fit(groups, free, units, real, base, refit, hp: float, skip: int
         fitted = refit([replace(rec, outputs=u) for rec, u in zip(real, g_units)])
         partialled.append([u - p for u, p in zip(g_units, _predictions(fitted, real))])
     beta = _strengths(partialled, free, real, base, hp, skip)
-    added = [sum((b * u[k] for b, u in zip(beta, units)), np.zeros_like(base[k]))
+    model, base, units = _refit_around(groups, beta, units, real, refit)
+    return _weighted_sse(units, beta, real, base, hp, skip), model, beta
+
+
+def _refit_around(groups, beta, units, real, refit):
+    """
+    Refit the FRF on the real forces minus the groups' force at ``beta``.
+
+    Returns ``(model, its predictions, the groups' unit forces on it)``.
+    """
+    added = [sum((b * u[k] for b, u in zip(beta, units)), np.zeros_like(units[0][k]))
              for k in range(len(real))]
     model = refit([replace(rec, outputs=np.asarray(rec.outputs) - a)
                    for rec, a in zip(real, added)])
     base = _predictions(model, real)
-    units = _units(model, groups, real, base)
-    return _weighted_sse(units, beta, real, base, hp, skip), model, beta
+    return model, base, _units(model, groups, real, base)
 
 
 def _one_channel(term, channel: str):
@@ -244,12 +253,7 @@ def backfitted_model(findings, real: Sequence, linear_model,
             best = step
             _, model, beta = best
     for _ in range(iterations):
-        added = [sum((b * u[k] for b, u in zip(beta, units)), np.zeros_like(base[k]))
-                 for k in range(len(real))]
-        model = refit([replace(rec, outputs=np.asarray(rec.outputs) - a)
-                       for rec, a in zip(real, added)])
-        base = _predictions(model, real)
-        units = _units(model, groups, real, base)
+        model, base, units = _refit_around(groups, beta, units, real, refit)
         beta = _strengths(units, free, real, base, hp, skip)
         sse = _weighted_sse(units, beta, real, base, hp, skip)
         if not sse < best[0]:
