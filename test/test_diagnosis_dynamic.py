@@ -76,3 +76,20 @@ def test_linear_structures_name_nothing_inside(case):
     result = diagnose(real, None, [structure_recording(case, 3)], CLI_DESIGN)
     assert result.findings == ()
     assert result.fit.after == result.fit.real_linear
+
+
+def test_without_a_holdout_the_term_inside_is_written_on_the_refitted_fir():
+    # Bug caught: without a holdout the reference + terms was written; a term inside the
+    # structure was fitted with the FIR refitted around it, so on the plain FIR its linear
+    # part counted twice.  The written model must beat the plain fit on a record it never saw.
+    from wheel_force_estimator.core.predict import predict_forces
+    from wheel_force_estimator.diagnosis.holdout import evaluate_scores
+    real = [structure_recording('friction in the loop', s) for s in (1, 2)]
+    result = diagnose(real, None, (), CLI_DESIGN)
+    assert [f.physics for f in result.findings] == ['coulomb_friction']
+    assert result.fit.data == 'cross_validation'
+    unseen = [structure_recording('friction in the loop', 3)]
+    written, plain = (evaluate_scores(lambda r, m=m: predict_forces(m, r.inputs), unseen,
+                                      'rmse_hp1_pct')['f0']
+                      for m in (result.model, result.baseline.model))
+    assert written < 0.8 * plain

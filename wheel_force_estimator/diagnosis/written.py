@@ -488,8 +488,9 @@ def compare(findings, real, reference, mode, holdout, outcomes, channels, source
     else:
         if ref_model is not None:
             candidates[AUGMENTED[mode]] = ref_model.with_physics(list(ref_model.physics) + terms)
-        if lin_model is not None and (split is not None or not candidates):
-            # Without a holdout nothing can choose: the reference + terms is written.
+        if lin_model is not None and (split is not None or not candidates or dynamic):
+            # Without a holdout nothing can choose: the reference + terms is written - but a
+            # term inside the structure needs its FIR refitted around it (see above).
             candidates['real_frf+physics'], _ = backfitted_model(
                 findings, real, lin_model, real_fit, hp, skip)
             if split is not None:
