@@ -321,7 +321,8 @@ def dynamic_findings(prep, reference, channels: Sequence[str], sources: Sequence
             coef = chan.refined(cands[best], coef)
         except WheelForceError:
             pass    # the plain-load coefficients stand
-        found.append(_finding(chan, cands[best], coef, gain, null, drop))
+        if np.any(chan.taps(coef)):
+            found.append(_finding(chan, cands[best], coef, gain, null, drop))
     return found
 
 
