@@ -31,6 +31,7 @@ from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filter_design import butter_ba
 from wheel_force_estimator.core.physics_laws import *  # noqa: F401,F403  (re-export)
 from wheel_force_estimator.core.physics_laws import clip_indicator
+from wheel_force_estimator.core.physics_laws import load_rate
 from wheel_force_estimator.core.physics_laws import play_operator
 from wheel_force_estimator.core.physics_laws import QUANTITIES
 from wheel_force_estimator.core.physics_params import TermParams  # noqa: F401
@@ -222,7 +223,7 @@ class TermView:
         key = self._key + ('rate',)
         prev = self._stage._rate_prev.get(key, y[0])
         self._stage._rate_prev[key] = y[-1]
-        return np.diff(y, prepend=prev) * self._stage.fs_hz
+        return load_rate(y, self._stage.fs_hz, prev)
 
     def delayed(self, delay_s: float) -> np.ndarray:
         """Return the channel's force ``delay_s`` ago (held at its first value at the start)."""

@@ -93,6 +93,16 @@ def damper_asymmetry_force(vel_mps, compression_minus_rebound_n_s_per_m):
     return 0.5 * compression_minus_rebound_n_s_per_m * np.abs(vel_mps)
 
 
+def load_rate(state_n, fs_hz: float, previous_n=None) -> np.ndarray:
+    """
+    Rate of a load state [N/s]: backward difference, ``previous_n`` the sample before.
+
+    ``previous_n`` None: the first sample's own value (a run starts at rate 0).
+    """
+    state = np.asarray(state_n, dtype=np.float64)
+    return np.diff(state, prepend=state[0] if previous_n is None else previous_n) * fs_hz
+
+
 def coulomb_friction_force(vel_mps, friction_n, velocity_scale_mps):
     """Coulomb friction regularised at low speed: ``F_c * tanh(v / v0)``."""
     return friction_n * np.tanh(np.asarray(vel_mps) / velocity_scale_mps)

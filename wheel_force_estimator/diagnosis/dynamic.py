@@ -40,6 +40,7 @@ from scipy import signal
 
 from wheel_force_estimator.core.errors import WheelForceError
 from wheel_force_estimator.core.physics import apply_physics
+from wheel_force_estimator.core.physics import load_rate
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import TrainingSegment
@@ -92,7 +93,7 @@ def _candidates(contexts, fs_hz: float) -> List[_Candidate]:
     out = []
     for fc in corners:
         states = [load_state(c, fc) for c in contexts]
-        rate_rms = float(np.sqrt(np.mean(np.concatenate([np.diff(s) * fs_hz
+        rate_rms = float(np.sqrt(np.mean(np.concatenate([load_rate(s, fs_hz)
                                                          for s in states]) ** 2)))
         if rate_rms > 0.0:
             out.extend(_Candidate('coulomb_friction', {'friction_n': 1.0,
@@ -189,7 +190,7 @@ class _Channel:
         for fc in corners:
             for k, pred in enumerate(self.prep.full_predictions):
                 state = lowpassed_load(pred[self.o], self.fs_hz, fc)
-                rate = np.diff(state, prepend=state[0]) * self.fs_hz
+                rate = load_rate(state, self.fs_hz)
                 columns[k].extend([self.basis(state - state.mean()), self.basis(rate)])
         part = self.partialled([np.concatenate(c) for c in columns])
         self._companions = {fc: tuple(range(4 * j, 4 * j + 4)) for j, fc in enumerate(corners)}
