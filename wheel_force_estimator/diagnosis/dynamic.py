@@ -150,22 +150,26 @@ class _Channel:
     def basis(self, unit: np.ndarray) -> np.ndarray:
         return np.stack([unit, signal.lfilter(self.response, (1.0,), unit)])
 
-    def partialled(self, columns: List[np.ndarray]) -> List[np.ndarray]:
+    def predicted(self, columns: List[np.ndarray]) -> List[np.ndarray]:
         """
-        ``columns[k]`` (n_cols, n) per record minus what the linear design predicts of them.
+        Return what the linear design predicts of ``columns``, fitted on them.
 
-        One fit with every column as an output (H1 fits each output row on its own, so this
-        is the column-by-column refit, in one pass over the inputs).
+        ``columns[k]`` (n_cols, n) are the outputs of record ``k``.  One fit with every
+        column as an output (H1 fits each output row on its own, so this is the
+        column-by-column refit, in one pass over the inputs).
         """
         recs = self.prep.recordings
-        n_cols = columns[0].shape[0]
-        names = [f'column {j}' for j in range(n_cols)]
+        names = [f'column {j}' for j in range(columns[0].shape[0])]
         segs = [TrainingSegment(r.inputs, c, f'{r.name} (dynamic basis)')
                 for r, c in zip(recs, columns)
                 if r.n_samples >= self.design.segment_length]
         fitted = fit_model(segs, self.fs_hz, self.design, recs[0].input_channels, names,
                            input_quantity=recs[0].input_quantity)
-        return [c - predict_forces(fitted, r.inputs) for r, c in zip(recs, columns)]
+        return [predict_forces(fitted, r.inputs) for r in recs]
+
+    def partialled(self, columns: List[np.ndarray]) -> List[np.ndarray]:
+        """Return ``columns[k]`` minus what the linear design predicts of them."""
+        return [c - p for c, p in zip(columns, self.predicted(columns))]
 
     def sse(self, partialled: List[np.ndarray], rows: Sequence[int]) -> Tuple[float, np.ndarray]:
         """Cross-validated SSE and full-data coefficients of the partialled ``rows``."""
@@ -207,7 +211,6 @@ class _Channel:
         features are circularly shifted by ``shifts[k]`` samples (None: as recorded).
         """
         out = []
-        n_comp = 4
         # A few candidates per fit: the basis of all of them at once, twice over (partialled),
         # held 1.5 GB for 2 x 300 s at 2048 Hz.
         for first in range(0, len(cands), CANDIDATES_PER_FIT):
@@ -220,13 +223,22 @@ class _Channel:
             part = self.partialled(columns)
             for pos, j in enumerate(chunk):
                 fc = cands[j].state_lowpass_hz
-                rows = list(self._companions[fc])
-                both = [np.concatenate([c[rows], p[2 * pos:2 * pos + 2]])
-                        for c, p in zip(self._companion_part, part)]
-                sse, coef = self.sse(both, range(n_comp + 2))
+                sse, coef = self.beside_companions(fc, [p[2 * pos:2 * pos + 2] for p in part])
                 base = self._companion_sse[fc]
-                out.append((1.0 - sse / base if base > 0.0 else 0.0, coef[n_comp:], sse, base))
+                out.append((1.0 - sse / base if base > 0.0 else 0.0, coef, sse, base))
         return out
+
+    def beside_companions(self, corner_hz: float, candidate: List[np.ndarray]):
+        """
+        Return the SSE and the candidate's coefficients, fitted beside the companions.
+
+        ``candidate[k]`` holds the partialled basis (2, n) of record ``k``; the companions are
+        the linear columns of the same corner (:meth:`linear_companions`).
+        """
+        rows = list(self._companions[corner_hz])
+        both = [np.concatenate([c[rows], q]) for c, q in zip(self._companion_part, candidate)]
+        sse, coef = self.sse(both, range(len(rows) + len(candidate[0])))
+        return sse, coef[len(rows):]
 
     def refined(self, cand: _Candidate, coef, iterations: int = REFINE_ITERATIONS):
         """
@@ -245,25 +257,16 @@ class _Channel:
         unit_term = self.term(cand)
         for _ in range(iterations):
             term = self.term(cand, taps=tuple(self.taps(coef)))
-            segs = []
-            for rec, pred in zip(recs, self.prep.full_predictions):
-                added = self._added(term, rec, pred)
-                segs.append(TrainingSegment(rec.inputs, rec.outputs[self.o:self.o + 1] - added,
-                                            f'{rec.name} (refit)'))
-            fitted = fit_model([g for g in segs
-                                if g.accel_mps2.shape[1] >= self.design.segment_length],
-                               self.fs_hz, self.design, recs[0].input_channels, [self.channel],
-                               input_quantity=recs[0].input_quantity)
+            # the channel's FIR refitted on the force minus the term
+            refit = self.predicted([rec.outputs[self.o:self.o + 1] - self._added(term, rec, pred)
+                                    for rec, pred in zip(recs, self.prep.full_predictions)])
             units = []
-            for rec, pred in zip(recs, self.prep.full_predictions):
+            for rec, pred, load in zip(recs, self.prep.full_predictions, refit):
                 whole = pred.copy()
-                whole[self.o] = predict_forces(fitted, rec.inputs)[0]
+                whole[self.o] = load[0]
                 units.append(self._added(unit_term, rec, whole))
             part = self.partialled([self.basis(u) for u in units])
-            rows = list(self._companions[cand.state_lowpass_hz])
-            both = [np.concatenate([c[rows], q])
-                    for c, q in zip(self._companion_part, part)]
-            coef = self.sse(both, range(len(rows) + 2))[1][len(rows):]
+            coef = self.beside_companions(cand.state_lowpass_hz, part)[1]
         return coef
 
     def taps(self, coef) -> np.ndarray:
@@ -334,9 +337,8 @@ def _finding(chan: _Channel, cand: _Candidate, coef, gain: float, null: float,
     spectrum = np.abs(np.fft.rfft(taps, max(4096, 2 * taps.size)))
     peak = float(spectrum.max())
     peak_hz = float(np.argmax(spectrum) * chan.fs_hz / (2 * (spectrum.size - 1)))
-    strength = 'friction_n' if cand.physics == 'coulomb_friction' else 'gain'
     params = dict(cand.params)
-    params[strength] = peak
+    params[chan.term(cand).kind.strength] = peak
     term = chan.term(cand, params, tuple(taps / peak))
     what = ('friction in the load path (the rate of the predicted load, i.e. of the '
             'deflection)' if cand.physics == 'coulomb_friction'
