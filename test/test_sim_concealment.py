@@ -42,9 +42,11 @@ def test_concealed_params_scale_strength_only():
     bump = concealed_params('bump_stop', 0.5)['bump_stop']
     assert bump['gap_m'] == CONCEALED_PARAMS['bump_stop']['gap_m']
     assert bump['stiffness_n_per_m'] == 0.5 * EFFECT_DEFAULTS['bump_stop']['stiffness_n_per_m']
-    assert concealed_params('damper_asymmetry', 0.5) == {
-        'damper_asymmetry': {'rebound_to_compression_ratio': 1.15}}
-    assert concealed_params('damping_error', 0.8) == {'damping_error': {'fraction': -0.05}}
+    # The excess over a symmetric damper scales: 1 + 0.5 * (1.145 - 1).
+    asym = concealed_params('damper_asymmetry', 0.5)['damper_asymmetry']
+    assert asym == {'rebound_to_compression_ratio': pytest.approx(1.0725, abs=1e-12)}
+    damping = concealed_params('damping_error', 0.8)['damping_error']
+    assert damping == {'fraction': pytest.approx(0.8 * -0.032, abs=1e-12)}
     saturation = concealed_params('sensor_saturation', 0.5)['sensor_saturation']
     assert saturation == dict(EFFECT_DEFAULTS['sensor_saturation'])
     with pytest.raises(ConfigError, match='unknown effect'):

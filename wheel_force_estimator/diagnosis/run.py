@@ -85,10 +85,10 @@ class DiagnosisConfig:
         ``'regression'`` (per-channel ``F0 + k x + c v + m a``) or ``'auto'`` (FRF for
         acceleration inputs).
     fit : object
-        ``core.pipeline.FitConfig`` for FRF fits.  None: the simulation's FRF with the
-        library's single-resolution ``FitConfig()`` (what the detection rules were measured
-        with), every fit on the real data with the design ``wheel-force fit`` uses
-        (:func:`core.design.product_fit_config`).
+        ``core.pipeline.FitConfig`` for FRF fits.  None: the design ``wheel-force fit`` uses
+        without a params file (:func:`core.design.product_fit_config`), for the simulation's
+        FRF and every fit on the real data alike: what ``wheel-force diagnose`` runs, so a
+        benchmark of the library measures the diagnosis users get.
     fit_fallback : bool
         Real-data fits may fall back to one resolution for records shorter than the long
         Welch segment, as ``wheel-force fit`` does for generic recordings (the CLI passes
@@ -148,12 +148,11 @@ class DiagnosisConfig:
 
 def _fit_linear(recordings, config, name, rec0):
     """Fit the linear reference on simulation recordings (``config.linear``)."""
-    from wheel_force_estimator.core.pipeline import FitConfig
     kind = config.linear
     if kind == 'auto':
         kind = 'frf' if rec0.input_quantity == 'acceleration' else 'regression'
     if kind == 'frf':
-        return FrfReference.fit(recordings, name, config.fit or FitConfig())
+        return FrfReference.fit(recordings, name, config.fit)
     return RegressionReference.fit(recordings, config.features, name)
 
 
