@@ -207,6 +207,47 @@ def test_holdout_split_whole_files_alternate_and_one_file_is_halved():
     assert 'second half: samples 500..1001' in one.report_on[0]
 
 
+def test_one_file_with_road_events_is_halved_per_event():
+    # Bug caught: contiguous halves of a proving-ground bag give the gate the first events
+    # only (rough roads) and the report the rest (manoeuvres), so the gate judges models on
+    # a regime the reported figures never contain.
+    rec = dataclasses.replace(_rec('pg.bag#0', 1000), start_s=2.0,
+                              events=((2.0, 'highway'), (4.0, 'slalom'), (9.0, 'braking'),
+                                      (50.0, 'after the end')))
+    split = split_holdout([rec])
+    assert split.gate == split.report == split.whole == (rec,)
+    (gate,), (report,) = split.gate_samples, split.report_samples
+    # events span samples 0..200, 200..700, 700..1000: each first half decides
+    expected = np.zeros(1000, dtype=bool)
+    expected[0:100] = expected[200:450] = expected[700:850] = True
+    assert np.array_equal(gate, expected)
+    assert np.array_equal(report, ~expected)
+    assert split.report_on == ('pg.bag#0 (second half of every road event: samples '
+                               '100..200, 450..700, 850..1000)',)
+    # the gate masks over a prepared span (settling removed) are the same samples
+    (trimmed,) = split.gate_masks([(50, 900)])
+    assert np.array_equal(trimmed, expected[50:900])
+    # a record without markers keeps the contiguous halves
+    assert split_holdout([_rec('h.csv', 1001)]).report_samples is None
+
+
+def test_masked_scores_are_the_rmse_over_the_masked_samples_of_the_whole_record():
+    # Bug caught: per-event halves scored on the concatenated pieces (each piece's FIR and
+    # high-pass edges) instead of on the prediction of the whole record, as evaluate runs it.
+    rng = np.random.default_rng(5)
+    force = rng.standard_normal((1, 2000))
+    rec = MotionRecording('r', 100.0, np.zeros((1, 2000)), force, ('x',), ('f',),
+                          'displacement')
+    error = np.where(np.arange(2000) < 1000, 0.1, 0.5) * rng.standard_normal(2000)
+    mask = np.arange(2000) >= 1000
+    scores = evaluate_scores(lambda r: force + error, [rec], 'rmse_pct', [mask])
+    e, t = error[mask], force[0, mask]    # evaluate's RMSE removes both means
+    expected = 100.0 * np.sqrt(np.mean((e - e.mean()) ** 2) / np.mean((t - t.mean()) ** 2))
+    assert scores['f'] == pytest.approx(expected, rel=1e-9)
+    whole = evaluate_scores(lambda r: force + error, [rec], 'rmse_pct', [np.ones(2000, bool)])
+    assert whole == pytest.approx(evaluate_scores(lambda r: force + error, [rec], 'rmse_pct'))
+
+
 def test_scaling_a_term_scales_its_force_through_the_predictor(tmp_path):
     # Bug caught: a strength factor put on a parameter the force is not proportional to, so
     # the backfitted model would not carry the fitted strength.

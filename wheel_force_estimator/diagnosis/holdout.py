@@ -11,7 +11,14 @@ figure with ``wheel-force evaluate``: with two or more holdout files (bags or ge
 whole files alternate - the 1st, 3rd, ... decide (the gate that drops findings which make unseen
 data worse, and the choice of the model ``--out-model`` writes), the 2nd, 4th, ... report.  A
 single holdout file is cut into contiguous halves per gap-free segment (first half gate, second
-half report); its figures are then those of ``evaluate`` on the second halves.  Every reported
+half report); its figures are then those of ``evaluate`` on the second halves.  A single file
+that carries road-event markers (a proving-ground bag) is cut per event instead: the first half
+of every event decides, the second half reports, both scored on the prediction of the whole
+record (sample masks).  Contiguous halves of a course give the gate the first events only
+(rough roads) and the report the rest (manoeuvres): on the simulator the gate then preferred
+terms and rows that were 3-9 points worse than the plain fit or the simulation on the report
+half (a stop fitted on rough-road engagements firing through a slalom's sustained load, a
+clip term).  Every reported
 figure (:func:`evaluate_scores`) is the RMSE ``core.evaluation.evaluate_segments`` reports (its
 ``rmse_figures``) of the whole report records predicted through
 ``core.predict.predict_forces`` - the path ``wheel-force evaluate`` runs - so no reported
@@ -56,9 +63,13 @@ class HoldoutSplit:
     report_on: Tuple[str, ...]
     whole: Tuple[MotionRecording, ...] = ()
     gate_ends: Optional[Tuple[int, ...]] = None
+    gate_samples: Optional[Tuple[np.ndarray, ...]] = None
+    report_samples: Optional[Tuple[np.ndarray, ...]] = None
 
     def gate_masks(self, spans) -> Optional[List[np.ndarray]]:
         """Masks of the gate samples over prepared spans of :attr:`whole` (None = all)."""
+        if self.gate_samples is not None:
+            return [m[a:b] for m, (a, b) in zip(self.gate_samples, spans)]
         if self.gate_ends is None:
             return None
         return [np.arange(a, b) < end for (a, b), end in zip(spans, self.gate_ends)]
@@ -83,12 +94,38 @@ def _halves(rec: MotionRecording) -> Tuple[MotionRecording, MotionRecording]:
     return out[0], out[1]
 
 
+def _event_spans(rec: MotionRecording) -> List[Tuple[int, int]]:
+    """
+    Return the sample spans of the road events in ``rec`` (before the first: a span too).
+
+    Event starts outside the record are left out; spans shorter than 2 samples are merged
+    into the one before (they cannot be halved).
+    """
+    starts = sorted({int(round((t - rec.start_s) * rec.fs_hz)) for t, _ in rec.events})
+    cuts = [0] + [s for s in starts if 0 < s < rec.n_samples] + [rec.n_samples]
+    spans = []
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        if spans and b - a < 2:
+            spans[-1] = (spans[-1][0], b)
+        elif b > a:
+            spans.append((a, b))
+    return spans
+
+
+def _runs(mask: np.ndarray) -> List[Tuple[int, int]]:
+    """Return ``(start, stop)`` of every run of True in ``mask``."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
+
+
 def split_holdout(holdout: Sequence[MotionRecording]) -> HoldoutSplit:
     """
     Split holdout records into gate and report halves (see the module notes).
 
     Whole files alternate when there are two or more (1st, 3rd, ... gate; 2nd, 4th, ...
-    report); a single file is cut into contiguous halves per segment.
+    report); a single file with road-event markers is cut per event (first half of each
+    event gate, second half report: sample masks over whole records); any other single file
+    into contiguous halves per segment.
     """
     files = list(dict.fromkeys(source_file(r) for r in holdout))
     if len(files) >= 2:
@@ -96,6 +133,19 @@ def split_holdout(holdout: Sequence[MotionRecording]) -> HoldoutSplit:
         gate = tuple(r for r in holdout if source_file(r) not in report_files)
         report = tuple(r for r in holdout if source_file(r) in report_files)
         return HoldoutSplit(gate, report, tuple(report_files), gate)
+    if any(len(_event_spans(r)) >= 2 for r in holdout):
+        whole = tuple(holdout)
+        gate_masks, report_masks, described = [], [], []
+        for rec in whole:
+            gate_mask = np.zeros(rec.n_samples, dtype=bool)
+            for a, b in _event_spans(rec):
+                gate_mask[a:a + (b - a) // 2] = True
+            gate_masks.append(gate_mask)
+            report_masks.append(~gate_mask)
+            described.append(f'{rec.name} (second half of every road event: samples '
+                             + ', '.join(f'{a}..{b}' for a, b in _runs(~gate_mask)) + ')')
+        return HoldoutSplit(whole, whole, tuple(described), whole, None, tuple(gate_masks),
+                            tuple(report_masks))
     halves = [_halves(r) for r in holdout]
     return HoldoutSplit(tuple(h[0] for h in halves), tuple(h[1] for h in halves),
                         tuple(h[1].name for h in halves), tuple(holdout),
@@ -110,7 +160,8 @@ METRIC = {'acceleration': 'rmse_hp1_pct', 'velocity': 'rmse_pct', 'displacement'
 
 
 def evaluate_scores(predict: Callable[[MotionRecording], np.ndarray],
-                    recordings: Sequence[MotionRecording], metric: str) -> Dict[str, float]:
+                    recordings: Sequence[MotionRecording], metric: str,
+                    masks: Optional[Sequence[np.ndarray]] = None) -> Dict[str, float]:
     """
     RMSE % per channel exactly as ``wheel-force evaluate`` computes it for these records.
 
@@ -123,9 +174,18 @@ def evaluate_scores(predict: Callable[[MotionRecording], np.ndarray],
         Whole records (no settling removed: ``evaluate`` does not remove any).
     metric : str
         ``'rmse_pct'`` or ``'rmse_hp1_pct'`` (:data:`METRIC`).
+    masks : sequence of numpy.ndarray of bool, optional
+        Per record, the samples scored (the per-event halves); None: every sample.
 
     """
     rec0 = recordings[0]
+    if masks is not None:
+        # Whole records predicted and high-passed as evaluate does, scored on their masked
+        # samples (the per-event halves of split_holdout).
+        return rmse_by_channel([np.asarray(r.outputs, dtype=np.float64) for r in recordings],
+                               [np.asarray(predict(r), dtype=np.float64) for r in recordings],
+                               rec0.output_channels,
+                               1.0 if metric == 'rmse_hp1_pct' else 0.0, rec0.fs_hz, masks)
     # evaluate's own RMSE function (core.evaluation.rmse_figures): the same figures without
     # the damage, spectra and events evaluate_segments also computes (~10 % of a diagnosis).
     raw, hp = rmse_figures([np.asarray(r.outputs, dtype=np.float64) for r in recordings],
