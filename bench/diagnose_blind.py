@@ -7,10 +7,13 @@ Four parts, each printed with a baseline measured in the same run:
 
 1. Known-answer synthetic pairs (diagnosis/synthetic.py): one concealed effect per case.
 2. Simulator pairs (sim.simulate: nominal car vs car with one effect, holdout on another
-   seed), linear MIMO FRF fitted on the simulation.  The effect is concealed
-   (sim/concealment.py): it acts on under 5 % of the samples, or the error it adds is below
-   the error the simulation's FRF already makes on the simulation, on every channel (1 Hz
-   high-passed); the measurement is printed for every case.  Seed 0 uses the concealed sizes,
+   seed), diagnosed as ``wheel-force diagnose`` runs on bags (``BAG_CONFIG``: the MIMO FRF
+   of ``wheel-force fit`` fitted on the simulation and on the real records alike).  The
+   effect is concealed (sim/concealment.py): it acts on under 5 % of the samples, or the
+   error it adds is below the error the simulation's FRF already makes on the simulation,
+   on every channel (1 Hz high-passed); the measurement is printed for every case.
+   ``--car suv`` drives a heavier SUV instead of the default compact car (same effect
+   sizes, so smaller relative to that car's forces).  Seed 0 uses the concealed sizes,
    every further seed scales their strength by a draw in 0.6..1.0 (``--sizes default``: the
    simulator's default, visible sizes, drawn x0.7..1.4).  Nulls: the matched pair, the nominal
    car on other roads, and small linear parameter drift.  Per case, `wheel-force evaluate`
@@ -40,9 +43,10 @@ time-shifted-feature null, no practical thresholds - naming the best one.  A goo
 names the true effect as often and "none" far more often when nothing is there.
 
 Usage: ``.venv/bin/python bench/diagnose_blind.py [--seeds N] [--sim-seeds N]
-[--duration-scale X] [--holdout-scale X] [--sizes concealed|default] [--skip-sim]
-[--effects a,b]`` (defaults: 3 synthetic seeds, 3 simulator seeds at duration scale 0.2 =
-2-minute recordings with 5-minute holdouts, ~25 min on a 2-core machine).
+[--duration-scale X] [--holdout-scale X] [--sizes concealed|default] [--car compact|suv]
+[--skip-sim | --only-sim] [--effects a,b]`` (defaults: 3 synthetic seeds, 3 simulator
+seeds at duration scale 0.2 = 2-minute recordings with 5-minute holdouts, ~35 min on a
+2-core machine).
 """
 import argparse
 from collections import Counter
@@ -53,7 +57,7 @@ import time
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
-from wheel_force_estimator.core.pipeline import FitConfig
+from wheel_force_estimator.core.design import product_fit_config
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
 from wheel_force_estimator.diagnosis import MotionRecording
@@ -80,6 +84,29 @@ DRAWN = {'bump_stop': ('stiffness_n_per_m', 'progressive_n_per_m3'),
          'mass_error': ('fraction',), 'stiffness_error': ('fraction',),
          'damping_error': ('fraction',)}
 SHARED = Path(__file__).resolve().parents[1].parent / 'shared' / 'data'
+
+
+#: A second car for ``--car suv``: heavier, taller, stiffer, all-wheel drive - what "other
+#: cars" means for a diagnosis whose rules were developed on the compact default.
+SUV = {'name': 'suv_awd_2160kg', 'sprung_mass_kg': 2050.0, 'pitch_inertia_kgm2': 3800.0,
+       'roll_inertia_kgm2': 900.0, 'unsprung_mass_front_kg': 58.0,
+       'unsprung_mass_rear_kg': 52.0, 'outboard_mass_front_kg': 30.0,
+       'outboard_mass_rear_kg': 28.0, 'wheel_spin_inertia_front_kgm2': 1.7,
+       'wheel_spin_inertia_rear_kgm2': 1.5, 'wheelbase_m': 2.90, 'cg_to_front_axle_m': 1.38,
+       'cg_height_m': 0.72, 'track_front_m': 1.64, 'track_rear_m': 1.64,
+       'wheel_radius_m': 0.37, 'spring_rate_front_n_per_m': 42000.0,
+       'spring_rate_rear_n_per_m': 47000.0, 'damping_front_ns_per_m': 3400.0,
+       'damping_rear_ns_per_m': 3600.0, 'tyre_stiffness_n_per_m': 290000.0,
+       'tyre_contact_length_m': 0.22, 'drive_front_fraction': 0.4, 'drag_area_m2': 1.05}
+#: The car of the simulator parts (None: the simulator's default compact car).
+CAR = None
+
+
+#: What ``wheel-force diagnose`` runs on bags (cli/diagnose.py): the fit design of
+#: ``wheel-force fit`` without a params file (two resolutions) for the simulation's FRF and
+#: every real-data fit, no short-record or segment fallbacks, no cross-validated segment.
+BAG_CONFIG = DiagnosisConfig(fit=product_fit_config(), fit_fallback=False,
+                             long_window_fallback=True, segment_fallback=False)
 
 
 def named(result) -> str:
@@ -175,8 +202,11 @@ def run_synthetic(seeds, effects):
 
 
 def _rec(result, name):
+    # As the bag reader gives it: event starts in seconds on the record's own clock.
+    t0 = int(result.stamp_ns[0])
     return MotionRecording(name, result.fs_hz, result.accel_mps2, result.force_n,
-                           INPUT_CHANNELS, OUTPUT_CHANNELS)
+                           INPUT_CHANNELS, OUTPUT_CHANNELS,
+                           events=tuple(((t - t0) * 1e-9, e) for t, e in result.events))
 
 
 def run_sim(seeds, duration_scale, effects, sizes, holdout_scale):
@@ -185,7 +215,7 @@ def run_sim(seeds, duration_scale, effects, sizes, holdout_scale):
     from wheel_force_estimator.sim.concealment import measure_concealment
     from wheel_force_estimator.sim.effects import EFFECT_NAMES
     rows = []
-    config = DiagnosisConfig()
+    config = BAG_CONFIG
     print(f'\n== simulator pairs ({sizes} sizes, proving ground x {duration_scale:g}, holdout x '
           f'{holdout_scale:g}, MIMO FRF on the sim, holdout RMSE % with 1 Hz high-pass over the '
           f'named channels)')
@@ -193,9 +223,9 @@ def run_sim(seeds, duration_scale, effects, sizes, holdout_scale):
           f'     fit  written model    all named')
     for seed in seeds:
         seed_rows = []
-        nominal = simulate('proving_ground', (), seed, duration_scale)
+        nominal = simulate('proving_ground', (), seed, duration_scale, vehicle=CAR)
         sim = [_rec(nominal, 'sim')]
-        ref = FrfReference.fit(sim, 'sim', FitConfig())  # as the diagnosis fits the sim
+        ref = FrfReference.fit(sim, 'sim', config.fit)  # as the diagnosis fits the sim
         for effect in effects:
             if effect not in NULLS and effect not in EFFECT_NAMES:
                 continue
@@ -206,9 +236,10 @@ def run_sim(seeds, duration_scale, effects, sizes, holdout_scale):
             # over other roads, so the sim FRF meets data it was not fitted on.
             real_seed = seed + 50 if effect == 'none_reseeded' else seed
             real_run = simulate('proving_ground', physics, real_seed, duration_scale,
-                                effect_params=params)
+                                vehicle=CAR, effect_params=params)
             real = [_rec(real_run, 'real')]
             holdout = [_rec(simulate('proving_ground', physics, seed + 100, holdout_scale,
+                                     vehicle=CAR,
                                      effect_params=params), 'holdout')]
             hidden = None
             if effect not in NULLS:
@@ -246,6 +277,11 @@ LINEAR_EFFECTS = ('mass_error', 'stiffness_error', 'damping_error', 'anti_roll_b
 MOTION_EFFECTS = ('sensor_saturation', 'tire_lift_off')
 
 
+#: Two figures closer than this [points of %] are the same model's rows scored twice (a row
+#: the per-channel choice took from the plain fit differs from it by rounding, ~1e-12).
+SAME_PCT = 1e-6
+
+
 def print_targets(rows, label='', unchanged='sim_frf'):
     """
     Issue 14's targets over rows (true, named, naive, before, written, fit, model, hidden).
@@ -261,7 +297,7 @@ def print_targets(rows, label='', unchanged='sim_frf'):
     print(f'{label}named nonlinear cases, written model better than a plain fit on the real '
           f'data: {sum(r[4] < r[5] for r in nonlinear)}/{len(nonlinear)} (target >= 90 %)')
     print(f'{label}named motion cases (clip, tyre in the air), written model no worse than the '
-          f'plain fit: {sum(r[4] <= r[5] for r in motion)}/{len(motion)}')
+          f'plain fit: {sum(r[4] <= r[5] + SAME_PCT for r in motion)}/{len(motion)}')
     print(f'{label}named linear cases, written model within 3 % of the plain fit and better than '
           f'the simulation: {sum(r[4] <= 1.03 * r[5] and r[4] < r[3] for r in linear)}/'
           f'{len(linear)}')
@@ -279,9 +315,11 @@ TRAVEL_CASES = ('none', 'small_drift', 'bump_stop')
 def _travel_rec(result, name):
     fz = [OUTPUT_CHANNELS.index(c) for c in OUTPUT_CHANNELS if c.endswith('fz')]
     outputs = tuple(OUTPUT_CHANNELS[i] for i in fz)
+    t0 = int(result.stamp_ns[0])
     return MotionRecording(name, result.fs_hz, result.states['suspension_compression_m'],
                            result.force_n[fz], tuple(c[:2] + '_travel' for c in outputs),
-                           outputs, input_quantity='displacement')
+                           outputs, input_quantity='displacement',
+                           events=tuple(((t - t0) * 1e-9, e) for t, e in result.events))
 
 
 def run_travel(seeds, duration_scale, sizes, holdout_scale):
@@ -300,15 +338,17 @@ def run_travel(seeds, duration_scale, sizes, holdout_scale):
           f'    findings')
     rows = []
     for seed in seeds:
-        sim = [_travel_rec(simulate('proving_ground', (), seed, duration_scale), 'sim')]
+        sim = [_travel_rec(simulate('proving_ground', (), seed, duration_scale, vehicle=CAR),
+                           'sim')]
         for effect in TRAVEL_CASES:
             params, factor = draw_params(effect, seed, sizes)
             physics = simulated_physics(effect)
             real = [_travel_rec(simulate('proving_ground', physics, seed, duration_scale,
-                                         effect_params=params), 'real')]
+                                         vehicle=CAR, effect_params=params), 'real')]
             holdout = [_travel_rec(simulate('proving_ground', physics, seed + 100,
-                                            holdout_scale, effect_params=params), 'holdout')]
-            result = diagnose(real, sim, holdout)
+                                            holdout_scale, vehicle=CAR, effect_params=params),
+                                   'holdout')]
+            result = diagnose(real, sim, holdout, BAG_CONFIG)
             chans = (result.findings[0].channels if result.findings
                      else real[0].output_channels)
             before, after, fit = (float(np.mean([getattr(result.fit, k)[c] for c in chans]))
@@ -470,12 +510,20 @@ def main(argv=None) -> int:
     parser.add_argument('--sizes', choices=('concealed', 'default'), default='concealed',
                         help='simulator effect sizes: concealed (sim/concealment.py) or the '
                              "simulator's default, visible sizes")
+    parser.add_argument('--car', choices=('compact', 'suv'), default='compact',
+                        help='simulator car: the default compact or a heavier SUV (SUV)')
     parser.add_argument('--skip-sim', action='store_true')
+    parser.add_argument('--only-sim', action='store_true',
+                        help='run the simulator parts alone (no synthetic, real, rig parts)')
     parser.add_argument('--effects', help='comma-separated subset')
     args = parser.parse_args(argv)
     chosen = args.effects.split(',') if args.effects else None
+    global CAR
+    if args.car == 'suv':
+        from wheel_force_estimator.sim.vehicle import VehicleParams
+        CAR = VehicleParams(**SUV)
     t0 = time.time()
-    if args.seeds > 0:
+    if args.seeds > 0 and not args.only_sim:
         run_synthetic(range(args.seeds), [e for e in chosen or SYNTHETIC if e in SYNTHETIC])
     if not args.skip_sim:
         from wheel_force_estimator.sim.effects import EFFECT_NAMES
@@ -484,9 +532,10 @@ def main(argv=None) -> int:
         if not chosen or 'bump_stop' in chosen:
             run_travel(range(args.sim_seeds), args.duration_scale, args.sizes,
                        args.holdout_scale)
-    run_real()
-    run_structures()
-    run_rigs()
+    if not args.only_sim:
+        run_real()
+        run_structures()
+        run_rigs()
     print(f'\ntotal {time.time() - t0:.0f} s')
     return 0
 
