@@ -21,8 +21,9 @@ half (a stop fitted on rough-road engagements firing through a slalom's sustaine
 clip term).  Every reported
 figure (:func:`evaluate_scores`) is the RMSE ``core.evaluation.evaluate_segments`` reports (its
 ``rmse_figures``) of the whole report records predicted through
-``core.predict.predict_forces`` - the path ``wheel-force evaluate`` runs - so no reported
-number comes from data that took part in a decision.
+``core.predict.predict_forces`` - the path ``wheel-force evaluate`` runs - or, for per-event
+halves, the same RMSE (same high-pass, means removed) over the report samples of the whole
+records, so no reported number comes from data that took part in a decision.
 """
 from dataclasses import dataclass
 from dataclasses import replace
