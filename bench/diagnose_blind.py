@@ -201,12 +201,15 @@ def run_synthetic(seeds, effects):
     print_targets(rows, 'synthetic pairs, lf_fz: ', 'real_linear')
 
 
-def _rec(result, name):
-    # As the bag reader gives it: event starts in seconds on the record's own clock.
+def _events(result):
+    """Road-event starts as the bag reader gives them: seconds on the record's own clock."""
     t0 = int(result.stamp_ns[0])
+    return tuple(((t - t0) * 1e-9, e) for t, e in result.events)
+
+
+def _rec(result, name):
     return MotionRecording(name, result.fs_hz, result.accel_mps2, result.force_n,
-                           INPUT_CHANNELS, OUTPUT_CHANNELS,
-                           events=tuple(((t - t0) * 1e-9, e) for t, e in result.events))
+                           INPUT_CHANNELS, OUTPUT_CHANNELS, events=_events(result))
 
 
 def run_sim(seeds, duration_scale, effects, sizes, holdout_scale):
@@ -315,11 +318,9 @@ TRAVEL_CASES = ('none', 'small_drift', 'bump_stop')
 def _travel_rec(result, name):
     fz = [OUTPUT_CHANNELS.index(c) for c in OUTPUT_CHANNELS if c.endswith('fz')]
     outputs = tuple(OUTPUT_CHANNELS[i] for i in fz)
-    t0 = int(result.stamp_ns[0])
     return MotionRecording(name, result.fs_hz, result.states['suspension_compression_m'],
                            result.force_n[fz], tuple(c[:2] + '_travel' for c in outputs),
-                           outputs, input_quantity='displacement',
-                           events=tuple(((t - t0) * 1e-9, e) for t, e in result.events))
+                           outputs, input_quantity='displacement', events=_events(result))
 
 
 def run_travel(seeds, duration_scale, sizes, holdout_scale):
