@@ -102,10 +102,9 @@ def with_sharper_corner(result, diagnose_once: Callable, real, holdout, config):
     channels = rec0.output_channels
     default = config.features.resolved(rec0.fs_hz, rec0.input_quantity)[1]
     if holdout:
-        split = split_holdout(holdout)
+        gate = split_holdout(holdout).gate_half
         metric = METRIC[rec0.input_quantity]
-        scores = [mean_score(r.model, split.gate, channels, metric, split.gate_samples)[0]
-                  for r in (result, other)]
+        scores = [mean_score(r.model, gate, channels, metric)[0] for r in (result, other)]
         judge = 'the gate half of the holdout'
     else:
         # no holdout: the cross-validated RMSE after the terms (held-out time blocks)

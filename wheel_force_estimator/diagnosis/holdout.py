@@ -40,6 +40,24 @@ from wheel_force_estimator.diagnosis.recording import MotionRecording
 
 
 @dataclass(frozen=True)
+class Scored:
+    """
+    Records and the samples of each that are scored (``masks`` None: every sample).
+
+    Attributes
+    ----------
+    records : tuple of MotionRecording
+        Whole records (or cut halves).
+    masks : tuple of numpy.ndarray of bool, optional
+        Per record, the samples scored.
+
+    """
+
+    records: Tuple[MotionRecording, ...]
+    masks: Optional[Tuple[np.ndarray, ...]] = None
+
+
+@dataclass(frozen=True)
 class HoldoutSplit:
     """
     The holdout cut into the half that decides and the half that reports.
@@ -66,6 +84,16 @@ class HoldoutSplit:
     gate_ends: Optional[Tuple[int, ...]] = None
     gate_samples: Optional[Tuple[np.ndarray, ...]] = None
     report_samples: Optional[Tuple[np.ndarray, ...]] = None
+
+    @property
+    def gate_half(self) -> Scored:
+        """Return the deciding records and their scored samples."""
+        return Scored(self.gate, self.gate_samples)
+
+    @property
+    def report_half(self) -> Scored:
+        """Return the reporting records and their scored samples."""
+        return Scored(self.report, self.report_samples)
 
     def gate_masks(self, spans) -> Optional[List[np.ndarray]]:
         """Masks of the gate samples over prepared spans of :attr:`whole` (None = all)."""

@@ -38,6 +38,7 @@ from wheel_force_estimator.diagnosis.holdout import evaluate_scores
 from wheel_force_estimator.diagnosis.holdout import holdout_gate
 from wheel_force_estimator.diagnosis.holdout import MAX_HOLDOUT_HARM_PCT
 from wheel_force_estimator.diagnosis.holdout import METRIC
+from wheel_force_estimator.diagnosis.holdout import Scored
 from wheel_force_estimator.diagnosis.holdout import split_holdout
 from wheel_force_estimator.diagnosis.prepared import prepare
 from wheel_force_estimator.diagnosis.reference import FrfReference
@@ -273,27 +274,22 @@ def backfitted_model(findings, real: Sequence, linear_model,
     return model.with_physics(_term_dicts(terms)), tuple(float(b) for b in beta)
 
 
-def mean_score(model, recordings, channels, metric: str,
-               masks=None) -> Tuple[float, Dict[str, float]]:
-    """
-    Mean RMSE % of ``model`` over ``channels`` (and all channels) on ``recordings``.
-
-    ``masks``: per record, the samples scored (:attr:`HoldoutSplit.gate_samples`); None: all.
-    """
-    scores = evaluate_scores(lambda r: predict_forces(model, r.inputs), recordings, metric,
-                             masks)
+def mean_score(model, half: Scored, channels, metric: str) -> Tuple[float, Dict[str, float]]:
+    """Mean RMSE % of ``model`` over ``channels`` (and all channels) on the scored ``half``."""
+    scores = evaluate_scores(lambda r: predict_forces(model, r.inputs), half.records, metric,
+                             half.masks)
     return float(np.mean([scores[c] for c in channels])), scores
 
 
-def choose(candidates: Mapping[str, object], gate: Sequence, channels: Sequence[str],
-           metric: str, masks=None) -> Tuple[str, Dict[str, float], Dict[str, Dict[str, float]]]:
+def choose(candidates: Mapping[str, object], gate: Scored, channels: Sequence[str],
+           metric: str) -> Tuple[str, Dict[str, float], Dict[str, Dict[str, float]]]:
     """
     Return the name of the candidate with the lowest mean RMSE over ``channels`` on ``gate``.
 
     Ties go to the earlier candidate.  Also returns every candidate's gate score (mean over
     ``channels``) and its per-channel gate scores.
     """
-    per_channel = {name: mean_score(model, gate, channels, metric, masks)[1]
+    per_channel = {name: mean_score(model, gate, channels, metric)[1]
                    for name, model in candidates.items()}
     scores = {name: float(np.mean([per_channel[name][c] for c in channels]))
               for name in candidates}
@@ -380,7 +376,7 @@ AUGMENTED = {'sim': 'sim_frf+physics', 'model': 'model+physics', 'linear': 'real
 
 
 def _joint_if_better(alternated, findings, real, lin_model, real_fit, hp, skip, gate,
-                     metric, masks=None):
+                     metric):
     """
     Return the backfit from the joint strengths instead when the gate half prefers it.
 
@@ -398,8 +394,8 @@ def _joint_if_better(alternated, findings, real, lin_model, real_fit, hp, skip, 
         return alternated, ''
     joint, _ = backfitted_model(findings, real, lin_model, real_fit, hp, skip, joint=True)
     channels = sorted({c for f in findings if f.terms for c in f.channels})
-    a = mean_score(alternated, gate, channels, metric, masks)[0]
-    j = mean_score(joint, gate, channels, metric, masks)[0]
+    a = mean_score(alternated, gate, channels, metric)[0]
+    j = mean_score(joint, gate, channels, metric)[0]
     if j < a - MAX_HOLDOUT_HARM_PCT:
         return joint, (f'Backfit strengths: the joint least-squares step kept over the '
                        f'alternation (gate half, mean RMSE over the named channels: {j:.2f} % '
@@ -412,7 +408,7 @@ def is_dynamic(finding) -> bool:
     return any(t.response_taps for t in finding.terms)
 
 
-def _gate_dynamic(dynamic, real, lin_model, real_fit, gate, metric, hp, skip, masks=None):
+def _gate_dynamic(dynamic, real, lin_model, real_fit, gate, metric, hp, skip):
     """
     Keep the dynamic findings that do not harm the gate half with the FIR refitted around them.
 
@@ -424,8 +420,8 @@ def _gate_dynamic(dynamic, real, lin_model, real_fit, gate, metric, hp, skip, ma
     kept, gated = [], []
     for f in dynamic:
         model, _ = backfitted_model([f], real, lin_model, real_fit, hp, skip)
-        with_f = mean_score(model, gate, f.channels, metric, masks)[1]
-        without = mean_score(lin_model, gate, f.channels, metric, masks)[1]
+        with_f = mean_score(model, gate, f.channels, metric)[1]
+        without = mean_score(lin_model, gate, f.channels, metric)[1]
         harm = float(np.mean([with_f[c] - without[c] for c in f.channels]))
         if harm > MAX_HOLDOUT_HARM_PCT:
             gated.append(f'{", ".join(f.channels)}: {f.physics} (inside the structure) fitted '
@@ -477,8 +473,7 @@ def compare(findings, real, reference, mode, holdout, outcomes, channels, source
             findings, gated = holdout_gate(findings, gate_prep, channels, hp, fs_hz, masks)
             if dynamic and lin_model is not None:
                 dynamic, gated_dynamic = _gate_dynamic(dynamic, real, lin_model, real_fit,
-                                                       split.gate, metric, hp, skip,
-                                                       split.gate_samples)
+                                                       split.gate_half, metric, hp, skip)
                 gated = tuple(gated) + tuple(gated_dynamic)
         else:
             notes.append('holdout too short: its gate half lies within the filter settling '
@@ -503,7 +498,7 @@ def compare(findings, real, reference, mode, holdout, outcomes, channels, source
             if split is not None:
                 candidates['real_frf+physics'], note = _joint_if_better(
                     candidates['real_frf+physics'], findings, real, lin_model, real_fit, hp,
-                    skip, split.gate, metric, split.gate_samples)
+                    skip, split.gate_half, metric)
                 if note:
                     notes.append(note)
             candidates['real_linear'] = lin_model
@@ -517,8 +512,7 @@ def compare(findings, real, reference, mode, holdout, outcomes, channels, source
         choice = next(iter(candidates), None)
         model = candidates.get(choice)
     else:
-        choice, gate_scores, per_channel = choose(candidates, split.gate, named, metric,
-                                                  split.gate_samples)
+        choice, gate_scores, per_channel = choose(candidates, split.gate_half, named, metric)
         model = candidates[choice]
         combined, rows_from, note = compose(candidates, per_channel, channels)
         if note:
@@ -536,12 +530,12 @@ def compare(findings, real, reference, mode, holdout, outcomes, channels, source
                             'cross_validation', None, hp, model=choice or '',
                             notes=tuple(notes))
         return findings, fit, model
-    shown = split.report_samples
-    before = evaluate_scores(reference.predict, split.report, metric, shown)
-    real_lin = (evaluate_scores(lambda r: predict_forces(lin_model, r.inputs), split.report,
-                                metric, shown) if lin_model is not None else None)
-    after = (evaluate_scores(lambda r: predict_forces(model, r.inputs), split.report, metric,
-                             shown) if model is not None else dict(before))
+    shown = split.report_half
+    before = evaluate_scores(reference.predict, shown.records, metric, shown.masks)
+    real_lin = (mean_score(lin_model, shown, channels, metric)[1]
+                if lin_model is not None else None)
+    after = (mean_score(model, shown, channels, metric)[1] if model is not None
+             else dict(before))
     findings = [replace(f, rmse_after_pct={c: after[c] for c in f.channels}) for f in findings]
     fit = FitComparison(before, after, 'holdout', real_lin,
                         1.0 if metric == 'rmse_hp1_pct' else 0.0, model=choice or '',
