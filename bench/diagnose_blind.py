@@ -393,6 +393,13 @@ def run_real():
         print(f'MR damper: skipped, {mr} absent')
 
 
+def _short(report_on):
+    """Return a ``fit.report_on`` entry with the file's name only (and no sample list)."""
+    path, _, samples = report_on.partition(' --samples ')
+    return Path(path).name + (f' (report samples, {samples.count("..")} ranges)'
+                              if samples else '')
+
+
 def _report_real(title, real, hold):
     import dataclasses
     from wheel_force_estimator.core.design import product_fit_config
@@ -410,7 +417,7 @@ def _report_real(title, real, hold):
             print(f'{title} ({how}): refused: {err}')
             continue
         print(f'{title} ({how}): named {[f.physics for f in result.findings]}; RMSE % on '
-              f'{", ".join(Path(p).name for p in result.fit.report_on)}: plain fit on the real '
+              f'{", ".join(_short(p) for p in result.fit.report_on)}: plain fit on the real '
               f'data {result.fit.real_linear[ch]:.1f} -> written {result.fit.after[ch]:.1f} '
               f'({result.fit.model})')
         for line in result.rejected:

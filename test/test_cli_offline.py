@@ -152,6 +152,55 @@ def test_evaluate_json_matches_independent_computation(model_path, bags):
         assert png in report and (bags / 'eval_report' / png).is_file()
 
 
+def test_evaluate_samples_judges_pieces_of_the_whole_prediction(model_path, bags, tmp_path):
+    # Bugs caught: --samples counted per segment instead of over the recording (a range
+    # across the gap), pieces predicted on their own (FIR edges at every cut), or a range
+    # past the end silently shortened.
+    n = int(20 * FS_HZ)
+    x, y = known_system(2 * n, 7)
+    stamps = T0_NS + PERIOD_NS * np.arange(2 * n, dtype=np.int64)
+    stamps[n:] += 10**9                                    # a 1 s gap: two segments
+    write_recording(tmp_path / 'gapped', stamps, x, y)
+    segments = read_recording(tmp_path / 'gapped').segments
+    assert [s.force_n.shape[1] for s in segments] == [n, n]
+    out = tmp_path / 'e.json'
+    spec = f'100..3000,{n - 2000}..{n + 4000}'          # the second range spans the gap
+    assert main(['evaluate', str(model_path), str(tmp_path / 'gapped'), '--samples', spec,
+                 '--json', str(out)]) == 0
+    doc = json.loads(out.read_text())
+    model = load_model(model_path)
+    preds = [predict_forces(model, s.accel_mps2) for s in segments]
+    pieces = [(0, 100, 3000), (0, n - 2000, n), (1, 0, 4000)]
+    t = np.hstack([segments[i].force_n[:, a:b] for i, a, b in pieces])
+    p = np.hstack([preds[i][:, a:b] for i, a, b in pieces])
+    t, p = t - t.mean(1, keepdims=True), p - p.mean(1, keepdims=True)
+    rmse = 100 * np.sqrt(((p - t) ** 2).mean(1) / (t ** 2).mean(1))
+    np.testing.assert_allclose([doc['channels'][c]['rmse_pct'] for c in doc['channels']],
+                               rmse, rtol=1e-9)
+    damage = sum(pseudo_damage(segments[i].force_n[:, a:b]) for i, a, b in pieces)
+    np.testing.assert_allclose([doc['channels'][c]['damage_target'] for c in doc['channels']],
+                               damage, rtol=1e-9)
+    # every sample selected == no selection
+    assert main(['evaluate', str(model_path), str(tmp_path / 'gapped'), '--samples',
+                 f'0..{2 * n}', '--json', str(tmp_path / 'all.json')]) == 0
+    assert main(['evaluate', str(model_path), str(tmp_path / 'gapped'), '--json',
+                 str(tmp_path / 'none.json')]) == 0
+    assert (json.loads((tmp_path / 'all.json').read_text())['channels']
+            == json.loads((tmp_path / 'none.json').read_text())['channels'])
+    # a range past the end: a user error naming the file and the length; nothing shortened
+    proc = _cli('evaluate', str(model_path), str(tmp_path / 'gapped'), '--samples',
+                f'0..{2 * n + 1}')
+    assert proc.returncode == 1 and 'Traceback' not in proc.stderr
+    assert 'gapped' in proc.stderr and str(2 * n) in proc.stderr
+    # malformed, overlapping, or more than one recording: bad arguments
+    for bad in (['--samples', '5..5'], ['--samples', '0..10,5..20'], ['--samples', 'a..b']):
+        assert _cli('evaluate', str(model_path), str(tmp_path / 'gapped'),
+                    *bad).returncode == 2
+    proc = _cli('evaluate', str(model_path), str(tmp_path / 'gapped'), str(bags / 'val'),
+                '--samples', '0..10')
+    assert proc.returncode == 2 and 'one recording' in proc.stderr
+
+
 def test_two_bags_fit_equals_per_segment_average(model_path, bags):
     """The fit of two bags averages their Welch windows; it never joins them."""
     from wheel_force_estimator.cli.common import load_fit_config

@@ -15,6 +15,9 @@ import pytest
 import scipy.signal
 
 from wheel_force_estimator.cli.main import main
+from wheel_force_estimator.core.evaluation import EvalSegment
+from wheel_force_estimator.core.evaluation import evaluate_segments
+from wheel_force_estimator.core.evaluation import select_samples
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.physics import PhysicsTerm
@@ -84,6 +87,18 @@ def test_hardening_rig_is_named_and_evaluate_reproduces_every_reported_figure(tm
     plain = json.loads((tmp_path / 'p.json').read_text())['channels']['f']['rmse_pct']
     assert plain == pytest.approx(fit['real_linear']['f'], abs=0.1)
     assert load_model(model).physics[0]['physics'] == 'cubic_stiffness'
+    # one holdout file: report_on is the file and its report samples, which evaluate takes
+    assert main(['diagnose', '--real', real1, real2, '--holdout', report, '--json',
+                 str(out), '--out-model', str(model)] + ROLES) == 0
+    fit = json.loads(out.read_text())['fit']
+    n = int(60 * FS_HZ)
+    assert fit['report_on'] == [f'{report} --samples {n // 2}..{n}']
+    path, option, spec = fit['report_on'][0].split(' ')
+    for written, key in ((model, 'after'), (tmp_path / 'plain.npz', 'real_linear')):
+        assert main(['evaluate', str(written), path, option, spec, '--json',
+                     str(tmp_path / 'e.json')] + ROLES) == 0
+        evaluated = json.loads((tmp_path / 'e.json').read_text())['channels']['f']
+        assert evaluated['rmse_pct'] == pytest.approx(fit[key]['f'], abs=0.1)
 
 
 def test_linear_rig_gives_no_finding_and_the_plain_fit_is_written():
@@ -200,11 +215,15 @@ def test_holdout_split_whole_files_alternate_and_one_file_is_halved():
     assert [r.name for r in split.gate] == ['a.bag#0', 'a.bag#1', 'c.csv']
     assert [r.name for r in split.report] == ['b.bag#0']
     assert split.report_on == ('b.bag',)
+    # one file is predicted whole and its samples halved per segment; report_on is what
+    # `evaluate` takes to select the report samples
     one = split_holdout([_rec('h.csv', 1001)])
-    (g,), (r,) = one.gate, one.report
-    assert (g.n_samples, r.n_samples) == (500, 501)
-    assert r.start_s == pytest.approx(5.0)
-    assert 'second half: samples 500..1001' in one.report_on[0]
+    assert one.gate == one.report == one.whole
+    (g,), (r,) = one.gate_samples, one.report_samples
+    assert g[:500].all() and not g[500:].any() and np.array_equal(r, ~g)
+    assert one.report_on == ('h.csv --samples 500..1001',)
+    two = split_holdout([_rec('a.bag#0', 300), _rec('a.bag#1', 200)])
+    assert two.report_on == ('a.bag --samples 150..300,400..500',)
 
 
 def test_one_file_with_road_events_is_halved_per_event():
@@ -222,30 +241,42 @@ def test_one_file_with_road_events_is_halved_per_event():
     expected[0:100] = expected[200:450] = expected[700:850] = True
     assert np.array_equal(gate, expected)
     assert np.array_equal(report, ~expected)
-    assert split.report_on == ('pg.bag#0 (second half of every road event: samples '
-                               '100..200, 450..700, 850..1000)',)
+    assert split.report_on == ('pg.bag --samples 100..200,450..700,850..1000',)
     # the gate masks over a prepared span (settling removed) are the same samples
     (trimmed,) = split.gate_masks([(50, 900)])
     assert np.array_equal(trimmed, expected[50:900])
     # a record without markers keeps the contiguous halves
-    assert split_holdout([_rec('h.csv', 1001)]).report_samples is None
+    assert split_holdout([_rec('h.csv', 1001)]).report_samples[0][500:].all()
 
 
-def test_masked_scores_are_the_rmse_over_the_masked_samples_of_the_whole_record():
-    # Bug caught: per-event halves scored on the concatenated pieces (each piece's FIR and
-    # high-pass edges) instead of on the prediction of the whole record, as evaluate runs it.
+def test_masked_scores_are_evaluate_of_the_masked_pieces_of_the_whole_prediction():
+    # Bug caught: per-event halves predicted as records of their own (FIR and settling edges
+    # at every cut), or scored otherwise than `evaluate FILE --samples` scores them.
     rng = np.random.default_rng(5)
     force = rng.standard_normal((1, 2000))
     rec = MotionRecording('r', 100.0, np.zeros((1, 2000)), force, ('x',), ('f',),
                           'displacement')
     error = np.where(np.arange(2000) < 1000, 0.1, 0.5) * rng.standard_normal(2000)
+    predicted = []
+
+    def predict(r):
+        predicted.append(r.n_samples)
+        return force + error
     mask = np.arange(2000) >= 1000
-    scores = evaluate_scores(lambda r: force + error, [rec], 'rmse_pct', [mask])
+    mask[200:400] = True
+    scores = evaluate_scores(predict, [rec], 'rmse_pct', [mask])
+    assert predicted == [2000]                  # the whole record, once
     e, t = error[mask], force[0, mask]    # evaluate's RMSE removes both means
     expected = 100.0 * np.sqrt(np.mean((e - e.mean()) ** 2) / np.mean((t - t.mean()) ** 2))
     assert scores['f'] == pytest.approx(expected, rel=1e-9)
-    whole = evaluate_scores(lambda r: force + error, [rec], 'rmse_pct', [np.ones(2000, bool)])
-    assert whole == pytest.approx(evaluate_scores(lambda r: force + error, [rec], 'rmse_pct'))
+    # the high-passed figure: each selected piece filtered on its own, as evaluate does
+    pieces = select_samples([EvalSegment(force, force + error, np.arange(2000), 'r')],
+                            [(200, 400), (1000, 2000)])
+    hp = evaluate_segments(pieces, 100.0, ['f']).rmse_hp1_pct[0]
+    assert evaluate_scores(predict, [rec], 'rmse_hp1_pct', [mask])['f'] == pytest.approx(
+        hp, rel=1e-12)
+    whole = evaluate_scores(predict, [rec], 'rmse_pct', [np.ones(2000, bool)])
+    assert whole == pytest.approx(evaluate_scores(predict, [rec], 'rmse_pct'))
 
 
 def test_scaling_a_term_scales_its_force_through_the_predictor(tmp_path):

@@ -32,7 +32,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help='real recordings kept out of fitting: with two or more files the 1st, '
                         '3rd, ... decide (gate, written model) and the 2nd, 4th, ... report '
                         '(`evaluate OUT_MODEL` on those reproduces fit.after); one file is '
-                        'cut into halves (first decides, second reports)')
+                        'predicted whole and its samples halved - per gap-free segment, or per '
+                        'road event when it has markers (first halves decide, second halves '
+                        'report; fit.report_on gives the `evaluate FILE --samples ...` that '
+                        'reproduces the figures)')
     p.add_argument('--json', required=True, metavar='FILE', help='write the diagnosis here')
     p.add_argument('--out-model', metavar='MODEL',
                    help='write the best model: reference or real-data FRF + fitted physics '

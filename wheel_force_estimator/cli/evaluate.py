@@ -7,6 +7,11 @@ Recordings are bags (spindle accelerations and WFT) or generic DAQ exports with 
 channels (``--input``/``--output``/``--fs``).  A generic file is one gap-free segment with
 sample times from 0 at ``--fs`` and no road events.  The model must have been fitted on the
 same channels (names, input quantity) at the same rate; nothing is renamed or resampled.
+
+``--samples A..B[,C..D…]`` (one recording) judges only those samples of the whole-record
+prediction, each range as a gap-free segment of its own (``core.evaluation.select_samples``):
+the form ``diagnose`` prints in ``fit.report_on`` for a single holdout file, so its figures
+are reproducible.
 """
 import argparse
 import functools
@@ -36,14 +41,23 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--config', metavar='YAML', help='params file (topic names, sn_slope)')
     add_namespace_argument(p)
     p.add_argument('--sn-slope', type=float, default=5.0, help='Basquin exponent k')
+    p.add_argument('--samples', metavar='A..B[,C..D...]',
+                   help='judge only these samples of the one RECORDING (0-based, half-open, '
+                        'counted over its gap-free segments in order) on the prediction of '
+                        'the whole record; each range is judged as a segment of its own. '
+                        'diagnose prints this for a single holdout file in fit.report_on')
     from wheel_force_estimator.cli.live import add_causal_arguments
     add_causal_arguments(p, 'evaluate')
     add_generic_arguments(p)
     return p
 
 
-def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None):
-    """Predict and evaluate bag recordings; return ``(Evaluation, segments)``."""
+def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None, ranges=None):
+    """
+    Predict and evaluate bag recordings; return ``(Evaluation, segments)``.
+
+    ``ranges`` (``--samples``, one recording) keeps only those samples of the prediction.
+    """
     from wheel_force_estimator import OUTPUT_CHANNELS
     from wheel_force_estimator.cli.predict import predict_recording
     from wheel_force_estimator.core.evaluation import EvalSegment
@@ -51,9 +65,11 @@ def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None):
 
     segments, events = [], []
     for rec in recordings:
-        for i, ((stamps, pred), seg) in enumerate(
-                zip(predict_recording(model, rec, causal_delay_samples), rec.segments)):
-            segments.append(EvalSegment(seg.force_n, pred, stamps, f'{rec.path}#{i}'))
+        segments.extend(selected([
+            EvalSegment(seg.force_n, pred, stamps, f'{rec.path}#{i}')
+            for i, ((stamps, pred), seg) in enumerate(
+                zip(predict_recording(model, rec, causal_delay_samples), rec.segments))],
+            ranges, rec.path))
         events.extend(rec.events)
     events.sort()
     forces = model.output_channels[:len(OUTPUT_CHANNELS)]   # moments, if any, follow
@@ -61,16 +77,60 @@ def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None):
     return evaluation, segments
 
 
-def evaluate_generic(model, recordings, sn_slope, causal_delay_samples=None):
+def evaluate_generic(model, recordings, sn_slope, causal_delay_samples=None, ranges=None):
     """Predict and evaluate generic recordings (``DaqRecording``); return the same pair."""
     from wheel_force_estimator.core.evaluation import EvalSegment
     from wheel_force_estimator.core.evaluation import evaluate_segments
     from wheel_force_estimator.core.predict import predict_forces
 
-    segments = [EvalSegment(rec.outputs, predict_forces(model, rec.inputs, causal_delay_samples),
-                            rec.stamp_ns(), rec.path) for rec in recordings]
+    segments = [piece for rec in recordings for piece in selected(
+        [EvalSegment(rec.outputs, predict_forces(model, rec.inputs, causal_delay_samples),
+                     rec.stamp_ns(), rec.path)], ranges, rec.path)]
     evaluation = evaluate_segments(segments, model.fs_hz, model.output_channels, sn_slope)
     return evaluation, segments
+
+
+def selected(segments, ranges, path):
+    """
+    Return ``segments`` cut to ``ranges`` (``--samples``; None: all of them).
+
+    Raises
+    ------
+    RecordingError
+        A range ends after the recording's last aligned sample (the file named).
+
+    """
+    if ranges is None:
+        return segments
+    from wheel_force_estimator.core.errors import RecordingError
+    from wheel_force_estimator.core.evaluation import select_samples
+    try:
+        return select_samples(segments, ranges)
+    except ValueError as err:
+        raise RecordingError(f'{path}: --samples {err}') from err
+
+
+def sample_ranges(args):
+    """
+    Return the parsed ``--samples`` (None when not given).
+
+    Raises
+    ------
+    UsageError
+        Malformed ranges, or ``--samples`` with more than one recording.
+
+    """
+    if args.samples is None:
+        return None
+    from wheel_force_estimator.cli.common import UsageError
+    from wheel_force_estimator.core.sample_ranges import parse_ranges
+    if len(args.recordings) != 1:
+        raise UsageError(f'--samples selects samples of one recording; '
+                         f'{len(args.recordings)} were given')
+    try:
+        return parse_ranges(args.samples)
+    except ValueError as err:
+        raise UsageError(f'--samples: {err}') from err
 
 
 def check_generic_model(model, model_path, request) -> None:
@@ -116,6 +176,7 @@ def command(args: argparse.Namespace) -> int:
     from wheel_force_estimator.report.builders import evaluation_text
 
     request = generic_request(args, args.recordings)
+    ranges = sample_ranges(args)
     model = load_model(args.model)
     delay = causal_delay(args, model.fs_hz)
     announce(model, args.model, delay)
@@ -127,13 +188,13 @@ def command(args: argparse.Namespace) -> int:
                                      require_wft=True, expected_fs_hz=model.fs_hz)
 
         def run(d):
-            return evaluate_recordings(model, recordings, args.sn_slope, d)
+            return evaluate_recordings(model, recordings, args.sn_slope, d, ranges)
     else:
         check_generic_model(model, args.model, request)
         generic = request.read(args.recordings)
 
         def run(d):
-            return evaluate_generic(model, generic, args.sn_slope, d)
+            return evaluate_generic(model, generic, args.sn_slope, d, ranges)
     evaluation, segments = run(delay)
     print(evaluation_text(evaluation))
     doc = evaluation.to_json()

@@ -13,6 +13,9 @@ Conventions for several recordings / gap-separated segments (documented in the R
 - ASD: Welch per segment, averaged with weights equal to the segment lengths.
 - Events: event ``i`` spans from its start stamp to the next event's start (the last one to
   the end of the recording); all spans with the same name are pooled.
+- Sample ranges (``evaluate --samples``, :func:`select_samples`): each segment is predicted
+  whole, then the listed samples are cut out and judged as gap-free segments of their own,
+  exactly as the per-event figures judge an event's span.
 """
 import dataclasses
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -27,6 +30,7 @@ from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.metrics import rmse_pct
 from wheel_force_estimator.core.metrics import rubric
 from wheel_force_estimator.core.metrics import RUBRIC_LEVELS
+from wheel_force_estimator.core.sample_ranges import per_segment
 from wheel_force_estimator.core.spectra import auto_spectral_density
 from wheel_force_estimator.core.spectra import WelchConfig
 
@@ -123,6 +127,32 @@ class Evaluation:
             'sn_slope': self.sn_slope,
             'sample_rate_hz': self.fs_hz,
         }
+
+
+def select_samples(segments: Sequence[EvalSegment],
+                   ranges: Sequence[Tuple[int, int]]) -> List[EvalSegment]:
+    """
+    Return the pieces of ``segments`` that ``ranges`` select, each a segment of its own.
+
+    Parameters
+    ----------
+    segments : sequence of EvalSegment
+        One recording's gap-free segments, in order, each predicted whole (so a piece keeps
+        the prediction the whole record gives it: no FIR or settling edge at its start).
+    ranges : sequence of (int, int)
+        Half-open sample ranges over the segments' samples counted in order
+        (:mod:`core.sample_ranges`); a range across a gap is cut there.
+
+    Raises
+    ------
+    ValueError
+        A range ends after the last sample.
+
+    """
+    pieces = per_segment(ranges, [len(s.stamp_ns) for s in segments])
+    return [EvalSegment(segments[i].target_n[:, a:b], segments[i].prediction_n[:, a:b],
+                        segments[i].stamp_ns[a:b], f'{segments[i].source}[{a}..{b}]')
+            for i, a, b in pieces]
 
 
 #: Segments shorter than this are left out of the 1 Hz high-passed RMSE [samples].

@@ -10,20 +10,19 @@ The holdout is split in two (:func:`split_holdout`) so that a user can reproduce
 figure with ``wheel-force evaluate``: with two or more holdout files (bags or generic files),
 whole files alternate - the 1st, 3rd, ... decide (the gate that drops findings which make unseen
 data worse, and the choice of the model ``--out-model`` writes), the 2nd, 4th, ... report.  A
-single holdout file is cut into contiguous halves per gap-free segment (first half gate, second
-half report); its figures are then those of ``evaluate`` on the second halves.  A single file
-that carries road-event markers (a proving-ground bag) is cut per event instead: the first half
-of every event decides, the second half reports, both scored on the prediction of the whole
-record (sample masks).  Contiguous halves of a course give the gate the first events only
-(rough roads) and the report the rest (manoeuvres): on the simulator the gate then preferred
-terms and rows that were 3-9 points worse than the plain fit or the simulation on the report
-half (a stop fitted on rough-road engagements firing through a slalom's sustained load, a
-clip term).  Every reported
-figure (:func:`evaluate_scores`) is the RMSE ``core.evaluation.evaluate_segments`` reports (its
-``rmse_figures``) of the whole report records predicted through
-``core.predict.predict_forces`` - the path ``wheel-force evaluate`` runs - or, for per-event
-halves, the same RMSE (same high-pass, means removed) over the report samples of the whole
-records, so no reported number comes from data that took part in a decision.
+single holdout file is predicted whole and its samples are split: each gap-free segment into
+contiguous halves (first half gate, second half report) - or, when the file carries road-event
+markers (a proving-ground bag), every event into halves (its first half decides, its second
+half reports).  Contiguous halves of a course give the gate the first events only (rough roads)
+and the report the rest (manoeuvres): on the simulator the gate then preferred terms and rows
+that were 3-9 points worse than the plain fit or the simulation on the report half (a stop
+fitted on rough-road engagements firing through a slalom's sustained load, a clip term).
+Every reported figure (:func:`evaluate_scores`) is the RMSE ``core.evaluation.evaluate_segments``
+reports (its ``rmse_figures``) of the report records predicted through
+``core.predict.predict_forces`` - the path ``wheel-force evaluate`` runs - and, for a single
+file, of the report samples cut from the whole-record prediction as ``evaluate FILE --samples
+A..B,...`` cuts them (``core.evaluation.select_samples``; ``fit.report_on`` prints the
+command's arguments), so no reported number comes from data that took part in a decision.
 """
 from dataclasses import dataclass
 from dataclasses import replace
@@ -31,10 +30,14 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator.core.evaluation import EvalSegment
 from wheel_force_estimator.core.evaluation import rmse_figures
+from wheel_force_estimator.core.evaluation import select_samples
 from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.metrics import rmse_pct
 from wheel_force_estimator.core.physics import apply_physics
+from wheel_force_estimator.core.sample_ranges import format_ranges
+from wheel_force_estimator.core.sample_ranges import runs
 from wheel_force_estimator.diagnosis import text
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 
@@ -68,12 +71,13 @@ class HoldoutSplit:
         Records of each half.
     report_on : tuple of str
         What ``wheel-force evaluate`` must be given to reproduce the reported figures (files,
-        or ``FILE (second half: samples A..B)`` for a single holdout file).
+        or ``FILE --samples A..B,...`` for a single holdout file).
     whole : tuple of MotionRecording
         The records the gate's features are computed on (whole records, so their filters
         settle before the gate half starts).
-    gate_ends : tuple of int or None
-        Per record of ``whole``, the sample where the gate half ends (None: all of it).
+    gate_samples, report_samples : tuple of numpy.ndarray of bool, optional
+        Per record (a single holdout file), the samples of each half; None: every sample of
+        the half's records (two or more files).
 
     """
 
@@ -81,7 +85,6 @@ class HoldoutSplit:
     report: Tuple[MotionRecording, ...]
     report_on: Tuple[str, ...]
     whole: Tuple[MotionRecording, ...] = ()
-    gate_ends: Optional[Tuple[int, ...]] = None
     gate_samples: Optional[Tuple[np.ndarray, ...]] = None
     report_samples: Optional[Tuple[np.ndarray, ...]] = None
 
@@ -97,30 +100,15 @@ class HoldoutSplit:
 
     def gate_masks(self, spans) -> Optional[List[np.ndarray]]:
         """Masks of the gate samples over prepared spans of :attr:`whole` (None = all)."""
-        if self.gate_samples is not None:
-            return [m[a:b] for m, (a, b) in zip(self.gate_samples, spans)]
-        if self.gate_ends is None:
+        if self.gate_samples is None:
             return None
-        return [np.arange(a, b) < end for (a, b), end in zip(spans, self.gate_ends)]
+        return [m[a:b] for m, (a, b) in zip(self.gate_samples, spans)]
 
 
 def source_file(rec: MotionRecording) -> str:
     """Return the file a record came from (bag segments are named ``PATH#i``)."""
     path, sep, index = rec.name.rpartition('#')
     return path if sep and index.isdigit() else rec.name
-
-
-def _halves(rec: MotionRecording) -> Tuple[MotionRecording, MotionRecording]:
-    n = rec.n_samples
-    cut = n // 2
-    out = []
-    for lo, hi, what in ((0, cut, 'first'), (cut, n, 'second')):
-        t0 = rec.start_s + lo / rec.fs_hz
-        t1 = rec.start_s + hi / rec.fs_hz
-        out.append(replace(rec, name=f'{rec.name} ({what} half: samples {lo}..{hi})',
-                           inputs=rec.inputs[:, lo:hi], outputs=rec.outputs[:, lo:hi],
-                           start_s=t0, events=tuple(e for e in rec.events if t0 <= e[0] < t1)))
-    return out[0], out[1]
 
 
 def _event_spans(rec: MotionRecording) -> List[Tuple[int, int]]:
@@ -141,12 +129,6 @@ def _event_spans(rec: MotionRecording) -> List[Tuple[int, int]]:
     return spans
 
 
-def _runs(mask: np.ndarray) -> List[Tuple[int, int]]:
-    """Return ``(start, stop)`` of every run of True in ``mask``."""
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
-    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
-
-
 def split_holdout(holdout: Sequence[MotionRecording]) -> HoldoutSplit:
     """
     Split holdout records into gate and report halves (see the module notes).
@@ -162,23 +144,20 @@ def split_holdout(holdout: Sequence[MotionRecording]) -> HoldoutSplit:
         gate = tuple(r for r in holdout if source_file(r) not in report_files)
         report = tuple(r for r in holdout if source_file(r) in report_files)
         return HoldoutSplit(gate, report, tuple(report_files), gate)
-    if any(len(_event_spans(r)) >= 2 for r in holdout):
-        whole = tuple(holdout)
-        gate_masks, report_masks, described = [], [], []
-        for rec in whole:
-            gate_mask = np.zeros(rec.n_samples, dtype=bool)
-            for a, b in _event_spans(rec):
-                gate_mask[a:a + (b - a) // 2] = True
-            gate_masks.append(gate_mask)
-            report_masks.append(~gate_mask)
-            described.append(f'{rec.name} (second half of every road event: samples '
-                             + ', '.join(f'{a}..{b}' for a, b in _runs(~gate_mask)) + ')')
-        return HoldoutSplit(whole, whole, tuple(described), whole, None, tuple(gate_masks),
-                            tuple(report_masks))
-    halves = [_halves(r) for r in holdout]
-    return HoldoutSplit(tuple(h[0] for h in halves), tuple(h[1] for h in halves),
-                        tuple(h[1].name for h in halves), tuple(holdout),
-                        tuple(h[0].n_samples for h in halves))
+    whole = tuple(holdout)
+    per_event = any(len(_event_spans(r)) >= 2 for r in holdout)
+    gate_masks = []
+    for rec in whole:
+        gate_mask = np.zeros(rec.n_samples, dtype=bool)
+        for a, b in (_event_spans(rec) if per_event else [(0, rec.n_samples)]):
+            gate_mask[a:a + (b - a) // 2] = True
+        gate_masks.append(gate_mask)
+    report_masks = tuple(~m for m in gate_masks)
+    # evaluate --samples counts the file's samples over its segments in order
+    offsets = np.cumsum([0] + [r.n_samples for r in whole[:-1]])
+    ranges = [(int(a + o), int(b + o)) for m, o in zip(report_masks, offsets) for a, b in runs(m)]
+    report_on = (f'{files[0]} --samples {format_ranges(ranges)}',)
+    return HoldoutSplit(whole, whole, report_on, whole, tuple(gate_masks), report_masks)
 
 
 #: Metric of the reported figures per input quantity: an acceleration FRF cannot follow
@@ -208,17 +187,16 @@ def evaluate_scores(predict: Callable[[MotionRecording], np.ndarray],
 
     """
     rec0 = recordings[0]
+    segments = [EvalSegment(np.asarray(r.outputs, dtype=np.float64),
+                            np.asarray(predict(r), dtype=np.float64),
+                            np.arange(r.n_samples), r.name) for r in recordings]
     if masks is not None:
-        # Whole records predicted and high-passed as evaluate does, scored on their masked
-        # samples (the per-event halves of split_holdout).
-        return rmse_by_channel([np.asarray(r.outputs, dtype=np.float64) for r in recordings],
-                               [np.asarray(predict(r), dtype=np.float64) for r in recordings],
-                               rec0.output_channels,
-                               1.0 if metric == 'rmse_hp1_pct' else 0.0, rec0.fs_hz, masks)
+        # whole records predicted, the masked samples cut out as evaluate --samples does
+        segments = [piece for seg, m in zip(segments, masks)
+                    for piece in select_samples([seg], runs(m))]
     # evaluate's own RMSE function (core.evaluation.rmse_figures): the same figures without
     # the damage, spectra and events evaluate_segments also computes (~10 % of a diagnosis).
-    raw, hp = rmse_figures([np.asarray(r.outputs, dtype=np.float64) for r in recordings],
-                           [np.asarray(predict(r), dtype=np.float64) for r in recordings],
+    raw, hp = rmse_figures([s.target_n for s in segments], [s.prediction_n for s in segments],
                            rec0.fs_hz, rec0.output_channels)
     values = hp if metric == 'rmse_hp1_pct' else raw
     return dict(zip(rec0.output_channels, (float(v) for v in values)))

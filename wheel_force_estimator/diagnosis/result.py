@@ -130,7 +130,8 @@ class FitComparison:
         Which model is written: ``sim_frf``, ``model``, ``real_linear`` (unchanged reference
         or plain fit) or ``sim_frf+physics``, ``model+physics``, ``real_frf+physics``.
     report_on : tuple of str
-        What to give ``wheel-force evaluate`` to reproduce the figures.
+        What to give ``wheel-force evaluate`` to reproduce the figures: the report files, or
+        ``FILE --samples A..B,...`` for a single holdout file.
     gate : mapping str -> float
         Mean RMSE % over the findings' channels of every candidate on the gate half (empty
         when there was no choice).
