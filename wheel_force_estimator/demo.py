@@ -10,7 +10,9 @@
    table next to the offline one,
 5. ``wheel-force diagnose`` a simulation against a "real" car with concealed strut friction
    (it adds less error than the simulation's FRF already makes): the diagnosis is not told the
-   effect, names it, writes the augmented model and shows the holdout RMSE before/after,
+   effect, names it, writes the augmented model and shows the holdout RMSE before/after;
+   ``wheel-force evaluate`` of that model on the report samples (``fit.report_on``)
+   reproduces the reported "after",
 6. ``wheel-force fleet``: five simulated customer cars (spindle accelerometers only; other
    roads, other drivers' speeds) against the proving-ground validation session as the
    reference schedule: damage per hour per channel, fleet percentiles, how many repeats of
@@ -100,6 +102,20 @@ def _diagnose(out: Path, scale: float) -> None:
     _run(['diagnose', '--real', str(pair / 'real'), '--sim', str(pair / 'sim'), '--holdout',
           str(pair / 'holdout'), '--json', str(out / 'diagnosis.json'), '--out-model',
           str(out / 'augmented_model.npz'), '--report', str(out / 'diagnosis_report')])
+    # The reported "after" is what evaluate gives on the report half of the holdout: one bag
+    # with road events, so fit.report_on names the bag and its report samples.
+    fit = json.loads((out / 'diagnosis.json').read_text())['fit']
+    (report_on,) = fit['report_on']
+    path, _, samples = report_on.partition(' --samples ')
+    check = out / 'diagnosis_after.json'
+    _run(['evaluate', str(out / 'augmented_model.npz'), path, '--samples', samples, '--json',
+          str(check)])
+    evaluated = json.loads(check.read_text())['channels']
+    diff = max(abs(evaluated[c][fit['metric']] - v) for c, v in fit['after'].items())
+    print(f'evaluate of the written model on the report samples reproduces fit.after: largest '
+          f'difference {diff:.2g} percentage points over {len(fit["after"])} channels')
+    if diff > 0.1:
+        raise SystemExit('demo step failed: evaluate does not reproduce fit.after')
 
 
 # Customer cars of the fleet step: (name, [(road event, duration s, speed km/h), ...]).
