@@ -294,3 +294,13 @@ def test_cross_spectra_validates_its_fields():
     mine = s.sxx.copy()
     CrossSpectra(**{**fields, 'sxx': mine})
     mine[0, 0, 0] = 1.0  # the frozen result keeps its own copy; the caller's stays writable
+
+
+def test_power_quantile_hand_values():
+    from wheel_force_estimator.core.spectra import power_quantile_hz
+    f = np.array([0.0, 1.0, 2.0, 3.0])
+    power = np.array([0.0, 1.0, 1.0, 2.0])          # cumulative 0, 1, 2, 4
+    assert power_quantile_hz(f, power, 0.5) == 2.0
+    assert power_quantile_hz(f, power, 0.51) == 3.0
+    assert power_quantile_hz(f, power, 0.25) == 1.0
+    assert power_quantile_hz(f, np.zeros(4), 0.99) is None

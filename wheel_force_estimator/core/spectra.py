@@ -436,3 +436,17 @@ def auto_spectral_density(x, config: WelchConfig,
         psd += np.einsum('fwc,fwc->fc', z.imag, z.imag)
     psd /= config.n_windows(x.shape[1])
     return config.f_hz, np.ascontiguousarray(psd.T)
+
+
+def power_quantile_hz(f_hz: np.ndarray, power: np.ndarray, fraction: float) -> Union[float, None]:
+    """
+    Return the frequency below which ``fraction`` of the summed ``power`` lies [Hz].
+
+    The first bin of ``f_hz`` whose cumulative power reaches ``fraction`` of the total; None
+    when there is no power.  (The one home of the "band holding 99 % of the power" rule the
+    diagnosis uses for its load-state and differentiator corners.)
+    """
+    cum = np.cumsum(power)
+    if not cum[-1] > 0.0:
+        return None
+    return float(f_hz[np.searchsorted(cum, fraction * cum[-1])])

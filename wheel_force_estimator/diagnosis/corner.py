@@ -16,6 +16,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from wheel_force_estimator.core.errors import DiagnosisError
+from wheel_force_estimator.core.spectra import power_quantile_hz
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.holdout import METRIC
 from wheel_force_estimator.diagnosis.holdout import split_holdout
@@ -68,9 +69,8 @@ def sharper_lowpass_hz(recordings, config: FeatureConfig) -> Optional[float]:
             coh = np.max([signal.coherence(x, y, fs, nperseg=nperseg)[1]
                           for y in np.asarray(rec.outputs, dtype=np.float64)], axis=0)
             power = power + pxx * (2.0 * np.pi * f) ** (2 * (1 - order_in)) * coh
-        cum = np.cumsum(power)
-        if cum[-1] > 0.0:
-            top = max(top, float(f[np.searchsorted(cum, SHARP_POWER_FRACTION * cum[-1])]))
+        here = power_quantile_hz(f, power, SHARP_POWER_FRACTION)
+        top = top if here is None else max(top, here)
     corner = min(top / _butter2_ratio(SHARP_LAG_DEG), SHARP_MAX_FRACTION * fs)
     return corner if corner > default else None
 

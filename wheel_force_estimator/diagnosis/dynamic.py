@@ -45,6 +45,7 @@ from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.core.spectra import power_quantile_hz
 from wheel_force_estimator.diagnosis.hypotheses import load_state
 from wheel_force_estimator.diagnosis.hypotheses import lowpassed_load
 from wheel_force_estimator.diagnosis.prepared import pieces
@@ -81,10 +82,8 @@ def _band_top_hz(loads: Sequence[np.ndarray], fs_hz: float) -> float:
     n = min(4096, min(x.size for x in loads))
     psd = sum(signal.welch(x - x.mean(), fs_hz, nperseg=n)[1] for x in loads)
     f = np.fft.rfftfreq(n, 1.0 / fs_hz)
-    cum = np.cumsum(psd[1:])
-    if not cum[-1] > 0.0:
-        return 0.25 * fs_hz
-    return float(f[1 + np.searchsorted(cum, 0.99 * cum[-1])])
+    top = power_quantile_hz(f[1:], psd[1:], 0.99)   # DC left out
+    return 0.25 * fs_hz if top is None else top
 
 
 def _candidates(contexts, fs_hz: float) -> List[_Candidate]:
