@@ -98,3 +98,21 @@ def test_channels_a_term_spans_or_couples_are_chosen_together():
     gate['a'] = {'out0': 90.0, 'out1': 90.0, 'out2': 1.0}
     model, pick, _ = compose({'a': with_terms, 'b': b}, gate, a.output_channels)
     assert model is None and set(pick.values()) == {'b'}
+
+
+def test_motion_channels_no_term_touches_take_the_plain_fit():
+    # Bug caught: a tyre-in-the-air channel keeping the simulation's rows because the deciding
+    # half preferred them by less than it can resolve (worse on the report half).
+    a, b = _pair()
+    sim, plain = a.with_physics([]), b
+    gate = {'sim_frf': {'out0': 5.0, 'out1': 5.0, 'out2': 5.0},
+            'real_linear': {'out0': 5.1, 'out1': 5.1, 'out2': 4.0}}
+    candidates = {'sim_frf': sim, 'real_linear': plain}
+    _, pick, _ = compose(candidates, gate, a.output_channels, motion_channels=['out1'])
+    assert pick == {'out0': 'sim_frf', 'out1': 'real_linear', 'out2': 'real_linear'}
+    # a motion channel a term touches still chooses on the gate half (the clip term's rows)
+    with_terms = sim.with_physics([_term(['out1'])])
+    gate['sim_frf+physics'] = {'out0': 9.0, 'out1': 3.0, 'out2': 9.0}
+    _, pick, _ = compose({'sim_frf+physics': with_terms, **candidates}, gate,
+                         a.output_channels, motion_channels=['out1'])
+    assert pick['out1'] == 'sim_frf+physics'
