@@ -12,8 +12,9 @@ from wheel_force_estimator.core.sample_ranges import runs
 
 def test_runs_format_and_parse_round_trip():
     mask = np.array([1, 1, 0, 0, 1, 0, 1, 1, 1], dtype=bool)
-    assert runs(mask) == [(0, 2), (4, 5), (6, 9)]
-    assert runs(np.zeros(4, dtype=bool)) == []
+    assert runs(mask).tolist() == [[0, 2], [4, 5], [6, 9]]
+    assert runs(np.zeros(4, dtype=bool)).shape == (0, 2)
+    assert runs(np.array([0, 1, 1, 0, 0, 1, 0, 1], bool)).tolist() == [[1, 3], [5, 6], [7, 8]]
     text = format_ranges(runs(mask))
     assert text == '0..2,4..5,6..9'
     assert parse_ranges(text) == ((0, 2), (4, 5), (6, 9))

@@ -13,7 +13,6 @@ from wheel_force_estimator.diagnosis.clipping import clip_test
 from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.motion import merge_motion
 from wheel_force_estimator.diagnosis.motion import motion_findings
-from wheel_force_estimator.diagnosis.motion import runs
 from wheel_force_estimator.diagnosis.motion import supporting_mass
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 from wheel_force_estimator.diagnosis.result import Finding
@@ -36,12 +35,6 @@ def rough():
             'lift': simulate(ROUGH, ('tire_lift_off',), seed=0),
             'lift_reseeded': simulate(ROUGH, ('tire_lift_off',), seed=7),
             'reseeded': simulate(ROUGH, (), seed=7)}
-
-
-def test_runs_hand_values():
-    mask = np.array([0, 1, 1, 0, 0, 1, 0, 1], bool)
-    assert runs(mask).tolist() == [[1, 3], [5, 6], [7, 8]]
-    assert runs(np.zeros(4, bool)).shape == (0, 2)
 
 
 def test_clip_found_below_a_tenth_of_a_percent_and_not_on_clean_or_quantised_data():

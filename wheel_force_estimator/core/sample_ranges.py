@@ -3,6 +3,9 @@
 """
 Sample ranges of a recording: ``A..B,C..D`` (half-open, 0-based sample indices).
 
+Also the one home of :func:`runs` (the True runs of a sample mask), which the motion
+findings use to locate clipped or airborne stretches.
+
 The one text form of the samples ``wheel-force evaluate --samples`` scores and
 ``diagnose`` prints in ``fit.report_on`` for a single holdout file.  Indices count the aligned
 samples of one recording over its gap-free segments in order (segment 0's samples, then
@@ -15,10 +18,10 @@ import numpy as np
 Range = Tuple[int, int]
 
 
-def runs(mask: np.ndarray) -> List[Range]:
-    """Return ``(start, stop)`` of every run of True in the boolean ``mask``."""
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], np.asarray(mask, dtype=np.int8), [0]])))
-    return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
+def runs(mask: np.ndarray) -> np.ndarray:
+    """Return ``(k, 2)`` start / stop (exclusive) indices of the True runs of ``mask``."""
+    d = np.diff(np.concatenate([[0], np.asarray(mask, dtype=np.int8), [0]]))
+    return np.stack([np.flatnonzero(d == 1), np.flatnonzero(d == -1)], axis=1)
 
 
 def format_ranges(ranges: Sequence[Range]) -> str:
@@ -65,7 +68,7 @@ def per_segment(ranges: Sequence[Range], lengths: Sequence[int]) -> List[Tuple[i
 
     """
     total = int(sum(lengths))
-    if ranges and ranges[-1][1] > total:
+    if len(ranges) and ranges[-1][1] > total:
         a, b = ranges[-1]
         raise ValueError(f'range {a}..{b} ends after the recording has ended ({total} aligned '
                          'samples)')

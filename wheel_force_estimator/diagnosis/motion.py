@@ -41,6 +41,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 from scipy import stats
 
+from wheel_force_estimator.core.sample_ranges import runs
 from wheel_force_estimator.diagnosis.clipping import CLIP_ALPHA
 from wheel_force_estimator.diagnosis.clipping import clip_test
 from wheel_force_estimator.diagnosis.clipping import MIN_CLIP_SAMPLES
@@ -78,12 +79,6 @@ class MotionConfig:
     min_clip_samples: int = MIN_CLIP_SAMPLES
     merge_s: float = 0.2
     max_windows: int = 12
-
-
-def runs(mask: np.ndarray) -> np.ndarray:
-    """Return ``(k, 2)`` start / stop (exclusive) indices of the True runs of ``mask``."""
-    d = np.diff(np.concatenate([[0], np.asarray(mask, dtype=np.int8), [0]]))
-    return np.stack([np.flatnonzero(d == 1), np.flatnonzero(d == -1)], axis=1)
 
 
 def _windows(spans_s: List[Tuple[float, float]], merge_s: float, limit: int):
