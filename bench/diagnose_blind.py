@@ -395,9 +395,10 @@ def run_real():
 
 def _short(report_on):
     """Return a ``fit.report_on`` entry with the file's name only (and no sample list)."""
-    path, _, samples = report_on.partition(' --samples ')
-    return Path(path).name + (f' (report samples, {samples.count("..")} ranges)'
-                              if samples else '')
+    from wheel_force_estimator.diagnosis.holdout import evaluate_arguments
+    args = evaluate_arguments(report_on)
+    return Path(args[0]).name + (f' (report samples, {args[-1].count("..")} ranges)'
+                                 if len(args) > 1 else '')
 
 
 def _report_real(title, real, hold):

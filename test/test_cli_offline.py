@@ -18,6 +18,7 @@ from wheel_force_estimator.cli.main import main
 from wheel_force_estimator.core.fatigue import pseudo_damage
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.diagnosis.holdout import evaluate_arguments
 
 FS_HZ = 512.0
 PERIOD_NS = 1_953_125
@@ -219,7 +220,7 @@ def test_diagnose_report_samples_of_a_gapped_bag_with_events_reproduce_in_evalua
                  str(tmp_path / 'w.npz')]) == 0
     fit = json.loads(out.read_text())['fit']
     (report_on,) = fit['report_on']
-    path, _, spec = report_on.partition(' --samples ')
+    path, _, spec = evaluate_arguments(report_on)
     assert path == str(tmp_path / 'hold')
     # second halves of: event 1 and 2 in segment 0, the stretch before event 3 in segment 1
     # (1000 samples) and event 3, in bag sample numbers

@@ -24,6 +24,7 @@ from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis.features import pairing
+from wheel_force_estimator.diagnosis.holdout import evaluate_arguments
 from wheel_force_estimator.diagnosis.holdout import evaluate_scores
 from wheel_force_estimator.diagnosis.holdout import split_holdout
 from wheel_force_estimator.diagnosis.recording import MotionRecording
@@ -93,10 +94,11 @@ def test_hardening_rig_is_named_and_evaluate_reproduces_every_reported_figure(tm
     fit = json.loads(out.read_text())['fit']
     n = int(60 * FS_HZ)
     assert fit['report_on'] == [f'{report} --samples {n // 2}..{n}']
-    path, option, spec = fit['report_on'][0].split(' ')
+    args = evaluate_arguments(fit['report_on'][0])
+    assert args == [report, '--samples', f'{n // 2}..{n}']
     for written, key in ((model, 'after'), (tmp_path / 'plain.npz', 'real_linear')):
-        assert main(['evaluate', str(written), path, option, spec, '--json',
-                     str(tmp_path / 'e.json')] + ROLES) == 0
+        assert main(['evaluate', str(written)] + args + ['--json', str(tmp_path / 'e.json')]
+                    + ROLES) == 0
         evaluated = json.loads((tmp_path / 'e.json').read_text())['channels']['f']
         assert evaluated['rmse_pct'] == pytest.approx(fit[key]['f'], abs=0.1)
 

@@ -105,11 +105,11 @@ def _diagnose(out: Path, scale: float) -> None:
     # The reported "after" is what evaluate gives on the report half of the holdout: one bag
     # with road events, so fit.report_on names the bag and its report samples.
     fit = json.loads((out / 'diagnosis.json').read_text())['fit']
+    from wheel_force_estimator.diagnosis.holdout import evaluate_arguments
     (report_on,) = fit['report_on']
-    path, _, samples = report_on.partition(' --samples ')
     check = out / 'diagnosis_after.json'
-    _run(['evaluate', str(out / 'augmented_model.npz'), path, '--samples', samples, '--json',
-          str(check)])
+    _run(['evaluate', str(out / 'augmented_model.npz')] + evaluate_arguments(report_on)
+         + ['--json', str(check)])
     evaluated = json.loads(check.read_text())['channels']
     diff = max(abs(evaluated[c][fit['metric']] - v) for c, v in fit['after'].items())
     print(f'evaluate of the written model on the report samples reproduces fit.after: largest '

@@ -129,6 +129,16 @@ def _event_spans(rec: MotionRecording) -> List[Tuple[int, int]]:
     return spans
 
 
+#: Separates a ``fit.report_on`` entry's file from its report samples.
+SAMPLES_OPTION = ' --samples '
+
+
+def evaluate_arguments(report_on: str) -> List[str]:
+    """Return the ``wheel-force evaluate`` arguments of a ``fit.report_on`` entry."""
+    path, sep, samples = report_on.partition(SAMPLES_OPTION)
+    return [path, SAMPLES_OPTION.strip(), samples] if sep else [path]
+
+
 def split_holdout(holdout: Sequence[MotionRecording]) -> HoldoutSplit:
     """
     Split holdout records into gate and report halves (see the module notes).
@@ -156,7 +166,7 @@ def split_holdout(holdout: Sequence[MotionRecording]) -> HoldoutSplit:
     # evaluate --samples counts the file's samples over its segments in order
     offsets = np.cumsum([0] + [r.n_samples for r in whole[:-1]])
     ranges = [(int(a + o), int(b + o)) for m, o in zip(report_masks, offsets) for a, b in runs(m)]
-    report_on = (f'{files[0]} --samples {format_ranges(ranges)}',)
+    report_on = (f'{files[0]}{SAMPLES_OPTION}{format_ranges(ranges)}',)
     return HoldoutSplit(whole, whole, report_on, whole, tuple(gate_masks), report_masks)
 
 
