@@ -149,6 +149,9 @@ def command(args: argparse.Namespace) -> int:
         print(line)
     for line in result.rejected:
         print(f'  not accepted: {line}')
+    if result.fit.data == 'too_short':
+        for note in result.fit.notes:
+            print(f'warning: {note}', file=sys.stderr)
     if args.out_model:
         from wheel_force_estimator.core.errors import DiagnosisError
         if result.model is None:

@@ -516,14 +516,18 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
         return gains[index]
 
     structural = []
-    real_linear = None
+    # The one real-data linear fit of the run: `wheel-force fit`'s design on all the real
+    # training records (the reference itself without a simulation or model).
+    notes = []
+    real_linear = reference if mode == 'linear' else None
+    if real_linear is None:
+        try:
+            real_linear = _real_linear(real, config)
+        except DiagnosisError as err:
+            notes.append(f'no real-data linear model: {err}')
     if mode == 'sim' and reference.kind == 'frf':
         coupling = None
-        try:
-            real_linear = _fit_linear(real, config, 'real', rec0)
-        except DiagnosisError:
-            pass  # real records too short for their own FRF: no linear comparison
-        else:
+        if real_linear is not None:
             coupling = left_right_coupling(
                 real, reference, real_linear, channels,
                 settle_samples(fs_hz, rec0.input_quantity, config.features), hp)
@@ -540,11 +544,13 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
     # but the real motion differs from the simulated one: the written model is then chosen
     # between the reference and the plain fit on the real data (no longer "no change").
     motion = motion_findings(real, sim, sources)
-    findings, fit, model = compare(findings, real, reference, mode, holdout, outcomes,
-                                   channels, sources, partners, config,
+    findings, fit, model = compare(findings, real, reference, mode, holdout, channels,
+                                   sources, partners, config,
                                    lambda recs: _real_linear(recs, config).model,
+                                   real_linear.model if real_linear is not None else None,
                                    motion_channels=sorted({c for m in motion
-                                                           for c in m.channels}))
+                                                           for c in m.channels}),
+                                   notes=notes)
     findings = merge_motion(findings, motion)
     named = {(c, f.physics) for f in findings for c in f.channels}
     rejected = tuple(text.rejection(ch, outcomes[ch].rejected) for ch in channels

@@ -23,7 +23,7 @@ written and ``fit.model`` says so.  Every score runs through ``core.predict.pred
 the path ``evaluate``, ``predict`` and the node take.
 """
 from dataclasses import replace
-from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Mapping, Sequence, Tuple
 
 import numpy as np
 import scipy.optimize
@@ -33,7 +33,13 @@ from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.model_rows import compatible
 from wheel_force_estimator.core.model_rows import compose_rows
 from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.diagnosis.crossval import FIGURES
+from wheel_force_estimator.diagnosis.crossval import fixed_figures
+from wheel_force_estimator.diagnosis.crossval import held_out_figures
+from wheel_force_estimator.diagnosis.crossval import pick_rows
+from wheel_force_estimator.diagnosis.crossval import training_folds
 from wheel_force_estimator.diagnosis.features import settle_samples
+from wheel_force_estimator.diagnosis.holdout import evaluate_figures
 from wheel_force_estimator.diagnosis.holdout import evaluate_scores
 from wheel_force_estimator.diagnosis.holdout import holdout_gate
 from wheel_force_estimator.diagnosis.holdout import MAX_HOLDOUT_HARM_PCT
@@ -42,6 +48,7 @@ from wheel_force_estimator.diagnosis.holdout import Scored
 from wheel_force_estimator.diagnosis.holdout import split_holdout
 from wheel_force_estimator.diagnosis.prepared import prepare
 from wheel_force_estimator.diagnosis.reference import FrfReference
+from wheel_force_estimator.diagnosis.result import figure_keys
 from wheel_force_estimator.diagnosis.result import FitComparison
 
 
@@ -281,22 +288,6 @@ def mean_score(model, half: Scored, channels, metric: str) -> Tuple[float, Dict[
     return float(np.mean([scores[c] for c in channels])), scores
 
 
-def choose(candidates: Mapping[str, object], gate: Scored, channels: Sequence[str],
-           metric: str) -> Tuple[str, Dict[str, float], Dict[str, Dict[str, float]]]:
-    """
-    Return the name of the candidate with the lowest mean RMSE over ``channels`` on ``gate``.
-
-    Ties go to the earlier candidate.  Also returns every candidate's gate score (mean over
-    ``channels``) and its per-channel gate scores.
-    """
-    per_channel = {name: mean_score(model, gate, channels, metric)[1]
-                   for name, model in candidates.items()}
-    scores = {name: float(np.mean([per_channel[name][c] for c in channels]))
-              for name in candidates}
-    best = min(scores, key=lambda n: (scores[n], list(candidates).index(n)))
-    return best, scores, per_channel
-
-
 def linked_channels(candidates: Mapping[str, object], channels: Sequence[str]) -> List[List[str]]:
     """
     Return the groups of output channels that must come from one model.
@@ -324,57 +315,35 @@ def linked_channels(candidates: Mapping[str, object], channels: Sequence[str]) -
     return list(groups.values())
 
 
-def compose(candidates: Mapping[str, object], per_channel: Mapping[str, Mapping[str, float]],
-            channels: Sequence[str], motion_channels: Sequence[str] = ()
-            ) -> Tuple[Optional[object], Dict[str, str], str]:
+def combine(candidates: Mapping[str, object], pick: Mapping[str, str],
+            channels: Sequence[str]) -> Tuple[object, str, str]:
     """
-    Combine the candidates' rows: each linked group of channels from its best gate model.
+    Return ``(model, fit.model, note)``: each channel's row (and its terms) from ``pick``.
 
     Every output row of the FRF is its own fit (:mod:`core.model_rows`), so no channel needs
     to take the model another channel prefers: a finding on the vertical channels may be best
-    served by the real-data FRF with its terms while the lateral channels, which the real
-    records fit worse (lower coherence), keep the simulation's rows.  Groups of
-    :func:`linked_channels` are chosen together (lowest mean gate RMSE over the group; ties to
-    the earlier candidate), and a candidate's terms come along with its rows; a group no term
-    touches chooses among the candidates without terms.  A group of ``motion_channels`` (a
-    clipped accelerometer or a tyre in the air was found there) that no term touches takes
-    the plain fit on the real data (``real_linear``) without a vote: the simulation's rows
-    there were fitted on motion the real car does not make, and the two differ on unseen
-    data by less than the deciding half can tell apart (simulator, 3 seeds: the gate half
-    took the simulation's rows for one Fz at seeds 1 and 2 and the report half found them
-    0.05 and 0.01 points worse, the plain fit's rows are the issue's bar).
-
-    Returns ``(model, {channel: candidate}, note)``: the model is None when every group
-    chose the same candidate (that candidate is written whole) or when the rows cannot be
-    combined (``note`` says why).
+    served by the real-data FRF with its terms while the lateral channels keep another
+    model's rows.  A term comes along with the rows of the candidate it belongs to.  One
+    candidate picked everywhere: that candidate whole.  Rows that cannot be combined (other
+    resolutions): the real-data linear model whole, never worse than itself, and ``note``
+    says why.
     """
     names = list(candidates)
-    plain = [n for n in names if not candidates[n].physics] or names
-    touched = {c for n in names for t in candidates[n].physics_terms for c in t.channels}
-    pick: Dict[str, str] = {}
-    for group in linked_channels(candidates, channels):
-        # A row no term touches comes from a model without terms: the other candidates'
-        # rows there differ from those only by the backfit's refitting noise.
-        eligible = names if touched.intersection(group) else plain
-        if ('real_linear' in names and set(group) <= set(motion_channels)
-                and not touched.intersection(group)):
-            eligible = ['real_linear']
-        best = min(eligible, key=lambda n: (float(np.mean([per_channel[n][c] for c in group])),
-                                            names.index(n)))
-        pick.update(dict.fromkeys(group, best))
     if len(set(pick.values())) < 2:
-        return None, pick, ''
+        name = next(iter(pick.values()))
+        return candidates[name], name, ''
     models = [candidates[n] for n in names]
     ok, why = compatible(models)
     if not ok:
-        return None, pick, f'rows not combined per channel: {why}'
+        return (candidates['real_linear'], 'real_linear',
+                f'rows not combined per channel ({why}): the plain fit is written whole')
     terms = [t.to_dict() for n in names for t in candidates[n].physics_terms
              if all(pick[c] == n for c in t.channels)]
     base = max(names, key=lambda n: sum(v == n for v in pick.values()))
     fit = dict(candidates[base].fit)
     fit['rows_from'] = dict(pick)
     model = compose_rows(models, [names.index(pick[c]) for c in channels], terms, fit)
-    return model, pick, ''
+    return model, PER_CHANNEL, ''
 
 
 #: ``fit.model`` of the reference written unchanged, per diagnosis mode.
@@ -420,12 +389,12 @@ def is_dynamic(finding) -> bool:
 
 def _gate_dynamic(dynamic, real, lin_model, real_fit, gate, metric, hp, skip):
     """
-    Keep the dynamic findings that do not harm the gate half with the FIR refitted around them.
+    Strip the terms of dynamic findings that harm the gate half with the FIR refitted around them.
 
     The rule of :func:`holdout.holdout_gate` (a rise of the mean RMSE over the finding's
     channels above ``MAX_HOLDOUT_HARM_PCT`` drops it), judged on the real-data FIR refitted
-    jointly with the finding (:func:`backfitted_model`) against that FIR alone.  Returns
-    ``(kept, rejection lines)``.
+    jointly with the finding (:func:`backfitted_model`) against that FIR alone; a harmful
+    finding stays named without its term.  Returns ``(findings, rejection lines)``.
     """
     kept, gated = [], []
     for f in dynamic:
@@ -437,120 +406,236 @@ def _gate_dynamic(dynamic, real, lin_model, real_fit, gate, metric, hp, skip):
             gated.append(f'{", ".join(f.channels)}: {f.physics} (inside the structure) fitted '
                          f'the real data but worsens the holdout RMSE of ' + ', '.join(
                              f'{c} ({without[c]:.1f} % -> {with_f[c]:.1f} %)'
-                             for c in f.channels) + '; not kept')
+                             for c in f.channels) + '; named, its term not written')
+            kept.append(replace(f, terms=()))
         else:
             kept.append(f)
     return kept, gated
 
 
-def compare(findings, real, reference, mode, holdout, outcomes, channels, sources, partners,
-            config, real_fit, motion_channels=()):
+def _reference_with_terms(with_terms, recordings, ref_model, real_fit, hp, skip):
     """
-    Gate the findings, choose the written model, score before / real_linear / after.
+    Return the reference FRF plus the findings' terms, their strengths fitted on ``recordings``.
+
+    The terms' shapes come from the selection; their strengths are refitted on the records
+    given (the training blocks of a fold) with the reference FRF kept, so the candidate is
+    judged on blocks none of its strengths saw.  A reference that carries physics of its own
+    (a ``--model`` written by a diagnosis) keeps the selection's strengths.
+    """
+    if ref_model.physics:
+        return ref_model.with_physics(list(ref_model.physics) + _term_dicts(
+            t for f in with_terms for t in f.terms))
+    return backfitted_model(with_terms, recordings, ref_model, real_fit, hp, skip,
+                            iterations=0)[0]
+
+
+def candidate_builder(findings, ref_model, mode: str, real_fit, hp: float, skip: int):
+    """
+    Return ``build(recordings, linear=None) -> {name: FrfModel}``: the candidates fitted there.
+
+    In order of preference on a tie: the reference FRF plus the findings' terms, the real-data
+    FRF plus the terms fitted jointly (:func:`backfitted_model`), the reference unchanged,
+    the real-data linear model (``linear``, or ``real_fit(recordings)``).  Without a finding
+    that carries terms, the last two only; without a reference FRF, the real-data ones.
+    """
+    with_terms = [f for f in findings if f.terms]
+
+    def build(recordings, linear=None):
+        linear = real_fit(recordings) if linear is None else linear
+        out = {}
+        if with_terms and ref_model is not None and mode != 'linear':
+            out[AUGMENTED[mode]] = _reference_with_terms(with_terms, recordings, ref_model,
+                                                         real_fit, hp, skip)
+        if with_terms:
+            out['real_frf+physics'] = backfitted_model(with_terms, recordings, linear,
+                                                       real_fit, hp, skip)[0]
+        if ref_model is not None and mode != 'linear':
+            out[UNCHANGED[mode]] = ref_model
+        out['real_linear'] = linear
+        return out
+    return build
+
+
+def touched_channels(candidates) -> set:
+    """Channels some candidate's physics term acts on."""
+    return {c for m in candidates.values() for t in m.physics_terms for c in t.channels}
+
+
+def plain_names(candidates) -> List[str]:
+    """Candidates without physics terms."""
+    return [n for n, m in candidates.items() if not m.physics]
+
+
+def _figures_of_pick(scores, pick, figure) -> Dict[str, float]:
+    return {c: scores[name][figure][c] for c, name in pick.items()}
+
+
+def _comparison(before, real_lin, after, data, metric, **kwargs) -> FitComparison:
+    """Return a :class:`FitComparison` of both-figure scores (None: no figures)."""
+    figures = {}
+    for name, scores in (('before', before), ('real_linear', real_lin), ('after', after)):
+        if scores is not None:
+            figures.update(figure_keys(name, scores))
+    return FitComparison(before[metric] if before else {}, after[metric] if after else {},
+                         data, real_lin[metric] if real_lin else None,
+                         1.0 if metric == 'rmse_hp1_pct' else 0.0, figures=figures, **kwargs)
+
+
+def _cross_validated(findings, real, reference, ref_model, mode, channels, real_fit,
+                     lin_model, hp, skip, notes):
+    """
+    Choose and score the written model on held-out blocks of the training recordings.
+
+    The candidates of :func:`candidate_builder` are fitted on the other blocks of each fold
+    and scored on the held-out ones (:mod:`diagnosis.crossval`); per linked group the best
+    one no worse than the real-data linear model in either figure is written, refitted on all
+    training recordings.  Records too short for the folds: the real-data linear model is
+    written (``fit.data`` ``'too_short'``, a note says why).
+    """
+    metric = METRIC[real[0].input_quantity]
+    with_terms = [t for f in findings for t in f.terms]
+    if lin_model is None:
+        # no real-data model at all: the reference (and its terms) is all there is
+        if ref_model is None:
+            return findings, _comparison(None, None, None, 'too_short', metric,
+                                         notes=tuple(notes)), None
+        model = ref_model.with_physics(list(ref_model.physics) + _term_dicts(with_terms))
+        name = AUGMENTED[mode] if with_terms else UNCHANGED[mode]
+        return findings, _comparison(None, None, None, 'too_short', metric, model=name,
+                                     notes=tuple(notes)), model
+    build = candidate_builder(findings, ref_model, mode, real_fit, hp, skip)
+    folds = training_folds(real)
+    try:
+        scores = held_out_figures(build, real, folds)
+    except DiagnosisError as err:
+        notes.append(f'training recordings too short to hold out blocks ({err}); the plain '
+                     f'fit on the real data is written, the findings are named only')
+        return findings, _comparison(None, None, None, 'too_short', metric,
+                                     model='real_linear', notes=tuple(notes)), lin_model
+    final = build(real, lin_model)
+    pick = pick_rows(scores, linked_channels(final, channels), touched_channels(final),
+                     'real_linear', metric, plain_names(final))
+    model, choice, note = combine(final, pick, channels)
+    if note:
+        notes.append(note)
+        pick = dict.fromkeys(channels, 'real_linear')
+    after = {fig: _figures_of_pick(scores, pick, fig) for fig in FIGURES}
+    if ref_model is not None:
+        before = scores[UNCHANGED[mode]]
+    else:
+        before = fixed_figures(reference.predict, real, folds)
+    fit = _comparison(before, scores['real_linear'], after, 'cross_validation', metric,
+                      model=choice, notes=tuple(notes),
+                      rows_from=pick if choice == PER_CHANNEL else {})
+    return findings, fit, model
+
+
+def compare(findings, real, reference, mode, holdout, channels, sources, partners,
+            config, real_fit, lin_model, motion_channels=(), notes=()):
+    """
+    Choose the written model, score before / real_linear / after in both figures.
 
     ``mode`` is ``'sim'``, ``'model'`` or ``'linear'`` (reference fitted on ``real``);
-    ``outcomes`` the per-channel selections (cross-validation figures without holdout);
     ``real_fit(recordings) -> FrfModel`` fits with the design of ``wheel-force fit``;
-    ``motion_channels`` the channels of motion findings (no terms: the recorded motion
-    differs from the simulated one, so the reference is no longer kept as it is: a row no
-    term touches there is the plain fit's, see :func:`compose`).
-    Returns ``(findings, FitComparison, written model or None)``.
+    ``lin_model`` is ``real_fit(real)`` (None when the records cannot be fitted; ``notes``
+    says why).  Without ``holdout`` the candidates are judged on held-out blocks of ``real``
+    (:func:`_cross_validated`); with one, on its gate half, and the terms that make the gate
+    half worse leave the model (their findings stay named: the holdout judges models, not
+    names).  ``motion_channels`` are the channels of motion findings (see
+    :func:`crossval.pick_rows`' ``fixed``).  Returns ``(findings, FitComparison, written
+    model or None)``.
     """
     rec0 = real[0]
-    fs_hz = rec0.fs_hz
     hp = config.selection.highpass_hz
-    metric = METRIC[rec0.input_quantity]
+    skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
     ref_model = reference.model if isinstance(reference, FrfReference) else None
-    notes = []
-    lin_model = ref_model if mode == 'linear' else None
-    if lin_model is None and (holdout or ref_model is None):
-        try:
-            lin_model = real_fit(real)
-        except DiagnosisError as err:
-            notes.append(f'no real-data linear model: {err}')
-    gated = []
-    split = split_holdout(holdout) if holdout else None
-    skip = settle_samples(fs_hz, rec0.input_quantity, config.features)
+    notes = list(notes)
+    if not holdout:
+        return _cross_validated(findings, real, reference, ref_model, mode, channels,
+                                real_fit, lin_model, hp, skip, notes)
+    return _held_out(findings, real, reference, ref_model, mode, holdout, channels, sources,
+                     partners, config, real_fit, lin_model, motion_channels, hp, skip, notes)
+
+
+def _gated(findings, real, reference, holdout, split, channels, sources, partners, config,
+           real_fit, lin_model, hp, skip, notes):
+    """
+    Strip the terms the gate half finds harmful (:func:`holdout.holdout_gate`).
+
+    Returns ``(findings in their order, rejection lines)``.
+    """
+    metric = METRIC[real[0].input_quantity]
     # Terms inside the structure were fitted with the FIR refitted around them (their linear
     # part partialled out, :mod:`diagnosis.dynamic`): added to the reference as it is, they
     # would count that part twice, so the gate judges them on the refitted model.
     dynamic = [f for f in findings if is_dynamic(f)]
-    findings = [f for f in findings if not is_dynamic(f)]
-    if split is not None:
-        gate_prep = prepare(split.whole, reference, sources, partners, config)
-        masks = split.gate_masks(gate_prep.spans)
-        if masks is None or any(m.any() for m in masks):
-            findings, gated = holdout_gate(findings, gate_prep, channels, hp, fs_hz, masks)
-            if dynamic and lin_model is not None:
-                dynamic, gated_dynamic = _gate_dynamic(dynamic, real, lin_model, real_fit,
-                                                       split.gate_half, metric, hp, skip)
-                gated = tuple(gated) + tuple(gated_dynamic)
-        else:
-            notes.append('holdout too short: its gate half lies within the filter settling '
-                         'time, no finding was gated')
-    findings = list(findings) + dynamic
+    static = [f for f in findings if not is_dynamic(f)]
+    gate_prep = prepare(split.whole, reference, sources, partners, config)
+    masks = split.gate_masks(gate_prep.spans)
+    if masks is not None and not any(m.any() for m in masks):
+        notes.append('holdout too short: its gate half lies within the filter settling '
+                     'time, no finding was gated')
+        return static + dynamic, ()
+    static, gated = holdout_gate(static, gate_prep, channels, hp, real[0].fs_hz, masks)
+    if dynamic and lin_model is not None:
+        dynamic, gated_dynamic = _gate_dynamic(dynamic, real, lin_model, real_fit,
+                                               split.gate_half, metric, hp, skip)
+        gated = tuple(gated) + tuple(gated_dynamic)
+    return static + dynamic, tuple(gated)
+
+
+def _held_out(findings, real, reference, ref_model, mode, holdout, channels, sources,
+              partners, config, real_fit, lin_model, motion_channels, hp, skip, notes):
+    """Gate, choose on the gate half and score on the report half of the holdout."""
+    metric = METRIC[real[0].input_quantity]
+    split = split_holdout(holdout)
+    findings, gated = _gated(findings, real, reference, holdout, split, channels, sources,
+                             partners, config, real_fit, lin_model, hp, skip, notes)
     with_terms = [f for f in findings if f.terms]
-    terms = [t.to_dict() for f in with_terms for t in f.terms]
-    candidates = {}
-    if not with_terms:
-        if ref_model is not None:
-            candidates[UNCHANGED[mode]] = ref_model
-        if lin_model is not None and (ref_model is None or (motion_channels and split)):
-            candidates['real_linear'] = lin_model
+    if lin_model is not None:
+        candidates = candidate_builder(findings, ref_model, mode, real_fit, hp, skip)(
+            real, lin_model)
+        if with_terms:
+            candidates['real_frf+physics'], note = _joint_if_better(
+                candidates['real_frf+physics'], with_terms, real, lin_model, real_fit, hp,
+                skip, split.gate_half, metric)
+            if note:
+                notes.append(note)
+    elif ref_model is not None:
+        terms = _term_dicts(t for f in with_terms for t in f.terms)
+        candidates = {AUGMENTED[mode] if terms else UNCHANGED[mode]:
+                      ref_model.with_physics(list(ref_model.physics) + terms)}
     else:
-        if ref_model is not None:
-            candidates[AUGMENTED[mode]] = ref_model.with_physics(list(ref_model.physics) + terms)
-        if lin_model is not None and (split is not None or not candidates or dynamic):
-            # Without a holdout nothing can choose: the reference + terms is written - but a
-            # term inside the structure needs its FIR refitted around it (see above).
-            candidates['real_frf+physics'], _ = backfitted_model(
-                findings, real, lin_model, real_fit, hp, skip)
-            if split is not None:
-                candidates['real_frf+physics'], note = _joint_if_better(
-                    candidates['real_frf+physics'], findings, real, lin_model, real_fit, hp,
-                    skip, split.gate_half, metric)
-                if note:
-                    notes.append(note)
-            candidates['real_linear'] = lin_model
-        if ref_model is not None and split is not None and mode != 'linear':
-            # the findings may help some channels and not others: the reference as it was
-            candidates[UNCHANGED[mode]] = ref_model
+        candidates = {}
+    gate = split.gate_half
     named = sorted({c for f in with_terms for c in f.channels}) or list(motion_channels)
-    gate_scores = {}
-    rows_from: Dict[str, str] = {}
-    if split is None or len(candidates) < 2:
-        choice = next(iter(candidates), None)
-        model = candidates.get(choice)
-    else:
-        choice, gate_scores, per_channel = choose(candidates, split.gate_half, named, metric)
-        model = candidates[choice]
-        combined, rows_from, note = compose(candidates, per_channel, channels, motion_channels)
+    gate_scores, model, choice, rows_from = {}, None, '', {}
+    if len(candidates) == 1:
+        choice, model = next(iter(candidates.items()))
+    elif candidates:
+        scores = {n: evaluate_figures(lambda r, m=m: predict_forces(m, r.inputs),
+                                      gate.records, gate.masks)
+                  for n, m in candidates.items()}
+        gate_scores = {n: float(np.mean([s[metric][c] for c in named or channels]))
+                       for n, s in scores.items()}
+        pick = pick_rows(scores, linked_channels(candidates, channels),
+                         touched_channels(candidates), 'real_linear', metric,
+                         plain_names(candidates), fixed=motion_channels)
+        model, choice, note = combine(candidates, pick, channels)
         if note:
             notes.append(note)
-        if combined is not None:
-            choice, model = PER_CHANNEL, combined
-        else:
-            if not note:  # every group chose the same candidate
-                choice = next(iter(rows_from.values()))
-                model = candidates[choice]
-            rows_from = {}
-    if split is None:
-        fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},
-                            {c: outcomes[c].cv_after_pct for c in channels},
-                            'cross_validation', None, hp, model=choice or '',
-                            notes=tuple(notes))
-        return findings, fit, model
+        rows_from = pick if choice == PER_CHANNEL else {}
     shown = split.report_half
-    before = evaluate_scores(reference.predict, shown.records, metric, shown.masks)
-    real_lin = (mean_score(lin_model, shown, channels, metric)[1]
-                if lin_model is not None else None)
-    after = (mean_score(model, shown, channels, metric)[1] if model is not None
-             else dict(before))
-    findings = [replace(f, rmse_after_pct={c: after[c] for c in f.channels}) for f in findings]
-    fit = FitComparison(before, after, 'holdout', real_lin,
-                        1.0 if metric == 'rmse_hp1_pct' else 0.0, model=choice or '',
-                        report_on=split.report_on, gate=gate_scores, notes=tuple(notes),
-                        gated=tuple(gated), rows_from=rows_from)
+    before = evaluate_figures(reference.predict, shown.records, shown.masks)
+    real_lin = (evaluate_figures(lambda r: predict_forces(lin_model, r.inputs), shown.records,
+                                 shown.masks) if lin_model is not None else None)
+    after = (evaluate_figures(lambda r: predict_forces(model, r.inputs), shown.records,
+                              shown.masks) if model is not None else before)
+    findings = [replace(f, rmse_after_pct={c: after[metric][c] for c in f.channels})
+                for f in findings]
+    fit = _comparison(before, real_lin, after, 'holdout', metric, model=choice,
+                      report_on=split.report_on, gate=gate_scores, notes=tuple(notes),
+                      gated=gated, rows_from=rows_from)
     return findings, fit, model
 
 
