@@ -1,7 +1,18 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""Timing helper shared by the benchmark scripts (run as ``python bench/bench_x.py``)."""
+"""Helpers shared by the benchmark scripts (run as ``python bench/bench_x.py``)."""
+import importlib
+from pathlib import Path
+import sys
 import time
+
+
+def test_support(name: str):
+    """Import and return ``test/support/NAME.py``: fixtures the benchmarks share with tests."""
+    root = str(Path(__file__).resolve().parents[1] / 'test')
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    return importlib.import_module(f'support.{name}')
 
 
 def best_of(func, repeat=3):

@@ -9,7 +9,8 @@ import pytest
 from wheel_force_estimator.cli.main import main
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.core.predict import select_filter
-from wheel_force_estimator.diagnosis.synthetic import make_recording
+
+from support.diagnosis_synthetic import make_recording  # noqa: I100  (the tests' shared fixtures)
 
 
 def _write_npz(path, rec):

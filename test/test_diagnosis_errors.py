@@ -12,8 +12,9 @@ from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
 from wheel_force_estimator.diagnosis import MotionRecording
 from wheel_force_estimator.diagnosis.features import FeatureConfig
-from wheel_force_estimator.diagnosis.synthetic import make_recording
-from wheel_force_estimator.diagnosis.synthetic import synthetic_pair
+
+from support.diagnosis_synthetic import make_recording  # noqa: I100  (the tests' shared fixtures)
+from support.diagnosis_synthetic import synthetic_pair  # noqa: I100  (the tests' shared fixtures)
 
 CONFIG = DiagnosisConfig(linear='regression')
 

@@ -7,10 +7,11 @@ import pytest
 from wheel_force_estimator.core import physics_laws as law
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
-from wheel_force_estimator.diagnosis import synthetic as sy
 from wheel_force_estimator.diagnosis.features import paired_by_coherence
 from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.recording import MotionRecording
+
+from support import diagnosis_synthetic as sy  # noqa: I100  (the tests' shared fixtures)
 
 FS_HZ = 256.0
 

@@ -10,7 +10,8 @@ from wheel_force_estimator.core.physics import apply_physics
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
-from wheel_force_estimator.diagnosis.synthetic import synthetic_pair
+
+from support.diagnosis_synthetic import synthetic_pair  # noqa: I100  (the tests' shared fixtures)
 
 # The synthetic law is a static force-from-motion law, so the per-channel linear law is the
 # exact "simulation" model (an FRF of acceleration cannot represent its displacement term).

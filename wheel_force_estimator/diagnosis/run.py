@@ -24,6 +24,7 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from wheel_force_estimator import AXLES
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
@@ -211,8 +212,8 @@ def _contribution(hyp, shape, coef, ctx):
 def _groups(channels: Sequence[str]) -> List[List[List[str]]]:
     """Ways to share parameters, widest first: all channels of an axis, axles, singles."""
     options = [[list(channels)]]
-    front = [c for c in channels if c[:2] in ('lf', 'rf')]
-    rear = [c for c in channels if c[:2] in ('lr', 'rr')]
+    front = [c for c in channels if c[:2] in AXLES[0]]
+    rear = [c for c in channels if c[:2] in AXLES[1]]
     if front and rear and len(front) + len(rear) == len(channels):
         options.append([front, rear])
     if len(channels) > 1:
