@@ -120,6 +120,25 @@ def _joint_eligible(group) -> bool:
                for t in group)
 
 
+def partialled(columns: Sequence[np.ndarray], recordings: Sequence,
+               refit: Callable[[Sequence], object]) -> List[np.ndarray]:
+    """
+    Return ``columns[k]`` minus what the linear design predicts of them (Frisch-Waugh-Lovell).
+
+    ``columns[k]`` (n_cols, n) are outputs over record ``k`` of ``recordings``; ``refit`` fits
+    the linear design on records whose outputs they are (H1 fits each output row on its
+    own, so this is the column-by-column refit in one pass).  What is left is the part of
+    each column no linear model of the inputs can explain: the regressor of a joint
+    least-squares fit of the FIR with the column.  The one home of the step, for the
+    backfit's joint strengths (:func:`_partialled_fit`) and the search inside the structure
+    (:mod:`diagnosis.dynamic`).
+    """
+    names = tuple(f'column {j}' for j in range(np.shape(columns[0])[0]))
+    fitted = refit([replace(rec, outputs=c, output_channels=names)
+                    for rec, c in zip(recordings, columns)])
+    return [c - p for c, p in zip(columns, _predictions(fitted, recordings))]
+
+
 def _partialled_fit(groups, free, units, real, base, refit, hp: float, skip: int):
     """
     Strengths and FRF of the joint least-squares fit in one step (Frisch-Waugh-Lovell).
@@ -141,14 +160,13 @@ def _partialled_fit(groups, free, units, real, base, refit, hp: float, skip: int
     """
     if not any(_joint_eligible(g) for g in groups):
         return np.inf, None, None
-    partialled = []
+    regressors = []
     for i, g_units in enumerate(units):
         if not _joint_eligible(groups[i]) or not any(np.any(u) for u in g_units):
-            partialled.append(g_units)
+            regressors.append(g_units)
             continue
-        fitted = refit([replace(rec, outputs=u) for rec, u in zip(real, g_units)])
-        partialled.append([u - p for u, p in zip(g_units, _predictions(fitted, real))])
-    beta = _strengths(partialled, free, real, base, hp, skip)
+        regressors.append(partialled(g_units, real, refit))
+    beta = _strengths(regressors, free, real, base, hp, skip)
     model, base, units = _refit_around(groups, beta, units, real, refit)
     return _weighted_sse(units, beta, real, base, hp, skip), model, beta
 
