@@ -151,3 +151,19 @@ def test_motion_channels_no_term_touches_take_the_plain_fit():
                  {'sim_frf+physics': scores.pop('sim_frf+physics'), **scores},
                  a.output_channels, fixed=['out1'])
     assert pick['out1'] == 'sim_frf+physics'
+
+
+def test_terms_that_make_their_own_base_worse_are_not_written():
+    # Bug caught: the simulation's FRF + terms written because it beats a plain fit that the
+    # training blocks fit on less data, while the terms make the simulation's FRF worse.
+    a, b = _pair()
+    sim = a.with_physics([])
+    with_terms = sim.with_physics([_term(['out0'])])
+    candidates = {'sim_frf+physics': with_terms, 'sim_frf': sim, 'real_linear': b}
+    scores = {'sim_frf+physics': _both({'out0': 9.0, 'out1': 9.0, 'out2': 9.0}),
+              'sim_frf': _both({'out0': 8.0, 'out1': 9.0, 'out2': 9.0}),
+              'real_linear': _both({'out0': 20.0, 'out1': 20.0, 'out2': 20.0})}
+    pick = pick_rows(scores, linked_channels(candidates, a.output_channels),
+                     touched_channels(candidates), 'real_linear', 'rmse_hp1_pct',
+                     plain_names(candidates), bases={'sim_frf+physics': 'sim_frf'})
+    assert pick['out0'] == 'sim_frf'

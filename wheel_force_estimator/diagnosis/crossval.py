@@ -21,6 +21,7 @@ model is never worse than the plain fit on held-out data; where the terms do not
 plain fit is written and the finding stays named with its description.
 """
 from dataclasses import replace
+from types import MappingProxyType
 from typing import Callable, Dict, List, Mapping, Sequence, Tuple
 
 import numpy as np
@@ -123,7 +124,8 @@ def _group_mean(scores, figure: str, group: Sequence[str]) -> float:
 
 def pick_rows(scores: Mapping[str, Mapping[str, Mapping[str, float]]],
               groups: Sequence[Sequence[str]], touched, baseline: str, metric: str,
-              plain: Sequence[str], fixed: Sequence[str] = ()) -> Dict[str, str]:
+              plain: Sequence[str], fixed: Sequence[str] = (),
+              bases: Mapping[str, str] = MappingProxyType({})) -> Dict[str, str]:
     """
     Return ``{channel: candidate}``: per group, the best candidate no worse than the baseline.
 
@@ -143,6 +145,11 @@ def pick_rows(scores: Mapping[str, Mapping[str, Mapping[str, float]]],
         The figure of :data:`FIGURES` the eligible candidates are ranked by.
     plain : sequence of str
         The candidates without terms.
+    bases : mapping str -> str
+        Candidate -> the candidate it adds terms to (``sim_frf+physics`` -> ``sim_frf``): a
+        candidate with terms must also be no worse than its own base in either figure, or
+        the terms did not pay (the training blocks fit the real-data FIR on less data than
+        the written one, so the plain fit alone is a lenient bar for the reference's terms).
     fixed : sequence of str
         Channels that take the baseline without a vote when no term touches them: where a
         clipped accelerometer or a tyre in the air was found, the reference's rows were
@@ -157,9 +164,12 @@ def pick_rows(scores: Mapping[str, Mapping[str, Mapping[str, float]]],
         pool = names if touched.intersection(group) else [n for n in names if n in plain]
         if not touched.intersection(group) and set(group) <= set(fixed):
             pool = [baseline]
-        bar = {fig: _group_mean(scores[baseline], fig, group) for fig in FIGURES}
-        eligible = [n for n in pool
-                    if all(_group_mean(scores[n], fig, group) <= bar[fig] for fig in FIGURES)]
+
+        def no_worse(n, than):
+            return all(_group_mean(scores[n], fig, group) <= _group_mean(scores[than], fig, group)
+                       for fig in FIGURES)
+        eligible = [n for n in pool if no_worse(n, baseline)
+                    and (n not in bases or no_worse(n, bases[n]))]
         best = min(eligible or [baseline],
                    key=lambda n: (_group_mean(scores[n], metric, group), names.index(n)))
         pick.update(dict.fromkeys(group, best))

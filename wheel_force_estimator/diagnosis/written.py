@@ -474,6 +474,13 @@ def candidate_builder(findings, ref_model, mode: str, real_fit, hp: float, skip:
     return build
 
 
+def _bases(candidates) -> Dict[str, str]:
+    """Return candidate -> the candidate it adds terms to (both present)."""
+    pairs = [(AUGMENTED[m], UNCHANGED[m]) for m in ('sim', 'model')]
+    pairs.append(('real_frf+physics', 'real_linear'))
+    return {n: b for n, b in pairs if n in candidates and b in candidates}
+
+
 def touched_channels(candidates) -> set:
     """Channels some candidate's physics term acts on."""
     return {c for m in candidates.values() for t in m.physics_terms for c in t.channels}
@@ -532,7 +539,7 @@ def _cross_validated(findings, real, reference, ref_model, mode, channels, real_
                                      model='real_linear', notes=tuple(notes)), lin_model
     final = build(real, lin_model)
     pick = pick_rows(scores, linked_channels(final, channels), touched_channels(final),
-                     'real_linear', metric, plain_names(final))
+                     'real_linear', metric, plain_names(final), bases=_bases(final))
     model, choice, note = combine(final, pick, channels)
     if note:
         notes.append(note)
@@ -638,7 +645,8 @@ def _held_out(findings, real, reference, ref_model, mode, holdout, channels, sou
                        for n, s in scores.items()}
         pick = pick_rows(scores, linked_channels(candidates, channels),
                          touched_channels(candidates), 'real_linear', metric,
-                         plain_names(candidates), fixed=motion_channels)
+                         plain_names(candidates), fixed=motion_channels,
+                         bases=_bases(candidates))
         model, choice, note = combine(candidates, pick, channels)
         if note:
             notes.append(note)
