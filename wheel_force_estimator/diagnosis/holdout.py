@@ -33,8 +33,6 @@ import numpy as np
 from wheel_force_estimator.core.evaluation import EvalSegment
 from wheel_force_estimator.core.evaluation import rmse_figures
 from wheel_force_estimator.core.evaluation import select_samples
-from wheel_force_estimator.core.metrics import highpass
-from wheel_force_estimator.core.metrics import rmse_pct
 from wheel_force_estimator.core.physics import apply_physics
 from wheel_force_estimator.core.sample_ranges import format_ranges
 from wheel_force_estimator.core.sample_ranges import runs
@@ -235,25 +233,6 @@ def figures_of(segments: Sequence[EvalSegment], rec0: MotionRecording
             for name, values in (('rmse_pct', raw), ('rmse_hp1_pct', hp))}
 
 
-def rmse_by_channel(targets, predictions, channels, highpass_hz=0.0, fs_hz=1.0,
-                    masks=None) -> Dict[str, float]:
-    """
-    RMSE % per channel over records (each record high-passed on its own first).
-
-    ``masks`` (one boolean sample mask per record) restricts the comparison to those samples,
-    after the high-pass.
-    """
-    if highpass_hz > 0.0:
-        targets = [highpass(t, fs_hz, highpass_hz, 'RMSE target') for t in targets]
-        predictions = [highpass(p, fs_hz, highpass_hz, 'RMSE prediction') for p in predictions]
-    if masks is not None:
-        targets = [t[:, m] for t, m in zip(targets, masks)]
-        predictions = [p[:, m] for p, m in zip(predictions, masks)]
-    t = np.concatenate(targets, axis=1)
-    p = np.concatenate(predictions, axis=1)
-    return dict(zip(channels, (float(v) for v in rmse_pct(t, p, channels))))
-
-
 def _with_terms(prep, terms) -> List[np.ndarray]:
     """Return the reference prediction plus the physics stage, full records."""
     return [apply_physics(terms, rec.fs_hz, rec.input_channels, rec.output_channels,
@@ -267,19 +246,20 @@ def augmented(prep, terms) -> List[np.ndarray]:
 
 
 #: Largest rise of the holdout RMSE [points of %] a finding's terms may cause (mean over its
-#: channels, the other findings kept) before it is dropped.
+#: channels, the other findings kept) before they leave the model.
 MAX_HOLDOUT_HARM_PCT = 0.05
 
 
-def holdout_gate(findings, hold, channels, hp, fs_hz, mask):
+def holdout_gate(findings, hold, channels, hp, mask):
     """
     Strip the terms of findings that make the holdout worse (backward elimination).
 
     Judged on the samples of ``mask`` (all when None) of ``hold``, the gate half of
-    :func:`split_holdout`.  A
-    finding is dropped when it raises the RMSE by more than :data:`MAX_HOLDOUT_HARM_PCT`
-    points on average over its channels (its parameters are shared, so it stands or falls on
-    all of them); the most harmful goes first.
+    :func:`split_holdout`, by the scorer of every reported figure (:func:`figures_of` of the
+    pieces; 1 Hz high-passed when ``hp`` > 0).  A finding's terms are stripped when they
+    raise the RMSE by more than :data:`MAX_HOLDOUT_HARM_PCT` points on average over its
+    channels (its parameters are shared, so it stands or falls on all of them); the most
+    harmful goes first.
 
     A term that fits the real recordings but makes unseen data worse does not go into the
     model; the finding stays named (the holdout judges models, not names: what is named does
@@ -288,6 +268,7 @@ def holdout_gate(findings, hold, channels, hp, fs_hz, mask):
     terms of their channel, so they stay in every model compared (and end up on the first
     finding kept).  Returns ``(kept, rejection lines)``.
     """
+    metric = 'rmse_hp1_pct' if hp > 0.0 else 'rmse_pct'
     companions = [t for f in findings for t in f.terms if t.physics != f.physics]
     kept = [replace(f, terms=tuple(t for t in f.terms if t.physics == f.physics))
             for f in findings]
@@ -296,8 +277,13 @@ def holdout_gate(findings, hold, channels, hp, fs_hz, mask):
     def score(items):
         terms = [t for g in items for t in g.terms]
         terms += companions if terms else []
-        return rmse_by_channel(hold.targets, augmented(hold, terms), channels, hp, fs_hz,
-                               mask)
+        # the scorer of every reported figure: pieces cut first, each high-passed alone
+        segments = [EvalSegment(t, p, np.arange(t.shape[1]), r.name) for t, p, r in zip(
+            hold.targets, augmented(hold, terms), hold.recordings)]
+        if mask is not None:
+            segments = [piece for seg, m in zip(segments, mask)
+                        for piece in select_samples([seg], runs(m))]
+        return figures_of(segments, hold.recordings[0])[metric]
     while True:
         full = score(kept)
         worst, harm = None, MAX_HOLDOUT_HARM_PCT

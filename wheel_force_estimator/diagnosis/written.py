@@ -601,7 +601,7 @@ def _gated(findings, real, reference, holdout, split, channels, sources, partner
         notes.append('holdout too short: its gate half lies within the filter settling '
                      'time, no finding was gated')
         return static + dynamic, ()
-    static, gated = holdout_gate(static, gate_prep, channels, hp, real[0].fs_hz, masks)
+    static, gated = holdout_gate(static, gate_prep, channels, hp, masks)
     if dynamic and lin_model is not None:
         dynamic, gated_dynamic = _gate_dynamic(dynamic, real, lin_model, real_fit,
                                                split.gate_half, metric, hp, skip)
