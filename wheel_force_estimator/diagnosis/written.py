@@ -85,6 +85,8 @@ def _strengths(units, free, recordings, base, hp: float, skip: int) -> np.ndarra
         return beta
     a_rows, b_rows = [], []
     for k, (rec, pred) in enumerate(zip(recordings, base)):
+        if rec.n_samples <= skip:
+            continue  # a piece within its filters' settling time holds no sample to fit
         y = np.asarray(rec.outputs, dtype=np.float64)
         r = y - pred - sum((units[i][k] for i, f in enumerate(free) if not f),
                            np.zeros_like(pred))
@@ -106,6 +108,8 @@ def _weighted_sse(units, beta, recordings, base, hp: float, skip: int) -> float:
     """Residual sum of squares the strength fit minimises (same weights, high-pass, skip)."""
     total = 0.0
     for k, (rec, pred) in enumerate(zip(recordings, base)):
+        if rec.n_samples <= skip:
+            continue
         y = np.asarray(rec.outputs, dtype=np.float64)
         r = y - pred - sum((b * u[k] for b, u in zip(beta, units)), np.zeros_like(pred))
         if hp > 0.0:
