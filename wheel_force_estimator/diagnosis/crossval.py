@@ -7,7 +7,9 @@ Without ``--holdout`` nothing unseen can judge the candidates, so the real train
 are cut into the contiguous blocks ``wheel-force fit`` cross-validates its resolution on
 (:func:`core.resolution.fold_bounds`: ``N_FOLDS`` blocks per record).  Fold ``k`` fits every
 candidate on the records without their block ``k`` (the pieces before and after, each a
-gap-free record of its own, as ``fit`` joins recordings) and predicts each whole record; the
+gap-free record of its own, as ``fit`` joins recordings) - and a simulation's FRF on the
+simulation without its block ``k``, so the reference is not judged with more data behind it
+than the real-data FIR it competes with - and predicts each whole record; the
 held-out blocks are cut out of that prediction as ``evaluate --samples`` cuts them and scored
 together over all folds, in both figures ``evaluate`` reports (unfiltered and 1 Hz
 high-passed).  Held-out samples are whole blocks, never interleaved samples: a FIR fitted on
@@ -90,8 +92,8 @@ def held_out_figures(build: Callable[[Sequence], Mapping[str, object]], records:
     Parameters
     ----------
     build : callable
-        ``build(training records) -> {name: FrfModel}``: the candidates fitted on the
-        records given (the same names in every fold); may raise ``DiagnosisError``.
+        ``build(training records, fold index) -> {name: FrfModel}``: the candidates fitted
+        on the records given (the same names in every fold); may raise ``DiagnosisError``.
     records : sequence of MotionRecording
         The training recordings.
     folds : list
@@ -105,8 +107,8 @@ def held_out_figures(build: Callable[[Sequence], Mapping[str, object]], records:
 
     """
     pieces: Dict[str, List] = {}
-    for train, held in folds:
-        for name, model in build(cut(records, train)).items():
+    for k, (train, held) in enumerate(folds):
+        for name, model in build(cut(records, train), k).items():
             pieces.setdefault(name, []).extend(scored_pieces(
                 lambda r, m=model: predict_forces(m, r.inputs), records, held))
     return {name: figures_of(segs, records[0]) for name, segs in pieces.items()}

@@ -551,7 +551,10 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
                                    real_linear.model if real_linear is not None else None,
                                    motion_channels=sorted({c for m in motion
                                                            for c in m.channels}),
-                                   notes=notes)
+                                   notes=notes, sim=sim,
+                                   sim_fit=(lambda recs: _fit_linear(recs, config, 'sim',
+                                                                     rec0).model)
+                                   if reference.kind == 'frf' else None)
     findings = merge_motion(findings, motion)
     named = {(c, f.physics) for f in findings for c in f.channels}
     rejected = tuple(text.rejection(ch, outcomes[ch].rejected) for ch in channels

@@ -33,6 +33,7 @@ from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.model_rows import compatible
 from wheel_force_estimator.core.model_rows import compose_rows
 from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.diagnosis.crossval import cut
 from wheel_force_estimator.diagnosis.crossval import FIGURES
 from wheel_force_estimator.diagnosis.crossval import fixed_figures
 from wheel_force_estimator.diagnosis.crossval import held_out_figures
@@ -453,7 +454,10 @@ def _reference_with_terms(with_terms, recordings, ref_model, real_fit, hp, skip)
 
 def candidate_builder(findings, ref_model, mode: str, real_fit, hp: float, skip: int):
     """
-    Return ``build(recordings, linear=None) -> {name: FrfModel}``: the candidates fitted there.
+    Return ``build(recordings, linear=None, reference=None) -> {name: FrfModel}``.
+
+    The candidates fitted on ``recordings`` (``reference``: the reference FRF to use instead
+    of ``ref_model``, e.g. one fitted on the simulation's training blocks).
 
     In order of preference on a tie: the reference FRF plus the findings' terms, the real-data
     FRF plus the terms fitted jointly (:func:`backfitted_model`), the reference unchanged,
@@ -462,17 +466,18 @@ def candidate_builder(findings, ref_model, mode: str, real_fit, hp: float, skip:
     """
     with_terms = [f for f in findings if f.terms]
 
-    def build(recordings, linear=None):
+    def build(recordings, linear=None, reference=None):
         linear = real_fit(recordings) if linear is None else linear
+        ref = ref_model if reference is None else reference
         out = {}
-        if with_terms and ref_model is not None and mode != 'linear':
-            out[AUGMENTED[mode]] = _reference_with_terms(with_terms, recordings, ref_model,
+        if with_terms and ref is not None and mode != 'linear':
+            out[AUGMENTED[mode]] = _reference_with_terms(with_terms, recordings, ref,
                                                          real_fit, hp, skip)
         if with_terms:
             out['real_frf+physics'] = backfitted_model(with_terms, recordings, linear,
                                                        real_fit, hp, skip)[0]
-        if ref_model is not None and mode != 'linear':
-            out[UNCHANGED[mode]] = ref_model
+        if ref is not None and mode != 'linear':
+            out[UNCHANGED[mode]] = ref
         out['real_linear'] = linear
         return out
     return build
@@ -510,8 +515,18 @@ def _comparison(before, real_lin, after, data, metric, **kwargs) -> FitCompariso
                          1.0 if metric == 'rmse_hp1_pct' else 0.0, figures=figures, **kwargs)
 
 
+def _fold_reference(sim, sim_fit, fold: int):
+    """Return the reference refitted on the simulation without its block ``fold``, or None."""
+    if not sim or sim_fit is None:
+        return None
+    try:
+        return sim_fit(cut(sim, training_folds(sim)[fold][0]))
+    except DiagnosisError:
+        return None  # the simulation too short for its folds: its full fit stands
+
+
 def _cross_validated(findings, real, reference, ref_model, mode, channels, real_fit,
-                     lin_model, hp, skip, notes):
+                     lin_model, hp, skip, notes, sim=(), sim_fit=None):
     """
     Choose and score the written model on held-out blocks of the training recordings.
 
@@ -534,8 +549,11 @@ def _cross_validated(findings, real, reference, ref_model, mode, channels, real_
                                      notes=tuple(notes)), model
     build = candidate_builder(findings, ref_model, mode, real_fit, hp, skip)
     folds = training_folds(real)
+
+    def fold_build(recordings, fold):
+        return build(recordings, reference=_fold_reference(sim, sim_fit, fold))
     try:
-        scores = held_out_figures(build, real, folds)
+        scores = held_out_figures(fold_build, real, folds)
     except DiagnosisError as err:
         notes.append(f'training recordings too short to hold out blocks ({err}); the plain '
                      f'fit on the real data is written, the findings are named only')
@@ -560,7 +578,7 @@ def _cross_validated(findings, real, reference, ref_model, mode, channels, real_
 
 
 def compare(findings, real, reference, mode, holdout, channels, sources, partners,
-            config, real_fit, lin_model, motion_channels=(), notes=()):
+            config, real_fit, lin_model, motion_channels=(), notes=(), sim=(), sim_fit=None):
     """
     Choose the written model, score before / real_linear / after in both figures.
 
@@ -571,7 +589,9 @@ def compare(findings, real, reference, mode, holdout, channels, sources, partner
     (:func:`_cross_validated`); with one, on its gate half, and the terms that make the gate
     half worse leave the model (their findings stay named: the holdout judges models, not
     names).  ``motion_channels`` are the channels of motion findings (see
-    :func:`crossval.pick_rows`' ``fixed``).  Returns ``(findings, FitComparison, written
+    :func:`crossval.pick_rows`' ``fixed``); ``sim`` the simulation recordings and
+    ``sim_fit(recordings) -> FrfModel`` the reference's fit on them (refitted per fold).
+    Returns ``(findings, FitComparison, written
     model or None)``.
     """
     rec0 = real[0]
@@ -581,7 +601,7 @@ def compare(findings, real, reference, mode, holdout, channels, sources, partner
     notes = list(notes)
     if not holdout:
         return _cross_validated(findings, real, reference, ref_model, mode, channels,
-                                real_fit, lin_model, hp, skip, notes)
+                                real_fit, lin_model, hp, skip, notes, sim, sim_fit)
     return _held_out(findings, real, reference, ref_model, mode, holdout, channels, sources,
                      partners, config, real_fit, lin_model, motion_channels, hp, skip, notes)
 
