@@ -124,12 +124,14 @@ class FitComparison:
         One of :data:`DATA`.
     real_linear : mapping str -> float or None
         The best linear dynamic model fitted on the real training data with the design of
-        ``wheel-force fit`` (None when the real records cannot be fitted, or without holdout).
+        ``wheel-force fit`` (None when the real records cannot be fitted or hold no
+        blocks to judge it on).
     highpass_hz : float
         1.0 when the figures are 1 Hz high-passed, else 0.
     model : str
         Which model is written: ``sim_frf``, ``model``, ``real_linear`` (unchanged reference
-        or plain fit) or ``sim_frf+physics``, ``model+physics``, ``real_frf+physics``.
+        or plain fit), ``sim_frf+physics``, ``model+physics``, ``real_frf+physics``, or
+        ``per_channel`` (rows of several, named in ``rows_from``).
     report_on : tuple of str
         What to give ``wheel-force evaluate`` to reproduce the figures: the report files, or
         ``FILE --samples A..B,...`` for a single holdout file.
