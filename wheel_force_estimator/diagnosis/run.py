@@ -1,21 +1,32 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Sim-vs-real diagnosis: locate the mismatch, name the physics left out, prove the gain.
+Sim-vs-real diagnosis: locate the mismatch, name the physics left out, write the best model.
 
-1. The reference (the simulation's FRF, a given model, or - without either - the best linear
-   dynamic model on the real data, the MIMO FIR ``wheel-force fit`` makes) predicts the real
-   forces; the residual is what it cannot explain.
-2. Per channel the residual is located in frequency, time and operating regime.
-3. Candidate physics are ranked by the residual they explain on held-out time blocks and
-   accepted only against a time-shifted-feature null (:mod:`diagnosis.selection`).
-4. A physics accepted on several channels with compatible parameters becomes one finding with
-   shared parameters; every finding carries the :class:`PhysicsTerm` s of the augmented model.
-5. The gate half of the holdout drops findings that make unseen data worse and chooses the
-   model ``--out-model`` writes (:mod:`diagnosis.written`); the report half scores the
-   reference (``before``), the best linear model on the real data (``real_linear``) and the
-   written model (``after``) exactly as ``wheel-force evaluate`` would
-   (:mod:`diagnosis.holdout`).
+:func:`_diagnose_once` runs the stages in order (``docs/diagnosis.md`` explains each):
+
+1. reference - the simulation's FRF, a given model, or without either the MIMO FIR
+   ``wheel-force fit`` makes on the real data (:func:`_reference`);
+2. the one real-data linear fit of the run, ``fit``'s design (:func:`_real_linear`);
+3. pair and prepare - each output's source input, the features and the reference's
+   prediction per record (:mod:`diagnosis.features`, :mod:`diagnosis.prepared`);
+4. locate - where each channel's residual lives (:mod:`diagnosis.locate`);
+5. find - per-channel candidates accepted by one rule against a time-shifted-feature null
+   (:mod:`diagnosis.selection`), shared parameters per axis (:class:`_Builder`), physics
+   inside a structure (:mod:`diagnosis.dynamic`), the whole-vehicle comparisons
+   (:mod:`diagnosis.coupling`, :mod:`diagnosis.omissions`) and the motion findings
+   (:mod:`diagnosis.motion`);
+6. rank - effects seen in the inputs first, then by the squared RMSE removed
+   (:func:`_ranked`);
+7. choose and score - the written model, judged on the gate half of the holdout or, without
+   one, on held-out blocks of the training recordings, never worse than the plain fit in
+   either figure; before / real_linear / after scored as ``evaluate`` scores them
+   (:mod:`diagnosis.written`, :mod:`diagnosis.crossval`, :mod:`diagnosis.holdout`);
+8. report - the DESIGN.md JSON and the summary (:mod:`diagnosis.result`,
+   :mod:`diagnosis.text`).
+
+For displacement / velocity inputs without a simulation the whole run is repeated at a
+sharper differentiator corner (:mod:`diagnosis.corner`).
 """
 from dataclasses import dataclass
 from dataclasses import field
