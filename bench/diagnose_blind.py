@@ -257,7 +257,7 @@ def run_sim(seeds, duration_scale, effects, sizes, holdout_scale):
                 print(f'  {effect} seed {seed}: {hidden.describe()}', flush=True)
             result = diagnose(real, sim, () if NO_HOLDOUT else holdout, config)
             # the naive baseline is the with-holdout benchmark's (it costs a second diagnosis)
-            naive = (result if NO_HOLDOUT
+            naive = (result if NO_HOLDOUT or NO_NAIVE
                      else diagnose(real, ref, holdout, replace(config, selection=NAIVE)))
             fit = result.fit
             chans = (result.findings[0].channels if result.findings
@@ -285,6 +285,9 @@ def run_sim(seeds, duration_scale, effects, sizes, holdout_scale):
         print_no_holdout(no_holdout_rows)
 
 
+#: Skip the naive baseline of the simulator pairs (``--no-naive``: its column repeats the
+#: diagnosis).
+NO_NAIVE = False
 #: Diagnose the simulator pairs without ``--holdout`` (``--no-holdout``): the written model
 #: and the plain fit are then scored on the whole holdout recording, which nothing saw.
 NO_HOLDOUT = False
@@ -590,13 +593,15 @@ def main(argv=None) -> int:
     parser.add_argument('--effects', help='comma-separated subset')
     parser.add_argument('--seed-list', help='comma-separated simulator seeds (instead of '
                         '--sim-seeds N = 0..N-1); seeds 0-2 and 4 are calibration seeds')
+    parser.add_argument('--no-naive', action='store_true',
+                        help='skip the naive baseline of the simulator pairs (half the time)')
     parser.add_argument('--no-holdout', action='store_true',
                         help='diagnose the simulator pairs without --holdout and score the '
                              'written model and the plain fit on the whole holdout recording')
     args = parser.parse_args(argv)
     chosen = args.effects.split(',') if args.effects else None
-    global CAR, NO_HOLDOUT
-    NO_HOLDOUT = args.no_holdout
+    global CAR, NO_HOLDOUT, NO_NAIVE
+    NO_HOLDOUT, NO_NAIVE = args.no_holdout, args.no_naive
     if args.car == 'suv':
         from wheel_force_estimator.sim.vehicle import VehicleParams
         CAR = VehicleParams(**SUV)
