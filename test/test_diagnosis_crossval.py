@@ -70,3 +70,32 @@ def test_held_out_figures_score_each_fold_s_own_model_on_its_block():
     for fig in FIGURES:
         assert max(scores['true'][fig].values()) < 1e-9
         assert min(scores['wrong'][fig].values()) > 1.0
+
+
+def test_the_holdout_gate_strips_harmful_terms_and_keeps_the_names():
+    # Bug caught: the holdout dropping a finding from the names (the anti-roll bar case was
+    # named bump_stop with --holdout), so what is named depended on whether one was given.
+    from types import SimpleNamespace
+
+    from wheel_force_estimator.core.physics import PhysicsTerm
+    from wheel_force_estimator.diagnosis.holdout import holdout_gate
+    from wheel_force_estimator.diagnosis.result import Finding
+    fs, n = 256.0, 4096
+    rng = np.random.default_rng(1)
+    accel = np.cumsum(rng.normal(size=(1, n)), axis=1)
+    accel -= accel.mean()
+    force = 100.0 * accel + rng.normal(size=(1, n))
+    rec = MotionRecording('hold', fs, accel, force, ('x',), ('f',))
+    hold = SimpleNamespace(recordings=[rec], targets=[force], full_predictions=[force.copy()],
+                           spans=[(0, n)])
+
+    def finding(physics, force_n):
+        term = PhysicsTerm('coulomb_friction', ('f',), {'friction_n': force_n,
+                                                        'velocity_scale_mps': 0.01},
+                           sources=('x',))
+        return Finding(physics, ('f',), {}, 0.5, 'test', (term,))
+    harmful, harmless = finding('coulomb_friction', 500.0), finding('coulomb_friction', 0.0)
+    kept, gated = holdout_gate([harmful, harmless], hold, ('f',), 0.0, None)
+    assert [f.physics for f in kept] == ['coulomb_friction', 'coulomb_friction']
+    assert kept[0].terms == () and kept[1].terms == harmless.terms
+    assert len(gated) == 1 and 'named, its term not written' in gated[0]
