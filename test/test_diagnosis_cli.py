@@ -116,15 +116,23 @@ def test_bags_from_the_simulator_and_augmented_model(tmp_path):
     assert rc == 0
     doc = json.loads(out.read_text())
     assert doc['fit']['metric'] == 'rmse_hp1_pct'
-    assert [f['physics'] for f in doc['findings']][:1] == ['damper_asymmetry']
+    # The effect is named (on Fz).  Its first place is not asserted: this 1-minute pair also
+    # names a left-right coupling (anti_roll_bar) that ranks first as a whole-vehicle
+    # finding; the gate half of the holdout finds its term harmful, which used to drop the
+    # name with --holdout only (the holdout judges models, not names: a false finding of the
+    # coupling stage, now named on both paths - see issue 30's notes).
+    named = {f['physics']: f['channels'] for f in doc['findings']}
+    assert set(named.get('damper_asymmetry', ['none'])) <= {'lf_fz', 'rf_fz', 'lr_fz', 'rr_fz'}
     physics = load_model(model).physics
     # The written model is the one the gate half preferred; JSON and file agree on it.
     # (or rows of several, each named in rows_from, with the terms of the rows it took)
     sources = set(doc['fit'].get('rows_from', {}).values()) or {doc['fit']['model']}
     if not physics:
         assert not any(s.endswith('+physics') for s in sources)
-    if physics:
-        assert physics[0]['physics'] == 'damper_asymmetry'
+    # a term the gate rejected is not in the written model
+    rejected = {p for p in named if any(f'{p} fitted the real data but its term' in r
+                                        for r in doc['rejected'])}
+    assert not rejected & {p['physics'] for p in physics}, (rejected, physics)
     # Like `fit`, the written model carries live estimators (configured 50 ms first), so the
     # node runs it without cutting the offline FIR.
     written = load_model(model)
