@@ -10,11 +10,11 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.model_rows import compatible
 from wheel_force_estimator.core.model_rows import compose_rows
 from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.diagnosis.choice import combine
+from wheel_force_estimator.diagnosis.choice import linked_channels
+from wheel_force_estimator.diagnosis.choice import plain_names
+from wheel_force_estimator.diagnosis.choice import touched_channels
 from wheel_force_estimator.diagnosis.crossval import pick_rows
-from wheel_force_estimator.diagnosis.written import combine
-from wheel_force_estimator.diagnosis.written import linked_channels
-from wheel_force_estimator.diagnosis.written import plain_names
-from wheel_force_estimator.diagnosis.written import touched_channels
 
 from test_core_model import small_model  # noqa: I100  (the tests' own helper)
 

@@ -16,7 +16,7 @@ high-passed).  Held-out samples are whole blocks, never interleaved samples: a F
 every other sample would see the neighbours of each scored one.
 
 The rule (:func:`pick_rows`), per group of linked channels
-(:func:`written.linked_channels`): a candidate is eligible when it is no worse than the
+(:func:`choice.linked_channels`): a candidate is eligible when it is no worse than the
 real-data linear model (a plain ``fit``) in *either* figure, mean over the group; the
 eligible one with the lowest figure of the diagnosis' metric is written.  So the written
 model is never worse than the plain fit on held-out data; where the terms do not pay, the

@@ -43,6 +43,7 @@ from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis import text
 from wheel_force_estimator.diagnosis.agreement import agreed_findings
 from wheel_force_estimator.diagnosis.agreement import AgreementConfig
+from wheel_force_estimator.diagnosis.choice import compare
 from wheel_force_estimator.diagnosis.corner import with_sharper_corner
 from wheel_force_estimator.diagnosis.coupling import left_right_coupling
 from wheel_force_estimator.diagnosis.dynamic import dynamic_findings
@@ -78,7 +79,6 @@ from wheel_force_estimator.diagnosis.result import Finding
 from wheel_force_estimator.diagnosis.selection import SelectionConfig
 from wheel_force_estimator.diagnosis.selection import Selector
 from wheel_force_estimator.diagnosis.sources import sources_by_selection
-from wheel_force_estimator.diagnosis.written import compare
 
 
 @dataclass(frozen=True)
