@@ -41,6 +41,7 @@ from wheel_force_estimator.core.model import FrfModel
 from wheel_force_estimator.core.physics_laws import QUANTITIES
 from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spectra import cross_spectra
+from wheel_force_estimator.core.spectra import CrossSpectra
 from wheel_force_estimator.core.spectra import WelchConfig
 from wheel_force_estimator.core.validation import as_signals
 
@@ -268,46 +269,25 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         sum_x += x.sum(axis=1)
         sum_y += y.sum(axis=1)
         n_total += x.shape[1]
+    if long_welch is not None and not long_spectra:
+        raise InsufficientDataError(
+            f'no segment is as long as long_segment_length = {config.long_segment_length} '
+            f'samples ({config.long_segment_length / fs_hz:g} s); longest: '
+            f'{max(seg.accel_mps2.shape[1] for seg in segments)} samples; record longer '
+            f'runs or set long_segment_length: 0 (single resolution)')
     combined = combine_spectra(spectra)
-    est = estimate_frf(combined, config.frf())
-    f_max = config.f_max_hz
-    h = est.h * coherence_weight(est.coherence_multiple, config.coherence_floor)[:, :, None]
-    h, bridged = _bridged(combined, h, config, order, input_channels)
-    fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
-                       keep_dc=config.f_min_hz == 0.0)
-    extra = {}
-    if long_welch is not None:
-        if not long_spectra:
-            raise InsufficientDataError(
-                f'no segment is as long as long_segment_length = {config.long_segment_length} '
-                f'samples ({config.long_segment_length / fs_hz:g} s); longest: '
-                f'{max(seg.accel_mps2.shape[1] for seg in segments)} samples; record longer '
-                f'runs or set long_segment_length: 0 (single resolution)')
-        long_combined = combine_spectra(long_spectra)
-        long_est = estimate_frf(long_combined, config.long_frf())
-        h_long = long_est.h * coherence_weight(long_est.coherence_multiple,
-                                               config.coherence_floor)[:, :, None]
-        # counted where the long estimate is used (see splice_estimates)
-        h_long, bridged_long = _bridged(long_combined, h_long, config, order, input_channels,
-                                        1.5 * config.crossover_hz)
-        est, h = splice_estimates(long_est, h_long, est, fir, config.crossover_hz)
-        fir = fir_from_frf(est.f_hz, h, fs_hz, f_max_hz=f_max, keep_dc=True)
-        extra = {'long_segment_length': config.long_segment_length,
-                 'n_windows_long': int(long_combined.n_windows),
-                 'bridged_lines_long': bridged_long,
-                 'crossover_hz': config.crossover_hz,
-                 'long_regularisation': config.long_regularisation}
+    long_combined = combine_spectra(long_spectra) if long_welch is not None else None
+    est, h, fir, extra = estimate_h1(combined, long_combined, config, fs_hz, order,
+                                     input_channels)
     info = {
         'segments': [seg.source for seg in segments],
         'durations_s': [seg.accel_mps2.shape[1] / fs_hz for seg in segments],
         'total_duration_s': n_total / fs_hz,
-        'n_windows': int(combined.n_windows),
         'window': config.window, 'segment_length': config.segment_length,
         'overlap': config.overlap, 'detrend': config.detrend,
         'regularisation': config.regularisation, 'water_level': config.water_level,
         'unexcited': config.unexcited,
-        'bridged_lines': bridged,
-        'f_min_hz': config.f_min_hz, 'f_max_hz': f_max,
+        'f_min_hz': config.f_min_hz, 'f_max_hz': config.f_max_hz,
         'coherence_floor': config.coherence_floor,
     }
     info.update(extra)
@@ -322,6 +302,57 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         static_force_n=sum_y / n_total, static_accel_mps2=sum_x / n_total,
         estimator=config.estimator, fit=info, live=live,
         created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds'))
+
+
+def estimate_h1(spectra: CrossSpectra, long_spectra: Optional[CrossSpectra], config: FitConfig,
+                fs_hz: float, order: int, input_channels: Sequence[str]):
+    """
+    Return the (dual-resolution) H1 estimate of combined spectra and its FIR.
+
+    Parameters
+    ----------
+    spectra : CrossSpectra
+        Combined short-segment spectra.
+    long_spectra : CrossSpectra or None
+        Combined long-segment spectra (two resolutions) or ``None``.
+    config : FitConfig
+        Settings.
+    fs_hz : float
+        Sample rate [Hz].
+    order : int
+        Time derivatives of displacement the inputs are (bridging domain).
+    input_channels : sequence of str
+        Input names (bridged-line counts).
+
+    Returns
+    -------
+    (FrfEstimate, numpy.ndarray, FirFilter, dict)
+        Indicators, the FRF ``h`` on the model grid, its FIR realisation and the ``fit``
+        metadata of the estimate (window counts, bridged lines, long-segment settings).
+
+    """
+    f_max = config.f_max_hz
+    est = estimate_frf(spectra, config.frf())
+    h = est.h * coherence_weight(est.coherence_multiple, config.coherence_floor)[:, :, None]
+    h, bridged = _bridged(spectra, h, config, order, input_channels)
+    fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
+                       keep_dc=config.f_min_hz == 0.0)
+    extra = {'n_windows': int(spectra.n_windows), 'bridged_lines': bridged}
+    if long_spectra is not None:
+        long_est = estimate_frf(long_spectra, config.long_frf())
+        h_long = long_est.h * coherence_weight(long_est.coherence_multiple,
+                                               config.coherence_floor)[:, :, None]
+        # counted where the long estimate is used (see splice_estimates)
+        h_long, bridged_long = _bridged(long_spectra, h_long, config, order, input_channels,
+                                        1.5 * config.crossover_hz)
+        est, h = splice_estimates(long_est, h_long, est, fir, config.crossover_hz)
+        fir = fir_from_frf(est.f_hz, h, fs_hz, f_max_hz=f_max, keep_dc=True)
+        extra.update({'long_segment_length': config.long_segment_length,
+                      'n_windows_long': int(long_spectra.n_windows),
+                      'bridged_lines_long': bridged_long,
+                      'crossover_hz': config.crossover_hz,
+                      'long_regularisation': config.long_regularisation})
+    return est, h, fir, extra
 
 
 def stored_condition(cond_sxx: np.ndarray) -> np.ndarray:
