@@ -78,13 +78,9 @@ def files(tmp_path_factory):
 @pytest.fixture(scope='module')
 def model_path(files):
     path = files['train.csv'].parent / 'model.npz'
-    # The error bounds below are derived for a long-estimate regularisation of 0.01 (the
-    # default is 0.05): a params file sets it, as a user would.
-    config = path.parent / 'fit.yaml'
-    config.write_text('wheel_force_fit:\n  ros__parameters:\n    long_regularisation: 0.01\n')
+    # the shipped defaults: the design is chosen by cross-validation, nothing pinned
     rc = main(['fit', str(files['train.csv']), str(files['train.npz']), str(files['train.mat']),
-               '-o', str(path), '--config', str(config),
-               '--report', str(path.parent / 'fit_report')] + ROLES)
+               '-o', str(path), '--report', str(path.parent / 'fit_report')] + ROLES)
     assert rc == 0
     return path
 
@@ -442,8 +438,10 @@ def test_fit_chooses_the_resolution_of_a_lightly_damped_mode_unless_told(tmp_pat
     assert load_model(model).fit['segment_length'] >= 4096
     assert main(['fit', *map(str, paths), '-o', str(model), '--segment-length', '1024']
                 + roles) == 0
-    assert 'cross-validation' not in capsys.readouterr().out
+    # told: the segment is imposed (kept, said so), the rest of the design still searched
+    assert 'imposed settings: segment_length' in capsys.readouterr().out
     assert load_model(model).fit['segment_length'] == 1024
+    assert load_model(model).fit['design']['imposed'] == ['segment_length']
 
 
 def test_quantised_stepped_sines_fit_with_singular_lines_capped(tmp_path, capsys):

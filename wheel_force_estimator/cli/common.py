@@ -100,6 +100,8 @@ def load_fit_config(path=None, **overrides):
     ------
     ConfigError
         Unreadable file, unknown key or a value of the wrong type (file and key named).
+    UsageError
+        A value outside its range (file, key and range named; ``main`` exits 2).
 
     """
     # What `wheel-force fit` uses when neither the params file nor the command line says
@@ -114,7 +116,8 @@ def load_fit_config(path=None, **overrides):
     try:
         return FitConfig(**values)
     except ConfigError as err:
-        raise ConfigError(f'{path or "defaults"}: {err}') from err
+        # a value outside its range is a usage error (exit 2), named with its range
+        raise UsageError(f'{path or "command line"}: {FIT_SECTION}: {err}') from err
 
 
 def explicit_fit_keys(path=None, **overrides) -> frozenset:

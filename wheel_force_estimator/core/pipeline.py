@@ -164,6 +164,10 @@ class FitConfig:
         if self.f_max_hz is not None and not self.f_max_hz > self.f_min_hz:
             raise ConfigError(
                 f'f_max_hz ({self.f_max_hz!r}) must be > f_min_hz ({self.f_min_hz!r})')
+        # the estimator settings fail here, named, not at the first estimate
+        self.frf()
+        self.long_frf()
+        self.welch(1.0)
 
     def welch(self, fs_hz: float) -> WelchConfig:
         """Return the Welch configuration at ``fs_hz``."""

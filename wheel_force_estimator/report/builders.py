@@ -114,9 +114,33 @@ def write_fit_report(directory, model, summary, extra=None) -> Path:
     out.image(plot_condition_number(d / 'condition_number.png', model.f_hz,
                                     model.cond_sxx),
               'Condition number of the input cross-spectral matrix')
+    _design_section(out, d, model)
     if extra is not None:
         extra(out, d)
     return out.write()
+
+
+def _design_section(out: ReportWriter, d: Path, model) -> None:
+    """Write how the design was chosen: each output's choice, every candidate, a plot."""
+    from wheel_force_estimator.report.design_plots import design_tables
+    from wheel_force_estimator.report.design_plots import plot_design_scores
+    design = model.fit.get('design') or {}
+    out.heading('Design', 2)
+    if design.get('method') != 'blocked_cross_validation':
+        out.paragraph(design.get('reason') or 'The design was not cross-validated.')
+        return
+    imposed = ', '.join(f'`{k}`' for k in design['imposed']) or 'none'
+    out.paragraph(
+        f'Chosen per output by blocked cross-validation: {design["n_blocks"]} blocks of '
+        f'contiguous chunks ({", ".join(f"{b:.0f}" for b in design["blocks_s"])} s), each '
+        f'held out in turn and scored on its Welch spectra '
+        f'({design["scoring_segment_length"]}-sample segments). Settings imposed by the '
+        f'params file or the command line (kept, not searched): {imposed}.')
+    choice, table = design_tables(design, model.output_channels)
+    out.table(choice)
+    out.image(plot_design_scores(d / 'design_scores.png', design, model.output_channels),
+              'Held-out RMSE of every candidate per output; the chosen one in red')
+    out.table(table)
 
 
 def write_evaluation_report(directory, model, evaluation, segments, extra=None) -> Path:
