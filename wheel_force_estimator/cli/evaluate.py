@@ -52,64 +52,6 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None, ranges=None):
-    """
-    Predict and evaluate bag recordings; return ``(Evaluation, segments)``.
-
-    ``ranges`` (``--samples``, one recording) keeps only those samples of the prediction.
-    """
-    from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator.cli.predict import predict_recording
-    from wheel_force_estimator.core.evaluation import EvalSegment
-    from wheel_force_estimator.core.evaluation import evaluate_segments
-
-    segments, events = [], []
-    for rec in recordings:
-        segments.extend(selected([
-            EvalSegment(seg.force_n, pred, stamps, f'{rec.path}#{i}')
-            for i, ((stamps, pred), seg) in enumerate(
-                zip(predict_recording(model, rec, causal_delay_samples), rec.segments))],
-            ranges, rec.path))
-        events.extend(rec.events)
-    events.sort()
-    forces = model.output_channels[:len(OUTPUT_CHANNELS)]   # moments, if any, follow
-    evaluation = evaluate_segments(segments, model.fs_hz, forces, sn_slope, events=events)
-    return evaluation, segments
-
-
-def evaluate_generic(model, recordings, sn_slope, causal_delay_samples=None, ranges=None):
-    """Predict and evaluate generic recordings (``DaqRecording``); return the same pair."""
-    from wheel_force_estimator.core.evaluation import EvalSegment
-    from wheel_force_estimator.core.evaluation import evaluate_segments
-    from wheel_force_estimator.core.predict import predict_forces
-
-    segments = [piece for rec in recordings for piece in selected(
-        [EvalSegment(rec.outputs, predict_forces(model, rec.inputs, causal_delay_samples),
-                     rec.stamp_ns(), rec.path)], ranges, rec.path)]
-    evaluation = evaluate_segments(segments, model.fs_hz, model.output_channels, sn_slope)
-    return evaluation, segments
-
-
-def selected(segments, ranges, path):
-    """
-    Return ``segments`` cut to ``ranges`` (``--samples``; None: all of them).
-
-    Raises
-    ------
-    RecordingError
-        A range ends after the recording's last aligned sample (the file named).
-
-    """
-    if ranges is None:
-        return segments
-    from wheel_force_estimator.core.errors import RecordingError
-    from wheel_force_estimator.core.evaluation import select_samples
-    try:
-        return select_samples(segments, ranges)
-    except ValueError as err:
-        raise RecordingError(f'{path}: --samples {err}') from err
-
-
 def sample_ranges(args):
     """
     Return the parsed ``--samples`` (None when not given).
@@ -173,6 +115,8 @@ def command(args: argparse.Namespace) -> int:
     from wheel_force_estimator.cli.live import announce
     from wheel_force_estimator.cli.live import causal_delay
     from wheel_force_estimator.core.model import load_model
+    from wheel_force_estimator.offline import evaluate_generic
+    from wheel_force_estimator.offline import evaluate_recordings
     from wheel_force_estimator.report.builders import evaluation_text
 
     request = generic_request(args, args.recordings)

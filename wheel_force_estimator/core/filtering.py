@@ -54,7 +54,7 @@ from wheel_force_estimator.core.validation import positive_float
 DEFAULT_TAPER_FRACTION = 0.25
 
 
-def _as_index(value, name: str) -> int:
+def as_index(value, name: str) -> int:
     try:
         return operator.index(value)
     except TypeError as err:
@@ -111,7 +111,7 @@ class FirFilter:
         if not np.isfinite(taps).all():
             o, i, k = np.argwhere(~np.isfinite(taps))[0]
             raise NonFiniteError(f'FIR taps: non-finite value at output {o}, input {i}, tap {k}')
-        delay = _as_index(self.delay_samples, 'delay_samples')
+        delay = as_index(self.delay_samples, 'delay_samples')
         if not 0 <= delay < taps.shape[2]:
             raise ConfigError(
                 f'delay_samples must be in [0, {taps.shape[2]}) for {taps.shape[2]} taps, '
@@ -287,7 +287,7 @@ def fir_from_frf(f_hz, h, fs_hz, delay_samples: Optional[int] = None, f_min_hz=0
         raise ConfigError(
             f'pass band [{f_min}, {f_max}] Hz with {transition} Hz edges contains no FRF bin '
             f'other than DC (df = {df:g} Hz)')
-    delay = n_fft // 2 if delay_samples is None else _as_index(delay_samples, 'delay_samples')
+    delay = n_fft // 2 if delay_samples is None else as_index(delay_samples, 'delay_samples')
     if not 0 <= delay < n_fft:
         raise ConfigError(f'delay_samples must be in [0, {n_fft}), got {delay}')
     fraction = _taper_fraction(taper_fraction)
@@ -332,7 +332,7 @@ def acausal_energy_fraction(fir: FirFilter, delay_samples: int) -> float:
         ``delay_samples`` negative or not an integer.
 
     """
-    keep = _as_index(delay_samples, 'delay_samples')
+    keep = as_index(delay_samples, 'delay_samples')
     if keep < 0:
         raise ConfigError(f'delay_samples must be >= 0, got {keep}')
     energy = np.square(fir.taps).sum(axis=(0, 1))
@@ -408,7 +408,7 @@ def with_delay(fir: FirFilter, delay_samples: int,
         ``delay_samples`` outside ``[0, fir.delay_samples]``.
 
     """
-    delay = _as_index(delay_samples, 'delay_samples')
+    delay = as_index(delay_samples, 'delay_samples')
     if not 0 <= delay <= fir.delay_samples:
         raise ConfigError(
             f"delay_samples must be in [0, {fir.delay_samples}] (the filter's look-ahead), "

@@ -13,9 +13,9 @@ from typing import Dict, Sequence
 from matplotlib.figure import Figure
 import numpy as np
 
-from wheel_force_estimator.report.figures import _png_path
-from wheel_force_estimator.report.figures import _save
 from wheel_force_estimator.report.figures import DPI
+from wheel_force_estimator.report.figures import png_path
+from wheel_force_estimator.report.figures import save_figure
 
 
 def direction_groups(channels: Sequence[str]) -> Dict[str, np.ndarray]:
@@ -97,7 +97,7 @@ def plot_accuracy_vs_look_ahead(path, look_ahead_s, rmse_by_group: Dict[str, Seq
     pathlib.Path
 
     """
-    out = _png_path(path)
+    out = png_path(path)
     order = np.argsort(np.asarray(look_ahead_s, dtype=float))
     ms = 1e3 * np.asarray(look_ahead_s, dtype=float)[order]
     fig = Figure(figsize=(7.0, 4.2), dpi=DPI)
@@ -117,4 +117,4 @@ def plot_accuracy_vs_look_ahead(path, look_ahead_s, rmse_by_group: Dict[str, Seq
     ax.legend(fontsize=8, ncol=2)
     ax.set_title(title or 'Accuracy against look-ahead')
     fig.tight_layout()
-    return _save(fig, out)
+    return save_figure(fig, out)
