@@ -341,44 +341,6 @@ def acausal_energy_fraction(fir: FirFilter, delay_samples: int) -> float:
     return float(energy[:n_drop].sum() / total) if total > 0.0 else 0.0
 
 
-def choose_causal_delay(fir: FirFilter, max_fraction=0.01) -> int:
-    """
-    Return the smallest look-ahead whose discarded acausal energy is <= ``max_fraction``.
-
-    Parameters
-    ----------
-    fir : FirFilter
-        The filter (usually the centred design of :func:`fir_from_frf`).
-    max_fraction : float
-        Largest acceptable :func:`acausal_energy_fraction`, in [0, 1).
-
-    Returns
-    -------
-    int
-        Look-ahead in ``[0, fir.delay_samples]`` [samples].
-
-    Raises
-    ------
-    ConfigError
-        ``max_fraction`` outside [0, 1).
-
-    """
-    try:
-        limit = float(max_fraction)
-    except (TypeError, ValueError) as err:
-        raise ConfigError(f'max_fraction must be a number, got {max_fraction!r}') from err
-    if not 0.0 <= limit < 1.0:
-        raise ConfigError(f'max_fraction must be in [0, 1), got {max_fraction!r}')
-    energy = np.square(fir.taps).sum(axis=(0, 1))
-    total = energy.sum()
-    delay = fir.delay_samples
-    if total == 0.0 or delay == 0:
-        return 0
-    # Discarded energy for look-ahead d (d = 0..delay) is the sum of the first delay - d taps.
-    dropped = np.concatenate([np.cumsum(energy[:delay])[::-1], [0.0]]) / total
-    return int(np.argmax(dropped <= limit))
-
-
 def with_delay(fir: FirFilter, delay_samples: int,
                taper_fraction=DEFAULT_TAPER_FRACTION) -> FirFilter:
     """
