@@ -5,9 +5,12 @@ The offline path: predict and evaluate whole recordings with a model.
 
 ``wheel-force predict``/``evaluate`` and the fleet tasks (``fleet.task``) call these, so a bag
 is predicted and scored the same way whoever asks (the fleet's ``damage`` is exactly
-``evaluate``'s ``damage_prediction`` for the same bag and model).
+``evaluate``'s ``damage_prediction`` for the same bag and model).  ``compare`` puts the
+live (causal) estimate beside the offline one for ``evaluate --causal`` and the fit report.
 """
+import dataclasses
 from pathlib import Path
+from typing import Callable, List, Optional, Tuple
 
 
 def input_storage(path) -> str:
@@ -129,3 +132,58 @@ def selected(segments, ranges, path):
         return select_samples(segments, ranges)
     except ValueError as err:
         raise RecordingError(f'{path}: --samples {err}') from err
+
+
+@dataclasses.dataclass(frozen=True)
+class LiveComparison:
+    """Offline and live evaluations of the same data, plus the look-ahead sweep."""
+
+    offline: object
+    live: object
+    look_ahead_samples: int
+    live_kind: str
+    sweep: Tuple[Tuple[float, str, object], ...]   # (look-ahead [s], kind, Evaluation)
+
+
+def _kind(model, delay: int) -> str:
+    from wheel_force_estimator.core.live_estimator import find_live
+    return 'live estimator' if find_live(model.live, delay) is not None else 'cut offline FIR'
+
+
+def compare(model, evaluate: Callable[[Optional[int]], object], delay: int,
+            offline=None) -> LiveComparison:
+    """
+    Evaluate offline, live at ``delay`` and every stored look-ahead (``evaluate(delay)``).
+
+    A model without live estimators is swept with the cut offline FIR at the standard
+    look-aheads it can cut to (and labelled so).
+    """
+    from wheel_force_estimator.core.live_estimator import look_ahead_samples
+    from wheel_force_estimator.core.live_estimator import SWEEP_LOOK_AHEADS_S
+    offline = evaluate(None) if offline is None else offline
+    if model.live:
+        delays = sorted(e.look_ahead_samples for e in model.live)
+    else:
+        delays = sorted({look_ahead_samples(s, model.fs_hz) for s in SWEEP_LOOK_AHEADS_S}
+                        | {delay})
+        delays = [d for d in delays if d <= model.fir_delay_samples]
+    results = {d: evaluate(d) for d in delays}
+    live = results[delay] if delay in results else evaluate(delay)
+    sweep = tuple((d / model.fs_hz, _kind(model, d), results[d]) for d in delays)
+    return LiveComparison(offline, live, delay, _kind(model, delay), sweep)
+
+
+def training_evaluator(model, segments: List, sn_slope: float = 5.0):
+    """Return ``evaluate(delay)`` over fit training segments (no stamps: from 0 at fs)."""
+    import numpy as np
+
+    from wheel_force_estimator.core.evaluation import EvalSegment
+    from wheel_force_estimator.core.evaluation import evaluate_segments
+    from wheel_force_estimator.core.predict import predict_forces
+
+    def evaluate(delay):
+        evs = [EvalSegment(s.force_n, predict_forces(model, s.accel_mps2, delay),
+                           (np.arange(s.force_n.shape[1]) * (1e9 / model.fs_hz)).astype(
+                               np.int64), s.source) for s in segments]
+        return evaluate_segments(evs, model.fs_hz, model.output_channels, sn_slope)
+    return evaluate

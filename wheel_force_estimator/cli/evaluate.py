@@ -46,7 +46,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         'counted over its gap-free segments in order) on the prediction of '
                         'the whole record; each range is judged as a segment of its own. '
                         'diagnose prints this for a single holdout file in fit.report_on')
-    from wheel_force_estimator.cli.live import add_causal_arguments
+    from wheel_force_estimator.cli.common import add_causal_arguments
     add_causal_arguments(p, 'evaluate')
     add_generic_arguments(p)
     return p
@@ -112,8 +112,8 @@ def check_generic_model(model, model_path, request) -> None:
 def command(args: argparse.Namespace) -> int:
     """Run ``evaluate``; return the exit code."""
     from wheel_force_estimator.cli.common import generic_request
-    from wheel_force_estimator.cli.live import announce
-    from wheel_force_estimator.cli.live import causal_delay
+    from wheel_force_estimator.cli.common import announce
+    from wheel_force_estimator.cli.common import causal_delay
     from wheel_force_estimator.core.model import load_model
     from wheel_force_estimator.offline import evaluate_generic
     from wheel_force_estimator.offline import evaluate_recordings
@@ -145,8 +145,9 @@ def command(args: argparse.Namespace) -> int:
     extra = None
     if delay is not None and delay != model.fir_delay_samples:
         # The live estimate side by side with the offline one, and against look-ahead.
-        from wheel_force_estimator.cli import live
-        cmp = live.compare(model, lambda d: evaluation if d == delay else run(d)[0], delay)
+        from wheel_force_estimator.offline import compare
+        from wheel_force_estimator.report import live
+        cmp = compare(model, lambda d: evaluation if d == delay else run(d)[0], delay)
         print('\n' + live.comparison_text(cmp, model.fs_hz))
         doc.update(live.comparison_json(cmp, model.fs_hz))
         doc['offline'] = {'channels': cmp.offline.to_json()['channels']}

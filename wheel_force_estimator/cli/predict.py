@@ -23,7 +23,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--compression', choices=('zstd', 'none'), default='zstd',
                    help='mcap chunk compression of OUT_BAG (default zstd: ~30 %% of the size, '
                         'read by ros2 bag and rosbags; ignored for sqlite3)')
-    from wheel_force_estimator.cli.live import add_causal_arguments
+    from wheel_force_estimator.cli.common import add_causal_arguments
     add_causal_arguments(p, 'predict')
     return p
 
@@ -33,8 +33,8 @@ def command(args: argparse.Namespace) -> int:
     from wheel_force_estimator.bagio import write_recording
     from wheel_force_estimator.cli.common import check_bag_model
     from wheel_force_estimator.cli.common import read_recordings
-    from wheel_force_estimator.cli.live import announce
-    from wheel_force_estimator.cli.live import causal_delay
+    from wheel_force_estimator.cli.common import announce
+    from wheel_force_estimator.cli.common import causal_delay
     from wheel_force_estimator.core.model import load_model
     from wheel_force_estimator.offline import input_storage
     from wheel_force_estimator.offline import stream_recording
