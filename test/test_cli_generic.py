@@ -245,6 +245,7 @@ def test_no_more_windows_than_inputs_gives_a_shorter_segment(files, tmp_path, ca
     assert load_model(short).fit['segment_length'] == 128
 
 
+@pytest.mark.slow
 def test_too_few_long_windows_for_the_inputs_fall_back_to_one_resolution(files, tmp_path,
                                                                          capsys):
     # One 60 s record at 256 Hz holds 2 windows of the 8192-sample long segment for 2 inputs:
