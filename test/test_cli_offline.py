@@ -76,6 +76,7 @@ def test_fit_report_and_summary(model_path, bags, capsys):
         assert (bags / 'fit_report' / png).read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
 
 
+@pytest.mark.slow
 def test_a_bag_with_too_few_long_windows_for_12_inputs_is_fitted_with_one_resolution(
         bags, tmp_path, capsys):
     # 60 s at 512 Hz hold 6 windows of the 8192-sample long segment for 12 inputs: below the
@@ -298,6 +299,7 @@ def test_bad_arguments_exit_2():
     assert 'usage' in proc.stderr
 
 
+@pytest.mark.slow
 def test_closed_stdout_exits_quietly(tmp_path):
     # The reader is gone before the command prints its summary (``wheel-force fit ... | head
     # -0``): no traceback, the exit code a SIGPIPE death would give (141).

@@ -59,6 +59,7 @@ def _hardening_files(tmp_path, names, seed=7, duration_s=60.0):
 ROLES = ['--input', 'x:displacement:m', '--output', 'f:force:N', '--fs', f'{FS_HZ:g}']
 
 
+@pytest.mark.slow
 def test_hardening_rig_is_named_and_evaluate_reproduces_every_reported_figure(tmp_path):
     # Bugs caught: `after` computed off the Predictor path (physics around the record mean),
     # `real_linear` fitted with a design other than `wheel-force fit`'s, the report half not
@@ -133,6 +134,7 @@ def _three_input(seed, n, cubic_on=0):
 DRIVER = (2, 0, 1)
 
 
+@pytest.mark.slow
 def test_three_input_recording_pairs_by_coherence_and_names_the_hardening(tmp_path):
     # Bug caught: pairing by position (or refusing: "cannot tell which input drives which
     # output"), which puts the physics term on the wrong motion; a model combined per

@@ -78,9 +78,10 @@ def test_package_xml_dependencies_cover_every_import():
         key = RUN_KEYS[module]
         if key is not None and module not in ('dask', 'distributed'):
             assert key in execs, f'{module}: <exec_depend>{key}</exec_depend> missing'
-    test_modules = _imported_modules((ROOT / 'test').glob('*.py')) - stdlib - third_party
-    # the tests' own helper modules (test/*.py) are not dependencies
-    test_modules -= {'conftest', 'benchutil'} | {p.stem for p in (ROOT / 'test').glob('*.py')}
+    test_modules = _imported_modules((ROOT / 'test').rglob('*.py')) - stdlib - third_party
+    # the tests' own helper modules (test/*.py, the test/support package) are not dependencies
+    test_modules -= {'conftest', 'benchutil', 'support'}
+    test_modules -= {p.stem for p in (ROOT / 'test').glob('*.py')}
     unknown = test_modules - set(TEST_KEYS)
     assert not unknown, f'test imports without a package.xml mapping: {sorted(unknown)}'
     for module in test_modules:

@@ -130,6 +130,7 @@ def by_name(msg):
     return {s.name: (s, status_values(s)) for s in msg.status}
 
 
+@pytest.mark.slow
 def test_two_cars_in_one_graph_with_one_params_file(
         ros_env, model_and_file, tmp_path, node_procs):
     model, path = model_and_file

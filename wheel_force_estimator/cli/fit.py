@@ -135,10 +135,12 @@ def command(args: argparse.Namespace) -> int:
     summary = coherence_summary(model)
     _print_summary(model, summary, fitted, data)
     if args.report:
-        from wheel_force_estimator.cli import live
+        from wheel_force_estimator.offline import compare
+        from wheel_force_estimator.offline import training_evaluator
+        from wheel_force_estimator.report import live
         from wheel_force_estimator.report.builders import write_fit_report
-        cmp = live.compare(model, live.training_evaluator(model, data.segments),
-                           model.live[0].look_ahead_samples)
+        cmp = compare(model, training_evaluator(model, data.segments),
+                      model.live[0].look_ahead_samples)
         print(live.comparison_text(cmp, model.fs_hz))
         extra = functools.partial(live.report_section, cmp=cmp, fs_hz=model.fs_hz,
                                   data='Training data (in-sample: `evaluate --causal` on '
@@ -151,7 +153,7 @@ def command(args: argparse.Namespace) -> int:
 
 def _with_live(config, args):
     """Return ``config`` designing the live estimators (configured look-ahead first)."""
-    from wheel_force_estimator.cli.live import configured_look_ahead_s
+    from wheel_force_estimator.cli.common import configured_look_ahead_s
     from wheel_force_estimator.core.live_estimator import LiveDesign
     from wheel_force_estimator.core.live_estimator import SWEEP_LOOK_AHEADS_S
     look = configured_look_ahead_s(args.config, args.live_look_ahead_s)
