@@ -32,9 +32,11 @@ import sys
 import tempfile
 import time
 
+from benchutil import ros_testing
 import numpy as np
 
-from wheel_force_estimator.ros.testing import SpinningParticipant
+_support = ros_testing()
+SpinningParticipant = _support.SpinningParticipant
 
 FS_HZ = 512.0
 CORNERS = ('lf', 'rf', 'lr', 'rr')
@@ -111,7 +113,7 @@ def run_publisher():
     rclpy, _, _ = _ros()
     from sensor_msgs.msg import Imu
     from wheel_force_estimator.bagio.cdr import encode_imu
-    from wheel_force_estimator.ros.testing import synthetic_accel
+    synthetic_accel = _support.synthetic_accel
     rclpy.init()
     node = rclpy.create_node('bench_publisher')
     pubs = [node.create_publisher(Imu, f'/spindle/{c}/imu', reliable_qos(1000))
@@ -284,7 +286,7 @@ def cpu_seconds(pid):
 
 
 def start_target(target, env, model_path=None, block=16, log=None):
-    from wheel_force_estimator.ros.testing import node_command
+    node_command = _support.node_command
     if target == 'relay':
         cmd = [sys.executable, str(HERE), '--relay']
     else:
@@ -436,8 +438,8 @@ def realistic_model():
         return (model, test.accel_mps2, test.force_n,
                 'fitted on 60 s of simulated proving ground (sim seed 11), tested on seed 12')
     except (ImportError, TypeError) as err:
-        from wheel_force_estimator.ros.testing import synthetic_accel
-        from wheel_force_estimator.ros.testing import synthetic_model
+        synthetic_accel = _support.synthetic_accel
+        synthetic_model = _support.synthetic_model
         return (synthetic_model(n_taps=1024, delay_samples=512), synthetic_accel(30000), None,
                 f'synthetic model ({err})')
 
@@ -459,8 +461,8 @@ def main():
         return run_publisher()
 
     from wheel_force_estimator.core.model import save_model
-    from wheel_force_estimator.ros.testing import isolated_ros_env
-    from wheel_force_estimator.ros.testing import synthetic_model
+    isolated_ros_env = _support.isolated_ros_env
+    synthetic_model = _support.synthetic_model
 
     env = isolated_ros_env()
     os.environ.update(env)

@@ -18,6 +18,13 @@ from rclpy.qos import QoSProfile
 from rclpy.qos import ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
+from support.ros_testing import sample_stamps
+from support.ros_testing import SpinningParticipant
+from support.ros_testing import start_node
+from support.ros_testing import stop_node
+from support.ros_testing import synthetic_accel
+from support.ros_testing import synthetic_model
+from support.ros_testing import wait_until
 
 from wheel_force_estimator.bagio.cdr import decode_wrench
 from wheel_force_estimator.bagio.cdr import encode_imu
@@ -27,19 +34,14 @@ from wheel_force_estimator.ros.diagnostics import status_values
 from wheel_force_estimator.ros.pacing import CATCH_UP_FACTOR
 from wheel_force_estimator.ros.pacing import HURRY_FACTOR
 from wheel_force_estimator.ros.pacing import PACE_BURST_S
-from wheel_force_estimator.ros.testing import sample_stamps
-from wheel_force_estimator.ros.testing import SpinningParticipant
-from wheel_force_estimator.ros.testing import start_node
-from wheel_force_estimator.ros.testing import stop_node
-from wheel_force_estimator.ros.testing import synthetic_accel
-from wheel_force_estimator.ros.testing import synthetic_model
-from wheel_force_estimator.ros.testing import wait_until
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(180)]
 
 FS_HZ = 512.0
 CORNERS = ('lf', 'rf', 'lr', 'rr')
 CONFIG = Path(__file__).resolve().parents[1] / 'config' / 'wheel_force.yaml'
+# The message counter runs as a process of its own (like `ros2 topic echo`).
+ROS_TESTING_SCRIPT = Path(__file__).resolve().parent / 'support' / 'ros_testing.py'
 # live_look_ahead_s = 0.05 s (the shipped default) at 512 Hz
 LOOK_AHEAD = round(0.05 * FS_HZ)
 # node vs offline: the same Predictor, different call lengths: FFT rounding only (~1e-15)
@@ -260,7 +262,7 @@ def test_output_leaves_at_the_input_rhythm_never_a_block_at_once_at_1x(
     accel = synthetic_accel(n, FS_HZ, seed=44)
     topics = [f'/virtual_wft/{c}/wrench' for c in CORNERS]
     recorder = subprocess.Popen(
-        [sys.executable, '-m', 'wheel_force_estimator.ros.testing', '--source-stamps',
+        [sys.executable, str(ROS_TESTING_SCRIPT), '--source-stamps',
          'reliable', str(n), str(n), '20', *topics],
         env=ros_env, stdout=subprocess.PIPE, text=True)
     peer = Peer('pace_feeder')

@@ -5,6 +5,12 @@ import dataclasses
 
 import numpy as np
 import pytest
+from support.ros_testing import sample_stamps
+from support.ros_testing import start_node
+from support.ros_testing import stop_node
+from support.ros_testing import synthetic_accel
+from support.ros_testing import synthetic_model
+from support.ros_testing import wait_until
 
 from wheel_force_estimator.bagio import write_recording
 from wheel_force_estimator.core.live_estimator import CausalEstimator
@@ -14,12 +20,6 @@ from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.ros.params import PARAMETERS
 from wheel_force_estimator.ros.replay import replay_bag
 from wheel_force_estimator.ros.replay import ReplaySettings
-from wheel_force_estimator.ros.testing import sample_stamps
-from wheel_force_estimator.ros.testing import start_node
-from wheel_force_estimator.ros.testing import stop_node
-from wheel_force_estimator.ros.testing import synthetic_accel
-from wheel_force_estimator.ros.testing import synthetic_model
-from wheel_force_estimator.ros.testing import wait_until
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(180)]
 

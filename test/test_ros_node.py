@@ -10,6 +10,13 @@ from rclpy.qos import HistoryPolicy
 from rclpy.qos import QoSProfile
 from rclpy.qos import ReliabilityPolicy
 from sensor_msgs.msg import Imu
+from support.ros_testing import sample_stamps
+from support.ros_testing import SpinningParticipant
+from support.ros_testing import start_node
+from support.ros_testing import stop_node
+from support.ros_testing import synthetic_accel
+from support.ros_testing import synthetic_model
+from support.ros_testing import wait_until
 
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import TopicConfig
@@ -21,13 +28,6 @@ from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.ros.diagnostics import status_values
 from wheel_force_estimator.ros.replay import replay_bag
 from wheel_force_estimator.ros.replay import ReplaySettings
-from wheel_force_estimator.ros.testing import sample_stamps
-from wheel_force_estimator.ros.testing import SpinningParticipant
-from wheel_force_estimator.ros.testing import start_node
-from wheel_force_estimator.ros.testing import stop_node
-from wheel_force_estimator.ros.testing import synthetic_accel
-from wheel_force_estimator.ros.testing import synthetic_model
-from wheel_force_estimator.ros.testing import wait_until
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(180)]
 

@@ -10,6 +10,8 @@ import pytest
 import rclpy
 from rclpy.context import Context
 from rclpy.parameter import Parameter
+from support.ros_testing import isolated_ros_env
+from support.ros_testing import synthetic_model
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
@@ -20,8 +22,6 @@ from wheel_force_estimator.ros.params import model_layout
 from wheel_force_estimator.ros.params import MOMENT_CHANNELS
 from wheel_force_estimator.ros.params import NodeParams
 from wheel_force_estimator.ros.params import PARAMETERS
-from wheel_force_estimator.ros.testing import isolated_ros_env
-from wheel_force_estimator.ros.testing import synthetic_model
 
 pytestmark = pytest.mark.ros
 

@@ -3,6 +3,9 @@
 """The node's estimation stream (blocks, gaps, flush, jumps, damage), without ROS."""
 import numpy as np
 import pytest
+from support.ros_testing import sample_stamps
+from support.ros_testing import synthetic_accel
+from support.ros_testing import synthetic_model
 
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
@@ -10,9 +13,6 @@ from wheel_force_estimator.core.fatigue import pseudo_damage
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.core.predict import Predictor
 from wheel_force_estimator.ros.stream import ForceStream
-from wheel_force_estimator.ros.testing import sample_stamps
-from wheel_force_estimator.ros.testing import synthetic_accel
-from wheel_force_estimator.ros.testing import synthetic_model
 
 # The stream and predict_forces run the same overlap-add engine with different call lengths;
 # they differ only by FFT rounding, ~1e-15 of the signal.  1e-12 relative leaves room for the
