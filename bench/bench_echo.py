@@ -22,10 +22,10 @@ import sys
 import tempfile
 import time
 
-import numpy as np
-
 from benchutil import ros_testing
 from benchutil import ROS_TESTING_SCRIPT
+import numpy as np
+
 from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.core.model import save_model
 

@@ -31,9 +31,19 @@ Wiring (all in ``WheelForceNode.__init__``; callbacks stay tiny):
 * health on ``/diagnostics`` (:mod:`.diagnostics`) every :data:`DIAGNOSTICS_PERIOD_S`.
 
 Timers run on the **steady clock**, not the ROS clock: with ``use_sim_time`` and a paused or
-absent ``/clock``, stall detection, flushing and health still run.  At SIGINT/SIGTERM the
-look-ahead is flushed, every remaining estimate and a final damage message are published, and
-the node exits 0.
+absent ``/clock``, stall detection and health still run.
+
+**Continuity is judged in data time.**  Corner stamps within ``sync_tolerance_s`` are one
+sample (:mod:`.aligner`, stamped by their median).  A pause of the input with no gap in the
+stamps (a paused replay, a DAQ hiccup) keeps the filter and its look-ahead: the held estimates
+leave when the data resumes, exactly as offline.  The stall only marks the inputs stale and
+publishes the damage so far.  The look-ahead is completed only at a gap in the stamps, at a
+stamp jump, and at shutdown.
+
+At SIGINT/SIGTERM the look-ahead is completed, the remaining estimates leave paced (at most
+:data:`SHUTDOWN_TAIL_S`), a final damage message is published, the acknowledgements are awaited
+against one deadline (:data:`SHUTDOWN_ACK_S`) and the node exits 0.  A second signal exits at
+once (status :data:`EXIT_INTERRUPTED`), logging how many estimates were not published.
 
 Faults never stop the node: they are counted, shown in the diagnostics, logged (gaps one line
 each, with the stamps either side; repeated faults with a throttled warning) and summarised at
@@ -42,6 +52,7 @@ busy-spins and runs nothing).
 """
 import collections
 import gc
+import os
 import signal
 import threading
 import time
@@ -73,6 +84,7 @@ from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.core.predict import Predictor
 from wheel_force_estimator.ros.aligner import AlignedSamples
 from wheel_force_estimator.ros.aligner import CornerAligner
+from wheel_force_estimator.ros.aligner import OutOfTolerance
 from wheel_force_estimator.ros.diagnostics import build_damage_array
 from wheel_force_estimator.ros.diagnostics import build_health_array
 from wheel_force_estimator.ros.diagnostics import CornerReport
@@ -81,6 +93,7 @@ from wheel_force_estimator.ros.diagnostics import OK
 from wheel_force_estimator.ros.diagnostics import WARN
 from wheel_force_estimator.ros.pacing import OutputPacer
 from wheel_force_estimator.ros.params import declare_node_parameters
+from wheel_force_estimator.ros.params import default as _default
 from wheel_force_estimator.ros.params import model_layout
 from wheel_force_estimator.ros.params import unknown_parameters
 from wheel_force_estimator.ros.stream import ForceStream
@@ -97,8 +110,19 @@ DIAGNOSTICS_PERIOD_S = 1.0
 WARN_THROTTLE_S = 5.0
 #: Pacing latencies kept for the percentiles.
 LATENCY_WINDOW = 4096
-#: How long a shutdown waits for reliable subscribers to acknowledge the last estimates [s].
+#: How long a shutdown waits, in all, for reliable subscribers to acknowledge the last
+#: messages (one deadline for every publisher) [s].
 SHUTDOWN_ACK_S = 2.0
+#: Longest a shutdown spends publishing the tail (paced at the model's sample rate, faster
+#: when more waits) [s].  With the acknowledgements, a stop stays well within the 5 s after
+#: which ``ros2 launch`` escalates to SIGTERM.
+SHUTDOWN_TAIL_S = 1.0
+#: Longest a shutdown spends taking the input messages DDS already delivered [s].
+SHUTDOWN_DRAIN_S = 0.5
+#: Step of the paced shutdown tail [s].
+_TAIL_STEP_S = 0.002
+#: Exit status after a second SIGINT/SIGTERM (128 + SIGINT, as a shell reports Ctrl-C).
+EXIT_INTERRUPTED = 130
 _DROP_REASONS = ('malformed', 'wrong_frame', 'nonfinite')
 _RCLError = rclpy_implementation.RCLError
 
@@ -133,6 +157,11 @@ class WheelForceNode(Node):
             self.destroy_node()
             raise
         _warm_up(model, layout, params)
+        if params.flush_timeout_s != _default('flush_timeout_s'):
+            self.get_logger().warning(
+                'parameter flush_timeout_s is deprecated and ignored: a pause of the input '
+                'keeps the filter (the look-ahead is completed at a gap in the stamps, a stamp '
+                'jump, deactivate or shutdown); stale input is stale_timeout_samples')
         for name in unknown_parameters(self):
             self.get_logger().warning(
                 f'parameter {name!r} (params file or -p) is not a parameter of this node: '
@@ -140,12 +169,15 @@ class WheelForceNode(Node):
         self._fs_hz = model.fs_hz
         self._model = model
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._aligner = CornerAligner(len(CORNERS), 3, max(
-            params.input_qos_depth, params.stale_timeout_samples, 64))
+        self._aligner = CornerAligner(
+            len(CORNERS), 3, max(params.input_qos_depth, params.stale_timeout_samples, 64),
+            tolerance_ns=layout.sync_tolerance_ns, period_ns=1e9 / model.fs_hz)
         self._stale_s = params.stale_timeout_samples / model.fs_hz
         self._check_frames = any(params.imu_frame_ids)
         n = len(CORNERS)
         self._raw = [[] for _ in range(n)]
+        #: Imu messages taken from DDS (all corners).
+        self.messages_taken = 0
         self._queued = 0                  # stream samples waiting for their block
         self._out = collections.deque()   # [per-corner serialized messages, next index, ready]
         self._n_unpublished = 0
@@ -158,6 +190,8 @@ class WheelForceNode(Node):
         self._last_input_s = None
         self._input_since_tick = False
         self._final_sent_for = None       # samples_out at the last end-of-stream report
+        self._paused_at = None            # samples_out when the input was last seen stopping
+        self._sync_offset_ns = np.zeros(n, dtype=np.int64)   # worst out-of-tolerance offset
         self._damage_messages = 0
         self._wrong_types = [''] * n
         self._event = ''
@@ -210,6 +244,7 @@ class WheelForceNode(Node):
 
         def on_imu(raw: bytes):
             buf.append(raw)
+            self.messages_taken += 1
             self._input_since_tick = True
             # A block can only complete once every corner has delivered enough messages.
             if self._queued + min(map(len, raws)) >= block:
@@ -227,10 +262,9 @@ class WheelForceNode(Node):
         if any(self._raw):
             self._process(now)
         self._pacer.measure(now, int(self._received.sum()))
-        if (self._stream.in_flight and self._last_input_s is not None
-                and now - self._last_input_s > self._params.flush_timeout_s):
-            self._end_of_stream('no input for '
-                                f'{now - self._last_input_s:.2f} s (flush_timeout_s)')
+        if (self._last_input_s is not None and now - self._last_input_s > self._stale_s
+                and self._paused_at != self._stream.counts['samples_in']):
+            self._on_pause(now - self._last_input_s)
         if self._n_unpublished and not had_input and self._idle_timer.is_canceled():
             # No input to pace by (end of a replay, a stall): the model's sample rate.
             self._idle_timer.reset()
@@ -275,6 +309,8 @@ class WheelForceNode(Node):
             if isinstance(event, AlignedSamples):
                 self._stream.feed(event.stamp_ns, event.accel_mps2)
                 self._last_input_s = now
+            elif isinstance(event, OutOfTolerance):
+                self._on_out_of_tolerance(event)
             else:
                 self.get_logger().warning(
                     f'stamps went back to {event.stamp_ns} ns (recording restarted?): '
@@ -292,6 +328,37 @@ class WheelForceNode(Node):
         self._enqueue(*self._stream.take(), now, tail)
         for report in self._stream.take_damage_reports():
             self._publish_damage(report)
+
+    def _on_out_of_tolerance(self, event: OutOfTolerance):
+        c = event.corner
+        self._sync_offset_ns[c] = max(self._sync_offset_ns[c], event.offset_ns)
+        total = int(self._aligner.counters()['out_of_tolerance'][c])
+        self.get_logger().warning(
+            f'{self._imu_names[c]}: dropped {event.n_messages} message(s) whose stamps no '
+            f'other corner matched within sync_tolerance_s '
+            f'({self._layout.sync_tolerance_ns * 1e-9:g} s), first stamped '
+            f'{event.first_stamp_ns} ns, offset {event.offset_ns * 1e-6:.3f} ms from the '
+            f'nearest sample of the others (total {total}): are the loggers clocks '
+            f'synchronised?', throttle_duration_sec=WARN_THROTTLE_S)
+
+    def _on_pause(self, silent_s: float):
+        """
+        No input for ``stale_timeout_samples``: report the damage so far, keep the filter.
+
+        The look-ahead stays in the filter: the data may resume without a gap in the stamps
+        (a paused replay, a DAQ hiccup), and then every estimate is exactly the offline one.
+        """
+        self._paused_at = self._stream.counts['samples_in']
+        samples_out = self._stream.counts['samples_out']
+        if self._final_sent_for != samples_out:
+            self._final_sent_for = samples_out
+            final = self._stream.final_damage_report()
+            if final is not None:
+                self._publish_damage(final)
+        self.get_logger().info(
+            f'no input for {silent_s:.2f} s: {self._stream.in_flight} estimate(s) held for '
+            f'the look-ahead until the data resumes (a gap in the stamps, a stamp jump, '
+            f'deactivate or shutdown completes them); {self.summary()}')
 
     def _end_of_stream(self, why: str = '', always: bool = False):
         """Input stopped (or shutdown): flush the look-ahead, report damage, log counters."""
@@ -404,6 +471,7 @@ class WheelForceNode(Node):
         dropped['dropped_duplicate'] = align['duplicate']
         dropped['dropped_late'] = align['late']
         dropped['dropped_incomplete'] = align['incomplete']
+        dropped['dropped_out_of_tolerance'] = align['out_of_tolerance']
         total = sum(dropped.values())
         out = {'received': self._received, 'published': [self._published] * n,
                'dropped': total, 'gaps': [stream['gaps']] * n,
@@ -411,6 +479,7 @@ class WheelForceNode(Node):
                'short_steps': [stream['short_steps']] * n, 'resets': [stream['jumps']] * n}
         out.update(dropped)
         out.update({'aligned': align['aligned'], 'pending': align['pending'],
+                    'sync_offset_max_us': self._sync_offset_ns // 1000,
                     'in_flight': [self._stream.in_flight + self._n_unpublished] * n,
                     'flushes': [stream['flushes']] * n})
         return {key: [int(v) for v in value] for key, value in out.items()}
@@ -507,15 +576,44 @@ class WheelForceNode(Node):
                 throttle_duration_sec=WARN_THROTTLE_S)
 
     def finish(self):
-        """Shutdown: take what is buffered, flush, publish everything, wait for the acks."""
+        """
+        Shutdown: take what is buffered, flush, publish everything, wait for the acks.
+
+        The tail leaves paced, at the model's sample rate or faster so that it takes at most
+        :data:`SHUTDOWN_TAIL_S`; then every publisher's acknowledgements are awaited against
+        one deadline, :data:`SHUTDOWN_ACK_S` in all.
+        """
         if any(self._raw):
             self._process(time.monotonic())
         self._end_of_stream(always=True)   # main() logs the summary
-        if self._n_unpublished:
-            self._pump(self._n_unpublished)
+        self._publish_tail()
         self._publish_health()
-        for pub in self._pubs + [self._damage_pub]:
-            pub.wait_for_all_acked(Duration(seconds=SHUTDOWN_ACK_S))
+        deadline = time.monotonic() + SHUTDOWN_ACK_S
+        for pub in self._pubs + [self._damage_pub, self._health_pub]:
+            left_s = deadline - time.monotonic()
+            if left_s <= 0.0 or not pub.wait_for_all_acked(Duration(seconds=left_s)):
+                self.get_logger().warning(
+                    f'{pub.topic_name}: not every subscriber acknowledged the last messages '
+                    f'within {SHUTDOWN_ACK_S:g} s (a stalled reliable subscriber?)')
+                break
+
+    def _publish_tail(self):
+        """Publish what waits, paced (see :meth:`finish`)."""
+        n = self._n_unpublished
+        if not n:
+            return
+        rate = max(self._fs_hz, n / SHUTDOWN_TAIL_S)
+        start = time.monotonic()
+        while self._n_unpublished:
+            due = min(n, int(rate * (time.monotonic() - start)) + 1) - (n - self._n_unpublished)
+            if due > 0:
+                self._pump(due)
+            time.sleep(_TAIL_STEP_S)
+
+    @property
+    def waiting(self) -> int:
+        """Return the estimates not published yet: held for the look-ahead or paced [samples]."""
+        return self._stream.in_flight + self._n_unpublished
 
     def summary(self) -> str:
         """Return the counters and the pacing latency as one line."""
@@ -565,12 +663,23 @@ def _slice(decoded, lo: int, hi: int):
 
 
 def spin(node: Node, timeout_s: float = 0.1, stop: threading.Event = None):
-    """Spin ``node`` with an EventsExecutor until the context shuts down or ``stop`` is set."""
+    """
+    Spin ``node`` with an EventsExecutor until the context shuts down or ``stop`` is set.
+
+    At ``stop`` the messages DDS already delivered are still taken (up to
+    :data:`SHUTDOWN_DRAIN_S`): a Ctrl-C just after a replay must not lose its last samples.
+    """
     executor = EventsExecutor(context=node.context)
     executor.add_node(node)
     try:
         while node.context.ok() and not (stop is not None and stop.is_set()):
             executor.spin_once(timeout_sec=timeout_s)
+        deadline = time.monotonic() + SHUTDOWN_DRAIN_S
+        idle = 0
+        while node.context.ok() and idle < 3 and time.monotonic() < deadline:
+            before = node.messages_taken
+            executor.spin_once(timeout_sec=0.01)
+            idle = idle + 1 if node.messages_taken == before else 0
     finally:
         executor.remove_node(node)
         executor.shutdown()
@@ -598,8 +707,18 @@ def main(args=None) -> int:
     # run: keep it out of the cyclic collector, whose full passes otherwise stall the executor
     # for ~80 ms (measured), long enough to overflow the input queues at a fast replay.
     gc.freeze()
+
+    def on_signal(signum, _frame):
+        if not stop.is_set():
+            stop.set()
+            return
+        # Asked twice: leave now, saying what is lost.
+        rclpy.logging.get_logger(NODE_NAME).warning(
+            f'{signal.Signals(signum).name} again: exiting at once, {node.waiting} estimate(s) '
+            f'per corner not published')
+        os._exit(EXIT_INTERRUPTED)
     for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+        signal.signal(sig, on_signal)
     try:
         spin(node, stop=stop)
     except (KeyboardInterrupt, ExternalShutdownException):
@@ -610,6 +729,10 @@ def main(args=None) -> int:
         summary = node.summary()
         node.destroy_node()
         rclpy.try_shutdown()
+        # rclpy restores the handlers it found at init: keep ours, a second signal must still
+        # exit at once, never kill the process half-way through its summary.
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, on_signal)
         # After destroy_node: the context may be gone, so no /rosout publication.
         rclpy.logging.get_logger(NODE_NAME).info(summary)
     return 0

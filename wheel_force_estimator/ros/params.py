@@ -111,9 +111,15 @@ PARAMETERS = (
           'history depth of the reliable wrench publishers [messages]',
           int_range=(1, 1_000_000), constraints='>= 4 * block_size'),
     _Spec('flush_timeout_s', 0.5,
-          'no input for this long (steady clock): estimates in flight are completed and '
-          'published, with a damage message (end of stream) [s]',
+          'deprecated, ignored: a pause of the input no longer flushes the look-ahead (only '
+          'a gap in the stamps, a stamp jump, deactivate and shutdown do); staleness is '
+          'stale_timeout_samples [s]',
           float_range=(0.001, 3600.0)),
+    _Spec('sync_tolerance_s', 0.0,
+          'corner stamps at most this far apart are one sample, stamped by their median; '
+          '0 = half a sample period of the model [s]',
+          float_range=(0.0, 1.0),
+          constraints='at most half a sample period of the model'),
     _Spec('sample_rate_hz', 0.0,
           "expected input sample rate; 0 = the model's; else must equal the model's [Hz]",
           float_range=(0.0, 1.0e6)),
@@ -121,6 +127,13 @@ PARAMETERS = (
           'wrench torque when the model estimates no moments: zero or NaN [-]',
           constraints='zero | nan'),
 )
+
+
+def default(name: str):
+    """Return the default value of parameter ``name`` (its one home: :data:`PARAMETERS`)."""
+    return next(spec.default for spec in PARAMETERS if spec.name == name)
+
+
 #: Names of the declared parameters (and ``use_sim_time``, which rclpy declares).
 PARAMETER_NAMES = frozenset(spec.name for spec in PARAMETERS) | {'use_sim_time'}
 
@@ -156,6 +169,7 @@ class NodeParams:
     input_reliability: str
     output_qos_depth: int
     flush_timeout_s: float
+    sync_tolerance_s: float
     sample_rate_hz: float
     unknown_torque: str
 
@@ -195,7 +209,8 @@ class NodeParams:
         for name in ('damage_publish_period_s', 'flush_timeout_s', 'sn_slope'):
             if not getattr(self, name) > 0.0:
                 raise ConfigError(f'parameter {name} must be > 0, got {getattr(self, name)}')
-        for name in ('live_look_ahead_s', 'damage_budget', 'sample_rate_hz'):
+        for name in ('live_look_ahead_s', 'damage_budget', 'sample_rate_hz',
+                     'sync_tolerance_s'):
             if not getattr(self, name) >= 0.0:
                 raise ConfigError(f'parameter {name} must be >= 0, got {getattr(self, name)}')
 
@@ -255,12 +270,16 @@ class ModelLayout:
         ``unknown_torque`` says).
     causal_delay_samples : int
         Look-ahead of the live estimator, ``round(live_look_ahead_s * fs)`` [samples].
+    sync_tolerance_ns : int
+        Corner stamps at most this far apart are one sample [ns] (``sync_tolerance_s``, or
+        half a sample period when it is 0).
 
     """
 
     force_rows: Tuple[Tuple[int, int, int], ...]
     torque_rows: Optional[Tuple[Tuple[int, int, int], ...]]
     causal_delay_samples: int
+    sync_tolerance_ns: int = 0
 
 
 def model_layout(model, params: NodeParams) -> ModelLayout:
@@ -274,8 +293,8 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
     ------
     ModelFileError
         The model does not map the 12 spindle accelerations [m/s^2] to the wheel loads [N],
-        its sample rate differs from ``sample_rate_hz``, or its look-ahead is shorter than
-        ``live_look_ahead_s``.
+        its sample rate differs from ``sample_rate_hz``, its look-ahead is shorter than
+        ``live_look_ahead_s``, or ``sync_tolerance_s`` exceeds half its sample period.
 
     """
     where = f'model {params.model_path}'
@@ -290,8 +309,15 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
     except ConfigError as err:
         raise ModelFileError(f'{where}: live_look_ahead_s = {params.live_look_ahead_s:g} s '
                              f'({delay} samples): {err}') from err
+    half_period_ns = 0.5e9 / fs
+    tolerance_ns = (int(half_period_ns) if params.sync_tolerance_s == 0.0
+                    else int(round(params.sync_tolerance_s * 1e9)))
+    if tolerance_ns > half_period_ns:
+        raise ModelFileError(f'{where}: sync_tolerance_s = {params.sync_tolerance_s:g} s is '
+                             f'more than half its sample period ({half_period_ns * 1e-9:g} s '
+                             f'at {fs:g} Hz): two samples of one corner could be taken for one')
     return ModelLayout(force_rows=layout.force_rows, torque_rows=layout.torque_rows,
-                       causal_delay_samples=delay)
+                       causal_delay_samples=delay, sync_tolerance_ns=tolerance_ns)
 
 
 def unknown_parameters(node) -> Tuple[str, ...]:
