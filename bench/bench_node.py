@@ -196,7 +196,7 @@ class Consumer(SpinningParticipant):
 
     def _on_health(self, msg):
         corners = [{kv.key: kv.value for kv in s.values} for s in msg.status
-                   if s.name.startswith('wheel_force_node: ')]
+                   if s.name.startswith('/wheel_force_node: ')]
         if len(corners) != 4:
             return
         self.status['node'] = {'received': sum(int(v['received']) for v in corners),

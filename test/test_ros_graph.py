@@ -185,7 +185,8 @@ def test_two_cars_in_one_graph_with_one_params_file(
         ids = {s.hardware_id for m in peer.health for s in m.status}
         assert ids == {'/car1/wheel_force_node', '/car2/rear_axle_wft'}
         names = {s.name for m in peer.health for s in m.status}
-        assert {'wheel_force_node: lf', 'rear_axle_wft: rr', 'rear_axle_wft'} <= names
+        assert {'/car1/wheel_force_node: lf', '/car1/wheel_force_node',
+                '/car2/rear_axle_wft: rr', '/car2/rear_axle_wft'} <= names
     finally:
         peer.close()
         codes = [stop_node(p) for p in procs]
@@ -336,14 +337,14 @@ def test_input_topic_of_the_wrong_type_is_named_once(
     finally:
         peer.close()
     # while the other corners deliver, only rf is stale, and the node status says why
-    assert any(h['wheel_force_node: rf'][1]['stale'] == 'true'
-               and 'WrenchStamped' in h['wheel_force_node: rf'][0].message
-               and all(h[f'wheel_force_node: {c}'][1]['stale'] == 'false'
+    assert any(h['/wheel_force_node: rf'][1]['stale'] == 'true'
+               and 'WrenchStamped' in h['/wheel_force_node: rf'][0].message
+               and all(h[f'/wheel_force_node: {c}'][1]['stale'] == 'false'
                        for c in ('lf', 'lr', 'rr'))
-               and h['wheel_force_node'][0].level == b'\x02' for h in during), during
+               and h['/wheel_force_node'][0].level == b'\x02' for h in during), during
     for corner in ('lf', 'lr', 'rr'):
-        assert int(last[f'wheel_force_node: {corner}'][1]['received']) == n
-    assert last['wheel_force_node: rf'][1]['received'] == '0'
+        assert int(last[f'/wheel_force_node: {corner}'][1]['received']) == n
+    assert last['/wheel_force_node: rf'][1]['received'] == '0'
     assert stop_node(proc) == 0
     lines = [ln for ln in log.read_text().splitlines() if 'publisher(s) of type' in ln]
     assert len(lines) == 1, lines

@@ -63,7 +63,7 @@ def damage_by_corner(msg):
     return {s.name.split('/')[-1]: (s, status_values(s)) for s in msg.status}
 
 
-def health_by_name(msg, node='wheel_force_node'):
+def health_by_name(msg, node='/wheel_force_node'):
     """Map a /diagnostics message to {corner or 'node': (status, values)}."""
     out = {}
     for s in msg.status:
@@ -140,7 +140,7 @@ def test_replay_through_node_equals_offline_prediction(node, model_and_file, tmp
         assert values['samples'] == str(stamps.size)
         assert st.hardware_id == '/wheel_force_node'
         hst, hv = last_health[corner]
-        assert hst.name == f'wheel_force_node: {corner}'
+        assert hst.name == f'/wheel_force_node: {corner}'
         assert hst.hardware_id == '/wheel_force_node'
         assert hv['received'] == hv['published'] == str(stamps.size)
         assert (hv['dropped'], hv['gaps'], hv['resets'], hv['missing_samples']) == (

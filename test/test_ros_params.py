@@ -253,9 +253,38 @@ def test_random_bytes_model_file_is_a_model_file_error(tmp_path):
 
 
 def test_unknown_parameters_are_named(ros_context, model_file):
-    from wheel_force_estimator.ros.params import unknown_parameters
-    node = make_node(ros_context, model_file, **{'blok_size': 3})
+    # Bug caught: a typo in a params file silently ignored, or a valid QoS override taken for
+    # a typo.
+    node = make_node(ros_context, model_file, **{
+        'blok_size': 3, 'qos_overrides./spindle/lf/imu.subscription.depth': 300,
+        'qos_overrides./spindle/lf/imuu.subscription.depth': 300})
     try:
-        assert unknown_parameters(node) == ('blok_size',)
+        assert node.unknown_parameters == (
+            'blok_size', 'qos_overrides./spindle/lf/imuu.subscription.depth')
+    finally:
+        node.destroy_node()
+
+
+def test_qos_overrides_take_effect_on_subscriptions_and_publishers(ros_context, model_file):
+    # Bug caught: qos_overrides.* declared but not applied, or the deprecated parameters
+    # winning over them.  Read back from the DDS graph, as another node sees them.
+    from rclpy.qos import DurabilityPolicy
+    from rclpy.qos import ReliabilityPolicy
+    node = make_node(ros_context, model_file, **{
+        'input_reliability': 'best_effort',
+        'qos_overrides./spindle/rf/imu.subscription.reliability': 'reliable',
+        'qos_overrides./virtual_wft/damage.publisher.durability': 'transient_local',
+        'qos_overrides./virtual_wft/lr/wrench.publisher.depth': 4096})
+    try:
+        subs = {topic: info.qos_profile.reliability for topic in
+                ('/spindle/lf/imu', '/spindle/rf/imu')
+                for info in node.get_subscriptions_info_by_topic(topic)}
+        assert subs == {'/spindle/lf/imu': ReliabilityPolicy.BEST_EFFORT,
+                        '/spindle/rf/imu': ReliabilityPolicy.RELIABLE}
+        damage, = node.get_publishers_info_by_topic('/virtual_wft/damage')
+        assert damage.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+        assert node.get_parameter(
+            'qos_overrides./virtual_wft/lr/wrench.publisher.depth').value == 4096
+        assert node.unknown_parameters == ()
     finally:
         node.destroy_node()

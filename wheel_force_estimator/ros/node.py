@@ -66,11 +66,12 @@ from rclpy.clock import ClockType
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
-from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy
+from rclpy.qos import QoSPolicyKind
 from rclpy.qos import QoSProfile
 from rclpy.qos import ReliabilityPolicy
+from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import Imu
 from std_msgs.msg import String
@@ -87,6 +88,7 @@ from wheel_force_estimator.ros.aligner import CornerAligner
 from wheel_force_estimator.ros.aligner import OutOfTolerance
 from wheel_force_estimator.ros.diagnostics import build_damage_array
 from wheel_force_estimator.ros.diagnostics import build_health_array
+from wheel_force_estimator.ros.diagnostics import corner_level
 from wheel_force_estimator.ros.diagnostics import CornerReport
 from wheel_force_estimator.ros.diagnostics import ERROR
 from wheel_force_estimator.ros.diagnostics import OK
@@ -94,6 +96,7 @@ from wheel_force_estimator.ros.diagnostics import WARN
 from wheel_force_estimator.ros.pacing import OutputPacer
 from wheel_force_estimator.ros.params import declare_node_parameters
 from wheel_force_estimator.ros.params import default as _default
+from wheel_force_estimator.ros.params import DEPRECATED_QOS_PARAMETERS
 from wheel_force_estimator.ros.params import model_layout
 from wheel_force_estimator.ros.params import unknown_parameters
 from wheel_force_estimator.ros.stream import ForceStream
@@ -124,7 +127,9 @@ _TAIL_STEP_S = 0.002
 #: Exit status after a second SIGINT/SIGTERM (128 + SIGINT, as a shell reports Ctrl-C).
 EXIT_INTERRUPTED = 130
 _DROP_REASONS = ('malformed', 'wrong_frame', 'nonfinite')
-_RCLError = rclpy_implementation.RCLError
+#: QoS policies settable through ``qos_overrides.<topic>.<publisher|subscription>.<policy>``.
+QOS_OVERRIDE_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH,
+                         QoSPolicyKind.RELIABILITY, QoSPolicyKind.DURABILITY)
 
 
 class WheelForceNode(Node):
@@ -144,7 +149,11 @@ class WheelForceNode(Node):
     """
 
     def __init__(self, **node_options):
-        super().__init__(NODE_NAME, **node_options)
+        # Every override is declared at once, so that the node can tell which names it was
+        # given (public API); its own parameters are then declared again with descriptors.
+        super().__init__(NODE_NAME, automatically_declare_parameters_from_overrides=True,
+                         **node_options)
+        given = tuple(self.list_parameters([], 0).names)
         try:
             self._params = params = declare_node_parameters(self)
             model = load_model(params.model_path)
@@ -162,10 +171,12 @@ class WheelForceNode(Node):
                 'parameter flush_timeout_s is deprecated and ignored: a pause of the input '
                 'keeps the filter (the look-ahead is completed at a gap in the stamps, a stamp '
                 'jump, deactivate or shutdown); stale input is stale_timeout_samples')
-        for name in unknown_parameters(self):
-            self.get_logger().warning(
-                f'parameter {name!r} (params file or -p) is not a parameter of this node: '
-                f'ignored (typo?)')
+        for name in DEPRECATED_QOS_PARAMETERS:
+            if getattr(params, name) != _default(name):
+                self.get_logger().warning(
+                    f'parameter {name} is deprecated: use the standard '
+                    f'qos_overrides.<topic>.<publisher|subscription>.<policy> parameters '
+                    f'(they win where both are given)')
         self._fs_hz = model.fs_hz
         self._model = model
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -192,6 +203,7 @@ class WheelForceNode(Node):
         self._final_sent_for = None       # samples_out at the last end-of-stream report
         self._paused_at = None            # samples_out when the input was last seen stopping
         self._sync_offset_ns = np.zeros(n, dtype=np.int64)   # worst out-of-tolerance offset
+        self._off_reported = np.zeros(n, dtype=np.int64)     # out-of-tolerance at last health
         self._damage_messages = 0
         self._wrong_types = [''] * n
         self._event = ''
@@ -204,18 +216,33 @@ class WheelForceNode(Node):
                          else ReliabilityPolicy.BEST_EFFORT))
         out_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=params.output_qos_depth,
                              reliability=ReliabilityPolicy.RELIABLE)
+        # Every publisher and subscription takes the standard qos_overrides.* parameters.
+        qos_opts = QoSOverridingOptions(policy_kinds=QOS_OVERRIDE_POLICIES)
         self._subs = [self.create_subscription(Imu, topic, self._imu_callback(c), in_qos,
-                                               raw=True)
+                                               raw=True, qos_overriding_options=qos_opts)
                       for c, topic in enumerate(params.imu_topics)]
-        self._pubs = [self.create_publisher(WrenchStamped, topic, out_qos)
+        self._pubs = [self.create_publisher(WrenchStamped, topic, out_qos,
+                                            qos_overriding_options=qos_opts)
                       for topic in params.output_topics]
         self._publish_fns = [pub.publish for pub in self._pubs]
-        self._damage_pub = self.create_publisher(DiagnosticArray, params.damage_topic, 10)
-        self._health_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
+        self._damage_pub = self.create_publisher(DiagnosticArray, params.damage_topic, 10,
+                                                 qos_overriding_options=qos_opts)
+        self._health_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10,
+                                                 qos_overriding_options=qos_opts)
         # Best effort matches reliable and best-effort event publishers alike.
         self._event_sub = self.create_subscription(
             String, params.event_topic, self._on_event,
-            QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+            QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT),
+            qos_overriding_options=qos_opts)
+        entities = ([(s.topic_name, 'subscription') for s in self._subs + [self._event_sub]]
+                    + [(p.topic_name, 'publisher')
+                       for p in self._pubs + [self._damage_pub, self._health_pub]])
+        #: Names the node was given that mean nothing to it (typos), warned at start.
+        self.unknown_parameters = unknown_parameters(given, entities)
+        for name in self.unknown_parameters:
+            self.get_logger().warning(
+                f'parameter {name!r} (params file or -p) is not a parameter of this node: '
+                f'ignored (typo?)')
         self._housekeeping = self.create_timer(HOUSEKEEPING_PERIOD_S, self._on_housekeeping,
                                                clock=self._steady)
         self._health_timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_health,
@@ -499,15 +526,29 @@ class WheelForceNode(Node):
         p50, p99 = (lat[np.searchsorted(weight, q * weight[-1])] for q in (0.5, 0.99))
         return float(p50), float(p99), float(lat[-1])
 
+    def _corner_rows(self, corner: int):
+        rows = list(self._layout.force_rows[corner])
+        if self._layout.torque_rows is not None:
+            rows += list(self._layout.torque_rows[corner])
+        return rows
+
+    def _corner_damage(self, corner: int, damage: np.ndarray):
+        """Return ``((key, damage), ...)`` of one corner's channels (``fx`` ...)."""
+        names = self._model.output_channels
+        return tuple((names[r].split('_', 1)[1], float(damage[r]))
+                     for r in self._corner_rows(corner))
+
+    def _health_stamp_ns(self) -> int:
+        """Return the ROS time, or the steady clock while the ROS clock is not running."""
+        ros_ns = self.get_clock().now().nanoseconds
+        return ros_ns if ros_ns > 0 else self._steady.now().nanoseconds
+
     def _publish_damage(self, report):
         stale = self.stale_reasons(time.monotonic())
-        names = self._model.output_channels
         reports = []
         for c, corner in enumerate(CORNERS):
-            rows = list(self._layout.force_rows[c])
-            if self._layout.torque_rows is not None:
-                rows += list(self._layout.torque_rows[c])
-            pairs = tuple((names[r].split('_', 1)[1], float(report.damage[r])) for r in rows)
+            rows = self._corner_rows(c)
+            pairs = self._corner_damage(c, report.damage)
             reports.append(CornerReport(corner, pairs,
                                         float(max(report.rate_per_s[rows].max(), 0.0)),
                                         stale[c], (('samples', report.n_samples),)))
@@ -521,7 +562,7 @@ class WheelForceNode(Node):
         for c, topic in enumerate(self._imu_names):
             try:
                 infos = self.get_publishers_info_by_topic(topic)
-            except _RCLError:
+            except RuntimeError:       # rclpy's RCLError: the graph is not available
                 continue
             types = sorted({i.topic_type for i in infos} - {IMU_TYPE})
             found = ', '.join(types)
@@ -537,9 +578,19 @@ class WheelForceNode(Node):
         now = time.monotonic()
         stale = self.stale_reasons(now)
         counters = self.counters()
+        budget = float(self.get_parameter('damage_budget').value)
+        damage = self._stream.damage()
+        off_now = np.asarray(counters['dropped_out_of_tolerance'])
+        off_new = off_now - self._off_reported
+        self._off_reported = off_now
         corners = []
         for c, corner in enumerate(CORNERS):
-            level, text = (WARN, f'stale input: {stale[c]}') if stale[c] else (OK, 'ok')
+            level, text = corner_level(self._corner_damage(c, damage), budget, stale[c])
+            if off_new[c]:
+                level = max(level, WARN)
+                text = (f'{off_new[c]} stamp(s) outside sync_tolerance_s (worst offset '
+                        f'{counters["sync_offset_max_us"][c] * 1e-3:.3f} ms)'
+                        + ('' if text == 'ok' else '; ' + text))
             values = [('topic', self._imu_names[c]), ('stale', 'true' if stale[c] else 'false')]
             values += [(key, value[c]) for key, value in counters.items()]
             corners.append((corner, level, text, values))
@@ -552,23 +603,28 @@ class WheelForceNode(Node):
                 corner for corner, why in zip(CORNERS, stale) if why)
         else:
             node_level, node_text = OK, 'running'
+        over = [corner for corner, level, _, _ in corners if level == ERROR]
+        if over:
+            node_level = ERROR
+            node_text = 'damage budget exceeded on ' + ', '.join(over)
         if any(self._wrong_types):
             node_level = ERROR
             node_text = 'input topic with the wrong message type'
         values = [('model', self._params.model_path), ('sample_rate_hz', f'{self._fs_hz:g}'),
                   ('block_size', self._params.block_size),
                   ('look_ahead_samples', self._stream.delay_samples),
+                  ('sync_tolerance_s', f'{self._layout.sync_tolerance_ns * 1e-9:g}'),
                   ('samples_in', stream['samples_in']), ('samples_out', stream['samples_out']),
                   ('published', self._published), ('waiting', self._n_unpublished),
                   ('gaps', stream['gaps']), ('missing_samples', stream['missing_samples']),
                   ('flushes', stream['flushes']), ('resets', stream['jumps']),
-                  ('damage_messages', self._damage_messages),
+                  ('damage_messages', self._damage_messages), ('damage_budget', f'{budget:g}'),
                   ('pacing_latency_p50_ms', f'{p50:.2f}'),
                   ('pacing_latency_p99_ms', f'{p99:.2f}'),
                   ('pacing_latency_max_ms', f'{worst:.2f}'), ('event', self._event)]
         self._health_pub.publish(build_health_array(
-            self.get_name(), self.get_fully_qualified_name(),
-            self.get_clock().now().nanoseconds, corners, (node_level, node_text, values)))
+            self.get_fully_qualified_name(), self._health_stamp_ns(), corners,
+            (node_level, node_text, values)))
         if any(stale):
             self.get_logger().warning(
                 'stale input: ' + '; '.join(f'{self._imu_names[c]} {why}'
@@ -693,7 +749,7 @@ def main(args=None) -> int:
     stop = threading.Event()
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    except _RCLError as err:
+    except RuntimeError as err:         # rclpy's RCLError
         # e.g. an unreadable --params-file: rcl refuses before any node exists.
         rclpy.logging.get_logger(NODE_NAME).fatal(f'refusing to start: {err}')
         return 1

@@ -16,7 +16,7 @@ checked against both by a test.  Topic names are relative (DESIGN.md), so the no
 with its namespace.
 """
 from dataclasses import dataclass
-from typing import Any, Optional, Tuple
+from typing import Any, Iterable, Optional, Tuple
 
 from rcl_interfaces.msg import FloatingPointRange
 from rcl_interfaces.msg import IntegerRange
@@ -136,6 +136,12 @@ def default(name: str):
 
 #: Names of the declared parameters (and ``use_sim_time``, which rclpy declares).
 PARAMETER_NAMES = frozenset(spec.name for spec in PARAMETERS) | {'use_sim_time'}
+#: Parameters every rclpy node declares itself.
+RCLPY_PARAMETER_NAMES = frozenset({'use_sim_time', 'start_type_description_service'})
+#: Prefix of the standard QoS override parameters (``QoSOverridingOptions``).
+QOS_OVERRIDES = 'qos_overrides'
+#: Deprecated QoS parameters: they set the base profile, ``qos_overrides.*`` wins.
+DEPRECATED_QOS_PARAMETERS = ('input_qos_depth', 'input_reliability', 'output_qos_depth')
 
 
 @dataclass(frozen=True)
@@ -244,6 +250,10 @@ def declare_node_parameters(node) -> NodeParams:
     """
     values = {}
     for spec in PARAMETERS:
+        if node.has_parameter(spec.name):
+            # Declared from its override (automatically_declare_parameters_from_overrides,
+            # so that the node can list what it was given): declare it again, properly.
+            node.undeclare_parameter(spec.name)
         try:
             param = node.declare_parameter(spec.name, spec.default, spec.descriptor())
         except ParameterException as err:
@@ -320,12 +330,28 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
                        causal_delay_samples=delay, sync_tolerance_ns=tolerance_ns)
 
 
-def unknown_parameters(node) -> Tuple[str, ...]:
+def unknown_parameters(given: Iterable[str],
+                       entities: Iterable[Tuple[str, str]]) -> Tuple[str, ...]:
     """
-    Return the names given to ``node`` (params file, ``-p``) that it does not declare.
+    Return the names given to the node (params file, ``-p``) that mean nothing to it.
 
     rclpy ignores them silently; a typo in a params file would otherwise go unnoticed.
+
+    Parameters
+    ----------
+    given : iterable of str
+        Names of the parameter overrides the node was started with.
+    entities : iterable of (str, str)
+        ``(resolved topic, 'publisher' | 'subscription')`` of the node's publishers and
+        subscriptions: ``qos_overrides.<topic>.<kind>.<policy>`` is known for these.
+
+    Returns
+    -------
+    tuple of str
+        Sorted unknown names.
+
     """
-    overrides = getattr(node, '_parameter_overrides', None) or {}
-    return tuple(sorted(name for name in overrides if name not in PARAMETER_NAMES
-                        and not node.has_parameter(name)))
+    known = PARAMETER_NAMES | RCLPY_PARAMETER_NAMES
+    prefixes = tuple(f'{QOS_OVERRIDES}.{topic}.{kind}.' for topic, kind in entities)
+    return tuple(sorted(name for name in given if name not in known
+                        and not (name.startswith(prefixes) and name.count('.') >= 3)))
