@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import rclpy
 from rclpy.context import Context
+from rclpy.lifecycle import TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from support.ros_testing import isolated_ros_env
 from support.ros_testing import synthetic_model
@@ -163,7 +164,11 @@ def make_node(context, model_path, **params):
     overrides = [Parameter('model_path', value=str(model_path)),
                  Parameter('live_look_ahead_s', value=48 / 512)]
     overrides += [Parameter(k, value=v) for k, v in params.items()]
-    return WheelForceNode(context=context, parameter_overrides=overrides)
+    node = WheelForceNode(context=context, parameter_overrides=overrides)
+    if node.trigger_configure() != TransitionCallbackReturn.SUCCESS:
+        node.destroy_node()
+        raise node.configure_error
+    return node
 
 
 def test_node_declares_descriptors_and_only_budget_is_live(ros_context, model_file):
@@ -276,6 +281,7 @@ def test_qos_overrides_take_effect_on_subscriptions_and_publishers(ros_context, 
         'qos_overrides./virtual_wft/damage.publisher.durability': 'transient_local',
         'qos_overrides./virtual_wft/lr/wrench.publisher.depth': 4096})
     try:
+        assert node.trigger_activate() == TransitionCallbackReturn.SUCCESS
         subs = {topic: info.qos_profile.reliability for topic in
                 ('/spindle/lf/imu', '/spindle/rf/imu')
                 for info in node.get_subscriptions_info_by_topic(topic)}

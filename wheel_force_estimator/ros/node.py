@@ -51,6 +51,7 @@ shutdown.  Run with the ``EventsExecutor`` spun with a finite timeout (without o
 busy-spins and runs nothing).
 """
 import collections
+import dataclasses
 import gc
 import os
 import signal
@@ -66,6 +67,9 @@ from rclpy.clock import ClockType
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
+from rclpy.lifecycle import LifecycleNode
+from rclpy.lifecycle import LifecycleState
+from rclpy.lifecycle import TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy
 from rclpy.qos import QoSPolicyKind
@@ -75,11 +79,13 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import Imu
 from std_msgs.msg import String
+from std_srvs.srv import Trigger
 
 from wheel_force_estimator import CORNERS
 from wheel_force_estimator.bagio.cdr import decode_imu
 from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.bagio.cdr import encode_wrench
+from wheel_force_estimator.core.errors import ModelFileError
 from wheel_force_estimator.core.errors import WheelForceError
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.core.predict import Predictor
@@ -132,7 +138,7 @@ QOS_OVERRIDE_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH,
                          QoSPolicyKind.RELIABILITY, QoSPolicyKind.DURABILITY)
 
 
-class WheelForceNode(Node):
+class WheelForceNode(LifecycleNode):
     """
     Virtual wheel force transducer node (see the module notes).
 
@@ -156,16 +162,9 @@ class WheelForceNode(Node):
         given = tuple(self.list_parameters([], 0).names)
         try:
             self._params = params = declare_node_parameters(self)
-            model = load_model(params.model_path)
-            self._layout = layout = model_layout(model, params)
-            self._stream = _make_stream(model, layout, params)
-            if self._stream.fallback:
-                # Once, at start: the model predates the live estimator (issue 16).
-                self.get_logger().warning(f'{params.model_path}: {self._stream.fallback}')
         except WheelForceError:
             self.destroy_node()
             raise
-        _warm_up(model, layout, params)
         if params.flush_timeout_s != _default('flush_timeout_s'):
             self.get_logger().warning(
                 'parameter flush_timeout_s is deprecated and ignored: a pause of the input '
@@ -177,9 +176,112 @@ class WheelForceNode(Node):
                     f'parameter {name} is deprecated: use the standard '
                     f'qos_overrides.<topic>.<publisher|subscription>.<policy> parameters '
                     f'(they win where both are given)')
+        entities = ([(self.resolve_topic_name(t), 'subscription')
+                     for t in params.imu_topics + (params.event_topic,)]
+                    + [(self.resolve_topic_name(t), 'publisher')
+                       for t in params.output_topics + (params.damage_topic,
+                                                        DIAGNOSTICS_TOPIC)])
+        #: Names the node was given that mean nothing to it (typos), warned at start.
+        self.unknown_parameters = unknown_parameters(given, entities)
+        for name in self.unknown_parameters:
+            self.get_logger().warning(
+                f'parameter {name!r} (params file or -p) is not a parameter of this node: '
+                f'ignored (typo?)')
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        #: Why the last configure failed (``None`` after a success).
+        self.configure_error = None
+        #: Imu messages taken from DDS (all corners).
+        self.messages_taken = 0
+        self._active = False
+        self._starting = False
+        self._model = None
+        self._subs = []
+        self._timers = []
+        self._services = [
+            self.create_service(Trigger, '~/reset_damage', self._on_reset_damage),
+            self.create_service(Trigger, '~/reload_model', self._on_reload_model)]
+
+    # -- life cycle --------------------------------------------------------------------------
+
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Load and check the model, make the estimation chain and the publishers."""
+        try:
+            model, layout, stream = self._load(self._params.model_path)
+        except WheelForceError as err:
+            self.configure_error = err
+            if not self._starting:          # at start, main() says it in one line
+                self.get_logger().error(f'configure failed: {err}')
+            return TransitionCallbackReturn.FAILURE
+        self.configure_error = None
+        self._setup(model, layout, stream)
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Subscribe the inputs and start the timers."""
+        self._subscribe()
+        self._active = True
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Complete the estimates in flight, publish them and the damage, unsubscribe."""
+        self._stop()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Release the model and the publishers."""
+        self._release()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Finish as a deactivate would, then release."""
+        if self._active:
+            self._stop()
+        if self._model is not None:
+            self._release()
+        return TransitionCallbackReturn.SUCCESS
+
+    @property
+    def active(self) -> bool:
+        """Return whether the node is in the active state (subscribed and publishing)."""
+        return self._active
+
+    def start(self) -> bool:
+        """
+        Configure and activate (``autostart``).
+
+        Returns
+        -------
+        bool
+            False when configure failed (:attr:`configure_error` says why).
+
+        """
+        self._starting = True
+        try:
+            configured = self.trigger_configure() == TransitionCallbackReturn.SUCCESS
+        finally:
+            self._starting = False
+        if configured:
+            self.trigger_activate()
+        return configured
+
+    def _load(self, model_path: str):
+        """Return (model, layout, stream) for ``model_path``, checked; raise WheelForceError."""
+        params = dataclasses.replace(self._params, model_path=model_path)
+        model = load_model(model_path)
+        layout = model_layout(model, params)
+        stream = _make_stream(model, layout, params)
+        if stream.fallback:
+            # Once per load: the model predates the live estimator (issue 16).
+            self.get_logger().warning(f'{model_path}: {stream.fallback}')
+        _warm_up(model, layout, params)
+        return model, layout, stream
+
+    def _setup(self, model, layout, stream):
+        params = self._params
+        self._layout = layout
+        self._stream = stream
         self._fs_hz = model.fs_hz
         self._model = model
-        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._aligner = CornerAligner(
             len(CORNERS), 3, max(params.input_qos_depth, params.stale_timeout_samples, 64),
             tolerance_ns=layout.sync_tolerance_ns, period_ns=1e9 / model.fs_hz)
@@ -187,8 +289,6 @@ class WheelForceNode(Node):
         self._check_frames = any(params.imu_frame_ids)
         n = len(CORNERS)
         self._raw = [[] for _ in range(n)]
-        #: Imu messages taken from DDS (all corners).
-        self.messages_taken = 0
         self._queued = 0                  # stream samples waiting for their block
         self._out = collections.deque()   # [per-corner serialized messages, next index, ready]
         self._n_unpublished = 0
@@ -209,18 +309,10 @@ class WheelForceNode(Node):
         self._event = ''
         # Without moments in the model the torque is unknown: 0 (default) or NaN.
         self._nan_torque = layout.torque_rows is None and params.unknown_torque == 'nan'
-
-        in_qos = QoSProfile(
-            history=HistoryPolicy.KEEP_LAST, depth=params.input_qos_depth,
-            reliability=(ReliabilityPolicy.RELIABLE if params.input_reliability == 'reliable'
-                         else ReliabilityPolicy.BEST_EFFORT))
         out_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=params.output_qos_depth,
                              reliability=ReliabilityPolicy.RELIABLE)
         # Every publisher and subscription takes the standard qos_overrides.* parameters.
         qos_opts = QoSOverridingOptions(policy_kinds=QOS_OVERRIDE_POLICIES)
-        self._subs = [self.create_subscription(Imu, topic, self._imu_callback(c), in_qos,
-                                               raw=True, qos_overriding_options=qos_opts)
-                      for c, topic in enumerate(params.imu_topics)]
         self._pubs = [self.create_publisher(WrenchStamped, topic, out_qos,
                                             qos_overriding_options=qos_opts)
                       for topic in params.output_topics]
@@ -229,38 +321,119 @@ class WheelForceNode(Node):
                                                  qos_overriding_options=qos_opts)
         self._health_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10,
                                                  qos_overriding_options=qos_opts)
+        self._imu_names = [self.resolve_topic_name(t) for t in params.imu_topics]
+        delay = stream.delay_samples
+        self.get_logger().info(
+            f'{self.get_fully_qualified_name()}: model {params.model_path}: '
+            f'{model.fs_hz:g} Hz, block {params.block_size} samples '
+            f'({params.block_size / model.fs_hz * 1e3:.0f} ms), look-ahead {delay} samples '
+            f'({delay / model.fs_hz * 1e3:.0f} ms), sync tolerance '
+            f'{layout.sync_tolerance_ns * 1e-6:.3f} ms; inputs {", ".join(self._imu_names)} '
+            f'({params.input_reliability} unless qos_overrides); outputs '
+            f'{", ".join(pub.topic_name for pub in self._pubs)} (frames '
+            f'{", ".join(params.frame_ids)}); damage {self._damage_pub.topic_name}; '
+            f'events {self.resolve_topic_name(params.event_topic)}; '
+            f'health {self._health_pub.topic_name}')
+
+    def _subscribe(self):
+        params = self._params
+        in_qos = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST, depth=params.input_qos_depth,
+            reliability=(ReliabilityPolicy.RELIABLE if params.input_reliability == 'reliable'
+                         else ReliabilityPolicy.BEST_EFFORT))
+        qos_opts = QoSOverridingOptions(policy_kinds=QOS_OVERRIDE_POLICIES)
+        self._subs = [self.create_subscription(Imu, topic, self._imu_callback(c), in_qos,
+                                               raw=True, qos_overriding_options=qos_opts)
+                      for c, topic in enumerate(params.imu_topics)]
         # Best effort matches reliable and best-effort event publishers alike.
-        self._event_sub = self.create_subscription(
+        self._subs.append(self.create_subscription(
             String, params.event_topic, self._on_event,
             QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT),
-            qos_overriding_options=qos_opts)
-        entities = ([(s.topic_name, 'subscription') for s in self._subs + [self._event_sub]]
-                    + [(p.topic_name, 'publisher')
-                       for p in self._pubs + [self._damage_pub, self._health_pub]])
-        #: Names the node was given that mean nothing to it (typos), warned at start.
-        self.unknown_parameters = unknown_parameters(given, entities)
-        for name in self.unknown_parameters:
-            self.get_logger().warning(
-                f'parameter {name!r} (params file or -p) is not a parameter of this node: '
-                f'ignored (typo?)')
+            qos_overriding_options=qos_opts))
         self._housekeeping = self.create_timer(HOUSEKEEPING_PERIOD_S, self._on_housekeeping,
                                                clock=self._steady)
         self._health_timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_health,
                                                clock=self._steady)
         # Paces what waits when no input arrives (a tail): one sample per sample period.
-        self._idle_timer = self.create_timer(1.0 / model.fs_hz, self._on_idle_tick,
+        self._idle_timer = self.create_timer(1.0 / self._fs_hz, self._on_idle_tick,
                                              clock=self._steady, autostart=False)
-        self._imu_names = [sub.topic_name for sub in self._subs]
-        delay = self._stream.delay_samples
-        self.get_logger().info(
-            f'{self.get_fully_qualified_name()}: model {params.model_path}: '
-            f'{model.fs_hz:g} Hz, block {params.block_size} samples '
-            f'({params.block_size / model.fs_hz * 1e3:.0f} ms), look-ahead {delay} samples '
-            f'({delay / model.fs_hz * 1e3:.0f} ms); inputs {", ".join(self._imu_names)} '
-            f'({params.input_reliability}); outputs '
-            f'{", ".join(pub.topic_name for pub in self._pubs)} (frames '
-            f'{", ".join(params.frame_ids)}); damage {self._damage_pub.topic_name}; '
-            f'events {self._event_sub.topic_name}; health {self._health_pub.topic_name}')
+        self._timers = [self._housekeeping, self._health_timer, self._idle_timer]
+        self.get_logger().info('active: inputs subscribed')
+
+    def _stop(self):
+        """Deactivate: take what is buffered, complete and publish everything, unsubscribe."""
+        for sub in self._subs:
+            self.destroy_subscription(sub)
+        for timer in self._timers:
+            self.destroy_timer(timer)
+        self._subs, self._timers = [], []
+        if any(self._raw):
+            self._process(time.monotonic())
+        self._end_of_stream('deactivated', always=True)
+        self._publish_tail()
+        self._publish_health()
+        self._active = False
+
+    def _release(self):
+        for pub in self._pubs + [self._damage_pub, self._health_pub]:
+            self.destroy_publisher(pub)
+        self._pubs, self._publish_fns = [], []
+        self._model = self._stream = None
+        self.get_logger().info('cleaned up: model released')
+
+    # -- services ----------------------------------------------------------------------------
+
+    def _on_reset_damage(self, request, response):
+        """``~/reset_damage``: publish the final damage of the run, then count from zero."""
+        if not self._active:
+            response.success = False
+            response.message = 'not active: nothing changed'
+            return response
+        if any(self._raw):
+            self._process(time.monotonic())
+        final = self._stream.reset_damage()
+        if final is not None:
+            self._publish_damage(final)
+        self._final_sent_for = None
+        response.success = True
+        response.message = ('damage run ended at ' + (
+            f'{final.stamp_ns} ns after {final.n_samples} estimate(s) (published on '
+            f'{self._damage_pub.topic_name})' if final is not None else 'no estimate yet')
+            + '; counting from zero')
+        self.get_logger().info(f'reset_damage: {response.message}')
+        return response
+
+    def _on_reload_model(self, request, response):
+        """``~/reload_model``: read ``model_path`` again; keep the old model on failure."""
+        if self._model is None:
+            response.success = False
+            response.message = 'not configured: configure loads the model'
+            return response
+        path = str(self.get_parameter('model_path').value)
+        try:
+            model, layout, stream = self._load(path)
+            if model.fs_hz != self._fs_hz:
+                raise ModelFileError(f'{path}: sample rate {model.fs_hz:g} Hz differs from '
+                                     f'that of the running model, {self._fs_hz:g} Hz: '
+                                     f'reconfigure')
+        except WheelForceError as err:
+            response.success = False
+            response.message = f'{err}; the old model keeps running'
+            self.get_logger().error(f'reload_model: {response.message}')
+            return response
+        if any(self._raw):
+            self._process(time.monotonic())
+        # The old model completes what it has in flight; the new one starts afresh.
+        self._end_of_stream(f'reload_model {path}', always=True)
+        self._params = dataclasses.replace(self._params, model_path=path)
+        self._model, self._layout, self._stream = model, layout, stream
+        self._nan_torque = (layout.torque_rows is None
+                            and self._params.unknown_torque == 'nan')
+        self._final_sent_for = None
+        response.success = True
+        response.message = f'model {path} loaded; estimates in flight completed by the old one'
+        self.get_logger().info(f'reload_model: {response.message}')
+        return response
 
     # -- callbacks ---------------------------------------------------------------------------
 
@@ -282,6 +455,17 @@ class WheelForceNode(Node):
 
     def _on_event(self, msg: String):
         self._event = msg.data
+        if not self._params.damage_per_event:
+            return
+        # The event carries no stamp: the new run starts after the newest sample received.
+        if any(self._raw):
+            self._process(time.monotonic())
+        lasts = [self._aligner.last_stamp_ns(c) for c in range(len(CORNERS))]
+        newest = max((t for t in lasts if t is not None), default=None)
+        if newest is None:
+            self._stream.split_damage(-1, msg.data)     # before any data: the first run
+        else:
+            self._stream.split_damage(newest + self._layout.sync_tolerance_ns, msg.data)
 
     def _on_housekeeping(self):
         now = time.monotonic()
@@ -549,9 +733,12 @@ class WheelForceNode(Node):
         for c, corner in enumerate(CORNERS):
             rows = self._corner_rows(c)
             pairs = self._corner_damage(c, report.damage)
+            extra = (('samples', report.n_samples),)
+            if self._params.damage_per_event:
+                extra += (('event', report.run),)
             reports.append(CornerReport(corner, pairs,
                                         float(max(report.rate_per_s[rows].max(), 0.0)),
-                                        stale[c], (('samples', report.n_samples),)))
+                                        stale[c], extra))
         budget = float(self.get_parameter('damage_budget').value)
         self._damage_pub.publish(build_damage_array(
             reports, self.get_fully_qualified_name(), report.stamp_ns, budget))
@@ -639,11 +826,10 @@ class WheelForceNode(Node):
         :data:`SHUTDOWN_TAIL_S`; then every publisher's acknowledgements are awaited against
         one deadline, :data:`SHUTDOWN_ACK_S` in all.
         """
-        if any(self._raw):
-            self._process(time.monotonic())
-        self._end_of_stream(always=True)   # main() logs the summary
-        self._publish_tail()
-        self._publish_health()
+        if self._active:
+            self._stop()
+        if self._model is None:
+            return
         deadline = time.monotonic() + SHUTDOWN_ACK_S
         for pub in self._pubs + [self._damage_pub, self._health_pub]:
             left_s = deadline - time.monotonic()
@@ -669,10 +855,14 @@ class WheelForceNode(Node):
     @property
     def waiting(self) -> int:
         """Return the estimates not published yet: held for the look-ahead or paced [samples]."""
+        if self._model is None:
+            return 0
         return self._stream.in_flight + self._n_unpublished
 
     def summary(self) -> str:
         """Return the counters and the pacing latency as one line."""
+        if self._model is None:
+            return 'not configured: no counters'
         counters = self.counters()
         text = ', '.join(f'{key}={value}' for key, value in counters.items())
         p50, p99, worst = self.pacing_latency_ms()
@@ -759,6 +949,15 @@ def main(args=None) -> int:
         rclpy.logging.get_logger(NODE_NAME).fatal(f'refusing to start: {err}')
         rclpy.try_shutdown()
         return 1
+    if node.get_parameter('autostart').value:
+        # Plain use stays one command: configure and activate now (autostart:=false waits
+        # unconfigured for `ros2 lifecycle set`).
+        if not node.start():
+            rclpy.logging.get_logger(NODE_NAME).fatal(
+                f'refusing to start: {node.configure_error}')
+            node.destroy_node()
+            rclpy.try_shutdown()
+            return 1
     # Everything allocated so far (rclpy, numpy, scipy, numba, the model) lives for the whole
     # run: keep it out of the cyclic collector, whose full passes otherwise stall the executor
     # for ~80 ms (measured), long enough to overflow the input queues at a fast replay.

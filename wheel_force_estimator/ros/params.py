@@ -5,10 +5,11 @@ Parameters of ``wheel_force_node``: declarations, validation and the model check
 
 Every key of the ``/**`` section of ``config/wheel_force.yaml`` is declared with a
 ``ParameterDescriptor`` whose description states the unit, with a numeric range where one
-exists, read-only unless a live change makes sense (only ``damage_budget`` may change while
-running: it affects the diagnostics level, nothing else).  All values are then checked together
-in :class:`NodeParams`; any problem raises :class:`ConfigError` naming the parameter, and the
-node refuses to start with that one message.
+exists, read-only unless a live change makes sense: ``damage_budget`` (it affects the
+diagnostics level, nothing else) and ``model_path`` (read again by ``~/reload_model``).
+All values are then checked together in :class:`NodeParams`; any problem raises
+:class:`ConfigError` naming the parameter, and the node refuses to start with that one
+message.
 
 Defaults have one home each: topic names and frame ids are :mod:`..bagio.topics`'s (shared
 with the offline commands), everything else is in :data:`PARAMETERS`; the shipped params file is
@@ -63,7 +64,8 @@ class _Spec:
 
 _FOUR = 'list of 4, corners lf, rf, lr, rr'
 PARAMETERS = (
-    _Spec('model_path', '', 'model file (.npz) written by `wheel-force fit` [path]',
+    _Spec('model_path', '', 'model file (.npz) written by `wheel-force fit`; read at '
+          'configure and by ~/reload_model [path]', read_only=False,
           constraints='required; channels and sample rate must match the node'),
     _Spec('imu_topics', list(topic_defaults.DEFAULT_IMU_TOPICS),
           'sensor_msgs/Imu input topics, relative to the node namespace [topic names]',
@@ -123,6 +125,12 @@ PARAMETERS = (
     _Spec('sample_rate_hz', 0.0,
           "expected input sample rate; 0 = the model's; else must equal the model's [Hz]",
           float_range=(0.0, 1.0e6)),
+    _Spec('autostart', True,
+          'configure and activate at start (false: wait unconfigured for a lifecycle '
+          'transition) [-]'),
+    _Spec('damage_per_event', False,
+          'each proving_ground/event message ends the damage run and starts a new one '
+          'named after the event [-]'),
     _Spec('unknown_torque', 'zero',
           'wrench torque when the model estimates no moments: zero or NaN [-]',
           constraints='zero | nan'),
@@ -177,6 +185,8 @@ class NodeParams:
     flush_timeout_s: float
     sync_tolerance_s: float
     sample_rate_hz: float
+    autostart: bool
+    damage_per_event: bool
     unknown_torque: str
 
     def __post_init__(self):
