@@ -10,24 +10,18 @@ paused in the middle: in both, every sample must come out, equal to offline
 import signal
 import time
 
-from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import WrenchStamped
 import numpy as np
 import pytest
-from rclpy.qos import HistoryPolicy
-from rclpy.qos import QoSProfile
 from rclpy.qos import ReliabilityPolicy
-from sensor_msgs.msg import Imu
+from support.loggers import Loggers
+from support.loggers import stop_and_collect
 from support.ros_testing import sample_stamps
-from support.ros_testing import SpinningParticipant
 from support.ros_testing import start_node
 from support.ros_testing import stop_node
 from support.ros_testing import synthetic_accel
 from support.ros_testing import synthetic_model
 from support.ros_testing import wait_until
 
-from wheel_force_estimator.bagio.cdr import decode_wrench
-from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.ros.diagnostics import status_values
@@ -41,8 +35,6 @@ CORNERS = ('lf', 'rf', 'lr', 'rr')
 # The node and predict_forces run the same Predictor; they differ by FFT rounding only
 # (~1e-15 of the force scale).  A misplaced or lost sample, or a restarted filter, is O(1).
 RTOL = 1e-9
-RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000,
-                      reliability=ReliabilityPolicy.RELIABLE)
 # Reliable inputs, set the standard way: these tests count every sample, which best-effort
 # delivery on a loaded 2-core machine cannot promise (the best-effort default has its own
 # test below).
@@ -57,64 +49,6 @@ NODE_PARAMS = dict(RELIABLE_INPUTS, live_look_ahead_s=DELAY / FS_HZ,
 def model_and_file(tmp_path_factory):
     model = synthetic_model(fs_hz=FS_HZ, n_taps=160, delay_samples=DELAY, seed=51)
     return model, save_model(model, tmp_path_factory.mktemp('model') / 'model.npz')
-
-
-class Loggers(SpinningParticipant):
-    """Four Imu drivers (one publisher each) and a recorder of the node's outputs."""
-
-    def __init__(self, name):
-        super().__init__(name)
-        self.pubs = [self.node.create_publisher(Imu, f'/spindle/{c}/imu', RELIABLE)
-                     for c in CORNERS]
-        self.raw = {c: [] for c in CORNERS}
-        self.subs = [self.node.create_subscription(
-            WrenchStamped, f'/virtual_wft/{c}/wrench', self.raw[c].append, RELIABLE,
-            raw=True) for c in CORNERS]
-        self.health = []
-        self.subs.append(self.node.create_subscription(DiagnosticArray, '/diagnostics',
-                                                       self.health.append, 50))
-        self.start()
-
-    def wait_for_node(self, timeout_s=60.0):
-        ok = wait_until(lambda: all(p.get_subscription_count() for p in self.pubs)
-                        and all(s.get_publisher_count() for s in self.subs[:4]), timeout_s)
-        time.sleep(0.5)                 # the node's readers see us a little after we see them
-        return ok
-
-    def publish(self, corner_stamps, accel, rate, burst=4):
-        """Publish sample k of every corner at its grid time / ``rate``, corner by corner."""
-        msgs = [encode_imu(corner_stamps[c], accel[3 * c:3 * c + 3], f'{corner}_spindle')
-                for c, corner in enumerate(CORNERS)]
-        n = corner_stamps[0].size
-        start = time.monotonic()
-        for lo in range(0, n, burst):
-            time.sleep(max(0.0, lo / FS_HZ / rate - (time.monotonic() - start)))
-            for c in range(len(CORNERS)):
-                for k in range(lo, min(lo + burst, n)):
-                    self.pubs[c].publish(msgs[c][k])
-
-    def forces(self, corner):
-        stamps, wrench, bad = decode_wrench(list(self.raw[corner]))
-        assert not bad.any()
-        return stamps, wrench
-
-
-def received(peer):
-    """Return the Imu messages the node reports received per corner (last /diagnostics)."""
-    if not peer.health:
-        return []
-    values = {s.name.rsplit(': ', 1)[-1]: status_values(s) for s in peer.health[-1].status}
-    return [int(values[c]['received']) for c in CORNERS if c in values]
-
-
-def stop_and_collect(proc, peer, n):
-    """Stop the node (it completes its look-ahead), wait for ``n`` outputs per corner."""
-    # Stop once the node has taken every input (what DDS still holds at a stop is not read).
-    assert wait_until(lambda: received(peer) == [n] * 4, 10.0), received(peer)
-    proc.send_signal(signal.SIGINT)
-    assert proc.wait(20) == 0
-    assert wait_until(lambda: all(len(r) == n for r in peer.raw.values()), 5.0), \
-        [len(r) for r in peer.raw.values()]
 
 
 @pytest.mark.slow

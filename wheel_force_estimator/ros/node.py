@@ -196,8 +196,8 @@ class WheelForceNode(LifecycleNode):
         self._starting = False
         self._model = None
         self._subs = []
-        self._timers = []
-        self._services = [
+        self._own_timers = []
+        self._trigger_services = [
             self.create_service(Trigger, '~/reset_damage', self._on_reset_damage),
             self.create_service(Trigger, '~/reload_model', self._on_reload_model)]
 
@@ -357,16 +357,16 @@ class WheelForceNode(LifecycleNode):
         # Paces what waits when no input arrives (a tail): one sample per sample period.
         self._idle_timer = self.create_timer(1.0 / self._fs_hz, self._on_idle_tick,
                                              clock=self._steady, autostart=False)
-        self._timers = [self._housekeeping, self._health_timer, self._idle_timer]
+        self._own_timers = [self._housekeeping, self._health_timer, self._idle_timer]
         self.get_logger().info('active: inputs subscribed')
 
     def _stop(self):
         """Deactivate: take what is buffered, complete and publish everything, unsubscribe."""
         for sub in self._subs:
             self.destroy_subscription(sub)
-        for timer in self._timers:
+        for timer in self._own_timers:
             self.destroy_timer(timer)
-        self._subs, self._timers = [], []
+        self._subs, self._own_timers = [], []
         if any(self._raw):
             self._process(time.monotonic())
         self._end_of_stream('deactivated', always=True)
