@@ -200,3 +200,57 @@ def test_health_carries_the_damage_budget_and_a_running_stamp_without_clock(
     finally:
         peer.close()
         assert stop_node(proc) == 0
+
+
+@pytest.mark.slow
+def test_shutdown_under_a_stalled_subscriber_within_5_s_and_twice_at_once(
+        ros_env, model_and_file, tmp_path):
+    # A reliable subscriber frozen (SIGSTOP: it never acknowledges).  Bugs caught: one
+    # acknowledgement wait per publisher one after another (10 s, launch escalates at 5 s),
+    # and a second Ctrl-C that does nothing.
+    import subprocess
+    import sys
+    from pathlib import Path
+    _, path = model_and_file
+    counter = Path(__file__).resolve().parent / 'support' / 'ros_testing.py'
+    topics = [f'/virtual_wft/{c}/wrench' for c in CORNERS] + ['/virtual_wft/damage']
+    n = 1024
+    stamps = sample_stamps(n)
+    accel = synthetic_accel(n, FS_HZ, seed=57)
+    elapsed = {}
+    for run in ('once', 'twice'):
+        log = tmp_path / f'{run}.log'
+        proc = start_node(path, ros_env, NODE_PARAMS, log_path=log)
+        reader = subprocess.Popen(
+            [sys.executable, str(counter), 'reliable', '5', str(10 * n), '60', *topics[:4]],
+            env=ros_env, stdout=subprocess.PIPE, text=True)
+        peer = Loggers(f'stalled_{run}')
+        try:
+            assert reader.stdout.readline().strip() == 'ready'
+            assert peer.wait_for_node(), 'node did not come up'
+            time.sleep(0.5)
+            reader.send_signal(signal.SIGSTOP)
+            peer.publish([stamps] * 4, accel, rate=4.0)
+            time.sleep(0.5)
+            started = time.monotonic()
+            proc.send_signal(signal.SIGINT)
+            if run == 'twice':
+                time.sleep(0.3)
+                proc.send_signal(signal.SIGINT)
+            code = proc.wait(20)
+            elapsed[run] = time.monotonic() - started
+        finally:
+            peer.close()
+            stop_node(proc)
+            reader.send_signal(signal.SIGCONT)
+            reader.kill()
+            reader.wait()
+        text = log.read_text()
+        if run == 'once':
+            assert code == 0
+            assert 'not every subscriber acknowledged' in text
+        else:
+            assert code == 130
+            assert 'SIGINT again: exiting at once' in text and 'not published' in text
+    assert elapsed['once'] < 5.0, elapsed
+    assert elapsed['twice'] < elapsed['once'] and elapsed['twice'] < 1.5, elapsed

@@ -130,6 +130,8 @@ SHUTDOWN_TAIL_S = 1.0
 SHUTDOWN_DRAIN_S = 0.5
 #: Step of the paced shutdown tail [s].
 _TAIL_STEP_S = 0.002
+#: Longest single acknowledgement wait at shutdown (signals are handled between them) [s].
+_ACK_SLICE_S = 0.05
 #: Exit status after a second SIGINT/SIGTERM (128 + SIGINT, as a shell reports Ctrl-C).
 EXIT_INTERRUPTED = 130
 _DROP_REASONS = ('malformed', 'wrong_frame', 'nonfinite')
@@ -831,13 +833,16 @@ class WheelForceNode(LifecycleNode):
         if self._model is None:
             return
         deadline = time.monotonic() + SHUTDOWN_ACK_S
-        for pub in self._pubs + [self._damage_pub, self._health_pub]:
-            left_s = deadline - time.monotonic()
-            if left_s <= 0.0 or not pub.wait_for_all_acked(Duration(seconds=left_s)):
-                self.get_logger().warning(
-                    f'{pub.topic_name}: not every subscriber acknowledged the last messages '
-                    f'within {SHUTDOWN_ACK_S:g} s (a stalled reliable subscriber?)')
-                break
+        pending = self._pubs + [self._damage_pub, self._health_pub]
+        while pending and time.monotonic() < deadline:
+            # Short slices: a second SIGINT is handled between them, not after the wait.
+            pending = [pub for pub in pending
+                       if not pub.wait_for_all_acked(Duration(seconds=_ACK_SLICE_S))]
+        if pending:
+            self.get_logger().warning(
+                f'{", ".join(pub.topic_name for pub in pending)}: not every subscriber '
+                f'acknowledged the last messages within {SHUTDOWN_ACK_S:g} s (a stalled '
+                f'reliable subscriber?)')
 
     def _publish_tail(self):
         """Publish what waits, paced (see :meth:`finish`)."""
