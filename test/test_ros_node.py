@@ -168,6 +168,8 @@ def test_replay_through_node_equals_offline_prediction(node, model_and_file, tmp
     assert proc.wait(20) == 0                        # stopped after the replay
     text = log.read_text()
     assert 'counters per corner' in text and 'pacing latency' in text
+    # input_reliability still works, with a warning naming the standard way
+    assert 'parameter input_reliability is deprecated' in text and 'qos_overrides' in text
     # the gap is logged once, with its size and the stamps either side
     gap_lines = [ln for ln in text.splitlines() if 'input gap' in ln]
     assert len(gap_lines) == 1 and '5 sample(s) missing' in gap_lines[0]

@@ -3,7 +3,12 @@
 """
 ``wheel_force_node``: the live virtual wheel force transducer.
 
-Wiring (all in ``WheelForceNode.__init__``; callbacks stay tiny):
+An ``rclpy`` lifecycle node (``docs/logger_graph.md``): ``__init__`` declares the parameters
+and the services (``~/reset_damage``, ``~/reload_model``), ``configure`` loads the model and
+makes the publishers, ``activate`` the subscriptions and timers, ``deactivate`` completes and
+publishes what is in flight, ``cleanup`` releases; ``autostart`` (default) runs configure and
+activate at start.  Every publisher and subscription takes ``qos_overrides.*``.  Wiring
+(callbacks stay tiny):
 
 * four ``sensor_msgs/Imu`` subscriptions, ``raw=True``, on relative topic names (they move with
   the node's namespace): a callback only appends the serialized bytes to its corner's list.
@@ -12,7 +17,7 @@ Wiring (all in ``WheelForceNode.__init__``; callbacks stay tiny):
   and fed to the shared :class:`~wheel_force_estimator.core.predict.Predictor` in blocks
   (:mod:`.stream`).  A batch is processed as soon as the buffered messages could complete a
   block, else by the housekeeping timer.
-* four ``geometry_msgs/WrenchStamped`` publishers (RELIABLE, KEEP_LAST ``output_qos_depth``),
+* four ``geometry_msgs/WrenchStamped`` publishers (RELIABLE, KEEP_LAST 1024 by default),
   one message per input sample per corner, stamped with the estimated input sample's stamp.
   **Steady output**: a finished block is not published in one burst (a reliable keep-last-5
   subscriber such as ``ros2 topic echo`` would lose most of it) but paced at the input
