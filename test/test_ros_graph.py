@@ -355,8 +355,10 @@ def test_sigterm_flushes_the_look_ahead_and_publishes_everything(
         ros_env, model_and_file, tmp_path, node_procs):
     model, path = model_and_file
     log = tmp_path / 'node.log'
-    # a pause never flushes (data time decides): what arrives below is the shutdown's doing
-    proc = node_procs(path, ros_env, {'input_reliability': 'reliable'}, log_path=log)
+    # a pause never flushes (data time decides): what arrives below is the shutdown's doing.
+    # A deep input history: at 4x a 100 ms stall of this loaded machine overflows 200.
+    proc = node_procs(path, ros_env, {'input_reliability': 'reliable', 'input_qos_depth': 5000},
+                      log_path=log)
     n = 1000                                  # not a multiple of the block: a partial block
     stamps = sample_stamps(n)
     accel = synthetic_accel(n, FS_HZ, seed=46)
