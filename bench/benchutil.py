@@ -1,7 +1,23 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""Timing helper shared by the benchmark scripts (run as ``python bench/bench_x.py``)."""
+"""Helpers shared by the benchmark scripts (run as ``python bench/bench_x.py``)."""
+import importlib
+from pathlib import Path
+import sys
 import time
+
+#: The tests' support package (``test/support``): the ROS helpers live there, not in the
+#: installed package.
+TEST_DIR = Path(__file__).resolve().parents[1] / 'test'
+#: ``test/support/ros_testing.py``, also run as a script (the message counter process).
+ROS_TESTING_SCRIPT = TEST_DIR / 'support' / 'ros_testing.py'
+
+
+def ros_testing():
+    """Return the module ``test/support/ros_testing.py`` (synthetic models, DDS isolation)."""
+    if str(TEST_DIR) not in sys.path:
+        sys.path.insert(0, str(TEST_DIR))
+    return importlib.import_module('support.ros_testing')
 
 
 def best_of(func, repeat=3):

@@ -6,6 +6,8 @@ import sys
 
 import numpy as np
 import pytest
+from support.ros_testing import isolated_ros_env
+from support.ros_testing import sample_stamps
 
 from wheel_force_estimator.cli.node import build_ros_args
 from wheel_force_estimator.core.errors import ConfigError
@@ -13,8 +15,6 @@ from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.ros.replay import imu_frame_ids_from_config
 from wheel_force_estimator.ros.replay import replay_samples
 from wheel_force_estimator.ros.replay import ReplaySettings
-from wheel_force_estimator.ros.testing import isolated_ros_env
-from wheel_force_estimator.ros.testing import sample_stamps
 
 pytestmark = pytest.mark.ros
 
