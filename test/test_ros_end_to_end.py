@@ -7,9 +7,13 @@ A known 12 x 12 system is written to bags, fitted, predicted offline with ``whee
 predict --causal`` and replayed through a real node; the node must publish what ``predict``
 wrote, sample for sample.
 """
+import signal
+
 from known_system import known_system
 import numpy as np
 import pytest
+from support.ros_testing import start_node
+from support.ros_testing import stop_node
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
@@ -26,8 +30,6 @@ from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.ros.replay import replay_bag
 from wheel_force_estimator.ros.replay import ReplaySettings
-from wheel_force_estimator.ros.testing import start_node
-from wheel_force_estimator.ros.testing import stop_node
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(300)]
 
@@ -73,10 +75,13 @@ def test_bag_fit_predict_and_node_agree(ros_env, tmp_path):
                       log_path=log)
     try:
         settings = ReplaySettings(rate=4.0, wait_subscribers_s=30.0, settle_s=3.0, record=True)
-        _, result = replay_bag(tmp_path / 'val', settings)
+        # the node holds its look-ahead until more data comes; Ctrl-C completes it
+        _, result = replay_bag(tmp_path / 'val', settings,
+                               after_play=lambda: proc.send_signal(signal.SIGINT))
         assert result.output_counts == (pred_stamps.size,) * 4, log.read_text()[-2000:]
         np.testing.assert_array_equal(result.output_stamp_ns, pred_stamps)
         np.testing.assert_allclose(result.output_force_n, pred_force, rtol=0,
                                    atol=RTOL * np.abs(pred_force).max())
+        assert proc.wait(20) == 0                        # stopped after the replay
     finally:
-        assert stop_node(proc) == 0
+        stop_node(proc)

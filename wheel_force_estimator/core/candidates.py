@@ -54,6 +54,8 @@ LONG_REGULARISATIONS = (1e-2, 5e-2)
 LS_REGULARISATIONS = (1e-4, 1e-3)
 #: Crossovers of the spliced candidate [Hz]; 0 = H1 alone, inf = LS alone.
 SPLICE_CROSSOVERS_HZ = (0.0, 1.0, 2.0, 4.0, 8.0, math.inf)
+#: Key of the scorer's spectra in :func:`block_stats`.
+SCORING = 'scoring'
 #: Look-ahead of the two-sided least-squares FIR [s] (the longest stored live look-ahead).
 LS_LOOK_AHEAD_S = 0.25
 
@@ -139,7 +141,8 @@ def block_stats(segments, pieces: Sequence[Piece], welch: Dict[int, object],
     pieces : sequence of Piece
         The block's pieces.
     welch : dict
-        ``{segment_length: WelchConfig}`` of every resolution needed.
+        ``{segment_length: WelchConfig}`` of every resolution needed, and the scorer's
+        under the key :data:`SCORING`.
     fs_hz : float
         Sample rate [Hz].
     max_lag : int
@@ -155,9 +158,17 @@ def block_stats(segments, pieces: Sequence[Piece], welch: Dict[int, object],
         seg = segments[p.segment]
         x = seg.accel_mps2[:, p.start:p.stop]
         y = seg.force_n[:, p.start:p.stop]
-        for length, cfg in welch.items():
-            if x.shape[1] >= length:
-                parts[length].append(cross_spectra(x, y, cfg, name=seg.source))
+        for key, cfg in welch.items():
+            if x.shape[1] < cfg.segment_length:
+                continue
+            if key == SCORING:
+                # the scorer's spectra: piece mean removed, windows not detrended, so the
+                # quasi-static band counts as in the unfiltered RMSE (whole-record mean)
+                parts[key].append(cross_spectra(x - x.mean(axis=1, keepdims=True),
+                                                y - y.mean(axis=1, keepdims=True), cfg,
+                                                name=seg.source))
+            else:
+                parts[key].append(cross_spectra(x, y, cfg, name=seg.source))
         if acc is not None:
             acc.add(x, y)
         sum_x += x.sum(axis=1)
