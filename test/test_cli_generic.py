@@ -320,7 +320,7 @@ def test_params_file_sets_what_the_fit_does_at_unexcited_lines(value, files, tmp
     out = tmp_path / 'm.npz'
     rc = main(['fit', str(files['train.npz']), '-o', str(out), '--config', str(config)] + ROLES)
     if value == 'hold':
-        assert rc == 1
+        assert rc == 2                  # a value outside its range is a usage error
         err = capsys.readouterr().err
         assert f'{config}: ' in err and 'unexcited must be one of' in err and 'hold' in err
         return

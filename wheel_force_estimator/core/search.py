@@ -316,8 +316,10 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
                         welch, fs_hz, lags)
     variants = {(c.segment_length, c.long_regularisation) for c in choice.rows
                 if c.family != 'ls'}
-    default = (config.segment_length, config.long_regularisation)
-    default = default if default in choice.space.h1 else choice.space.h1[0]
+    # the indicators (coherence, conditioning) of the least-regularised H1 variant at the
+    # configured segment: regularisation biases the multiple coherence low
+    default = min((v for v in choice.space.h1 if v[0] == config.segment_length),
+                  key=lambda v: v[1], default=choice.space.h1[0])
     fits = h1_fits([whole], config, sorted(variants | {default}), fs_hz, order, input_channels)
     ref_est, _, ref_fir, extra = fits[default]
     live = config.live or LiveDesign()
