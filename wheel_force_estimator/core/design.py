@@ -23,7 +23,6 @@ FRF of the written model) call :func:`fit_design`, so the two can never drift ap
 - the model's ``units`` name the declared input quantity.
 """
 import dataclasses
-import datetime
 import sys
 from typing import Iterable, Mapping, Optional, Sequence, Tuple
 
@@ -32,9 +31,9 @@ from wheel_force_estimator.core.crossval import N_BLOCKS
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.model import FrfModel
 from wheel_force_estimator.core.physics_laws import QUANTITIES
+from wheel_force_estimator.core.pipeline import build_model
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import FitConfig
-from wheel_force_estimator.core.pipeline import stored_condition
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.resolution import choose_segment_length
 from wheel_force_estimator.core.search import fit_chosen
@@ -337,27 +336,8 @@ def _cross_validated_model(used, fs_hz, config, input_channels, output_channels,
     est, h, fir, live, extra, static_x, static_y = fit_chosen(
         used, choice, welch, lags, fs_hz, config, order, input_channels)
     extra = dict(extra, design=choice.record(output_channels))
-    info = {
-        'segments': [seg.source for seg in used],
-        'durations_s': [seg.accel_mps2.shape[1] / fs_hz for seg in used],
-        'total_duration_s': sum(seg.accel_mps2.shape[1] for seg in used) / fs_hz,
-        'window': config.window, 'segment_length': config.segment_length,
-        'overlap': config.overlap, 'detrend': config.detrend,
-        'regularisation': config.regularisation, 'water_level': config.water_level,
-        'unexcited': config.unexcited,
-        'f_min_hz': config.f_min_hz, 'f_max_hz': config.f_max_hz,
-        'coherence_floor': config.coherence_floor,
-    }
-    info.update(extra)
-    info.update(dict(fit_info or {}))
-    return FrfModel(
-        fs_hz=fs_hz, input_channels=tuple(input_channels),
-        output_channels=tuple(output_channels), f_hz=est.f_hz, h=h,
-        coherence_ordinary=est.coherence_ordinary, coherence_multiple=est.coherence_multiple,
-        cond_sxx=stored_condition(est.cond_sxx), fir_taps=fir.taps,
-        fir_delay_samples=fir.delay_samples, static_force_n=static_y,
-        static_accel_mps2=static_x, estimator=config.estimator, fit=info, live=live,
-        created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds'))
+    return build_model(used, fs_hz, config, input_channels, output_channels,
+                       (est, h, fir, live, extra, static_x, static_y), fit_info)
 
 
 def progress(iterable, desc: str):

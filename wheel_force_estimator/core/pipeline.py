@@ -283,10 +283,26 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     long_combined = combine_spectra(long_spectra) if long_welch is not None else None
     est, h, fir, extra = estimate_h1(combined, long_combined, config, fs_hz, order,
                                      input_channels)
+    live = () if corr is None else design_live(corr.result(fs_hz), config.live)
+    return build_model(segments, fs_hz, config, input_channels, output_channels,
+                       (est, h, fir, live, extra, sum_x / n_total, sum_y / n_total), fit_info)
+
+
+def build_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConfig,
+                input_channels: Sequence[str], output_channels: Sequence[str], parts,
+                fit_info: Optional[Mapping] = None) -> FrfModel:
+    """
+    Return the :class:`FrfModel` of a fit, with its ``fit`` metadata.
+
+    ``parts`` is ``(est, h, fir, live, extra, static_accel, static_force)``: the indicators
+    (:class:`.frf.FrfEstimate`), the FRF, its FIR, the live estimators, the estimate's own
+    metadata, and the static input and output.
+    """
+    est, h, fir, live, extra, static_x, static_y = parts
     info = {
         'segments': [seg.source for seg in segments],
         'durations_s': [seg.accel_mps2.shape[1] / fs_hz for seg in segments],
-        'total_duration_s': n_total / fs_hz,
+        'total_duration_s': sum(seg.accel_mps2.shape[1] for seg in segments) / fs_hz,
         'window': config.window, 'segment_length': config.segment_length,
         'overlap': config.overlap, 'detrend': config.detrend,
         'regularisation': config.regularisation, 'water_level': config.water_level,
@@ -296,15 +312,13 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
     }
     info.update(extra)
     info.update(dict(fit_info or {}))
-    live = () if corr is None else design_live(corr.result(fs_hz), config.live)
     return FrfModel(
         fs_hz=fs_hz, input_channels=tuple(input_channels),
         output_channels=tuple(output_channels), f_hz=est.f_hz, h=h,
         coherence_ordinary=est.coherence_ordinary, coherence_multiple=est.coherence_multiple,
         cond_sxx=stored_condition(est.cond_sxx), fir_taps=fir.taps,
-        fir_delay_samples=fir.delay_samples,
-        static_force_n=sum_y / n_total, static_accel_mps2=sum_x / n_total,
-        estimator=config.estimator, fit=info, live=live,
+        fir_delay_samples=fir.delay_samples, static_force_n=static_y,
+        static_accel_mps2=static_x, estimator=config.estimator, fit=info, live=live,
         created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds'))
 
 
