@@ -40,7 +40,8 @@ def _run(case, search, scale, queue):
     from wheel_force_estimator.diagnosis import diagnose
     import wheel_force_estimator.diagnosis.run as run
     from wheel_force_estimator.diagnosis.run import DiagnosisConfig
-    from wheel_force_estimator.diagnosis.synthetic import structure_recording
+    from benchutil import test_support
+    structure_recording = test_support('diagnosis_synthetic').structure_recording
     if not search:
         run.dynamic_findings = lambda *args, **kwargs: []
     if case == 'structure':

@@ -13,11 +13,16 @@ TEST_DIR = Path(__file__).resolve().parents[1] / 'test'
 ROS_TESTING_SCRIPT = TEST_DIR / 'support' / 'ros_testing.py'
 
 
-def ros_testing():
-    """Return the module ``test/support/ros_testing.py`` (synthetic models, DDS isolation)."""
+def test_support(name: str):
+    """Return the module ``test/support/<name>.py`` (test fixtures the package does not ship)."""
     if str(TEST_DIR) not in sys.path:
         sys.path.insert(0, str(TEST_DIR))
-    return importlib.import_module('support.ros_testing')
+    return importlib.import_module(f'support.{name}')
+
+
+def ros_testing():
+    """Return the module ``test/support/ros_testing.py`` (synthetic models, DDS isolation)."""
+    return test_support('ros_testing')
 
 
 def best_of(func, repeat=3):

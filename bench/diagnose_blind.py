@@ -5,7 +5,8 @@ Blind sim-vs-real diagnosis benchmark: confusion matrix, hit rate, holdout RMSE 
 
 Four parts, each printed with a baseline measured in the same run:
 
-1. Known-answer synthetic pairs (diagnosis/synthetic.py): one concealed effect per case.
+1. Known-answer synthetic pairs (test/support/diagnosis_synthetic.py): one concealed effect
+   per case.
 2. Simulator pairs (sim.simulate: nominal car vs car with one effect, holdout on another
    seed), diagnosed as ``wheel-force diagnose`` runs on bags (``BAG_CONFIG``: the MIMO FRF
    of ``wheel-force fit`` fitted on the simulation and on the real records alike).  The
@@ -64,7 +65,12 @@ from wheel_force_estimator.diagnosis import MotionRecording
 from wheel_force_estimator.diagnosis.reference import FrfReference
 from wheel_force_estimator.diagnosis.reference import RegressionReference
 from wheel_force_estimator.diagnosis.selection import SelectionConfig
-from wheel_force_estimator.diagnosis.synthetic import synthetic_pair
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchutil import test_support  # noqa: E402,I100
+
+#: The known-answer pairs and structures (test fixtures, not shipped in the package).
+FIXTURES = test_support('diagnosis_synthetic')
 
 SYNTHETIC = ('none', 'offset_drift', 'bump_stop', 'rebound_stop', 'cubic_stiffness',
              'damper_asymmetry', 'coulomb_friction', 'backlash', 'tire_lift_off',
@@ -187,7 +193,7 @@ def run_synthetic(seeds, effects):
           f'written (plain fit on real; written model)')
     for effect in effects:
         for seed in seeds:
-            sim, real, holdout, _ = synthetic_pair(effect, seed=seed)
+            sim, real, holdout, _ = FIXTURES.synthetic_pair(effect, seed=seed)
             result = diagnose(real, sim, holdout, config)
             naive = diagnose(real, RegressionReference.fit(sim, config.features, 'sim'),
                              holdout, replace(config, selection=NAIVE))
@@ -484,8 +490,8 @@ def run_rigs(seeds=range(3)):
 
 def run_structures():
     import numpy as np
-    from wheel_force_estimator.diagnosis.synthetic import structure_recording
-    from wheel_force_estimator.diagnosis.synthetic import STRUCTURES
+    structure_recording = FIXTURES.structure_recording
+    STRUCTURES = FIXTURES.STRUCTURES
     print('\n== lightly damped structures (base-excited 5-13 Hz modes, 2-5 % damping; 2 x 60 s '
           'to fit, 60 s holdout; RMSE %, 1 Hz high-pass, mean over outputs, report half)')
     print(f'{"case":24s} {"paper segment: named":28s} {"fit":>6s} {"written":>8s}   '

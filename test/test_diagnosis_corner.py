@@ -3,11 +3,11 @@
 """The differentiator low-pass of displacement / velocity rigs: two corners, the gate chooses."""
 import numpy as np
 import pytest
+from support import diagnosis_synthetic as sy
 
 from wheel_force_estimator.core import physics_laws as law
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
-from wheel_force_estimator.diagnosis import synthetic as sy
 from wheel_force_estimator.diagnosis.corner import sharper_lowpass_hz
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.recording import MotionRecording

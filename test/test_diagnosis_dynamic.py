@@ -5,7 +5,7 @@ Physics inside a structure (:mod:`diagnosis.dynamic`).
 
 A term whose force reaches the sensor through the structure's own response.
 
-The structures are base-excited modes (:func:`diagnosis.synthetic.structure_recording`): the
+The structures are base-excited modes (``test/support/diagnosis_synthetic.py`` ``structure_recording``): the
 inputs are base accelerations, the output the base force, and the nonlinear element sits
 between base and an unmeasured mass.
 """
@@ -13,12 +13,12 @@ import json
 
 import numpy as np
 import pytest
+from support.diagnosis_synthetic import structure_recording
 
 from wheel_force_estimator.cli.main import main
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis.run import DiagnosisConfig
-from wheel_force_estimator.diagnosis.synthetic import structure_recording
 
 CLI_DESIGN = DiagnosisConfig(choose_resolution=True)
 

@@ -3,11 +3,11 @@
 """Several inputs: the physics may hang on an input other than the linearly dominant one."""
 import numpy as np
 import pytest
+from support import diagnosis_synthetic as sy
 
 from wheel_force_estimator.core import physics_laws as law
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
-from wheel_force_estimator.diagnosis import synthetic as sy
 from wheel_force_estimator.diagnosis.features import paired_by_coherence
 from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.recording import MotionRecording

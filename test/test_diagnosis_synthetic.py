@@ -5,12 +5,12 @@ import json
 
 import numpy as np
 import pytest
+from support.diagnosis_synthetic import synthetic_pair
 
 from wheel_force_estimator.core.physics import apply_physics
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
-from wheel_force_estimator.diagnosis.synthetic import synthetic_pair
 
 # The synthetic law is a static force-from-motion law, so the per-channel linear law is the
 # exact "simulation" model (an FRF of acceleration cannot represent its displacement term).

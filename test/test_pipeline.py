@@ -231,12 +231,12 @@ def test_two_resolution_model_streams_and_round_trips(lf_fits, tmp_path):
 
 def test_fit_on_band_limited_accelerations_predicts_new_data_within_the_noise():
     # Known answer: F = F0 + k x + c v + m a seen through accelerations excited at 0.5-25 Hz
-    # (diagnosis.synthetic), 5 % force noise.  The product fit damps the unexcited lines
+    # (test/support/diagnosis_synthetic.py), 5 % force noise.  The product fit damps the unexcited lines
     # (water level); without that their leakage/noise gain (1.7e5 N per m/s² at 0.06 Hz)
     # rang from the records' ends and the holdout RMSE was 240 % and 5772 %.
     import dataclasses
     from wheel_force_estimator.core.design import product_fit_config
-    from wheel_force_estimator.diagnosis.synthetic import synthetic_pair
+    from support.diagnosis_synthetic import synthetic_pair
     _, real, hold, _ = synthetic_pair('none', seed=0)
     segments = [TrainingSegment(r.inputs, r.outputs, r.name) for r in real]
 
