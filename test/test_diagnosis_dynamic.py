@@ -5,7 +5,8 @@ Physics inside a structure (:mod:`diagnosis.dynamic`).
 
 A term whose force reaches the sensor through the structure's own response.
 
-The structures are base-excited modes (``test/support/diagnosis_synthetic.py`` ``structure_recording``): the
+The structures are base-excited modes (``structure_recording`` of
+``test/support/diagnosis_synthetic.py``): the
 inputs are base accelerations, the output the base force, and the nonlinear element sits
 between base and an unmeasured mass.
 """
