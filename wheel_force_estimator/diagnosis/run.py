@@ -32,6 +32,7 @@ from wheel_force_estimator.diagnosis import text
 from wheel_force_estimator.diagnosis.agreement import agreed_findings
 from wheel_force_estimator.diagnosis.agreement import AgreementConfig
 from wheel_force_estimator.diagnosis.corner import with_sharper_corner
+from wheel_force_estimator.diagnosis.coupling import CouplingConfig
 from wheel_force_estimator.diagnosis.coupling import left_right_coupling
 from wheel_force_estimator.diagnosis.dynamic import dynamic_findings
 from wheel_force_estimator.diagnosis.features import FeatureConfig
@@ -53,6 +54,8 @@ from wheel_force_estimator.diagnosis.locate import locate_channel
 from wheel_force_estimator.diagnosis.locate import regime_ratios
 from wheel_force_estimator.diagnosis.motion import merge_motion
 from wheel_force_estimator.diagnosis.motion import motion_findings
+from wheel_force_estimator.diagnosis.motion import MotionConfig
+from wheel_force_estimator.diagnosis.omissions import OmissionConfig
 from wheel_force_estimator.diagnosis.prepared import axis
 from wheel_force_estimator.diagnosis.prepared import group_pieces
 from wheel_force_estimator.diagnosis.prepared import pieces
@@ -122,6 +125,9 @@ class DiagnosisConfig:
     progress : bool
         Show a tqdm bar on stderr, when it is a terminal, for the search over inputs
         (:mod:`diagnosis.sources`; minutes for a dozen unnamed inputs).
+    motion, coupling, omissions : MotionConfig, CouplingConfig, OmissionConfig
+        Settings of the motion findings (clip, tyre lift-off), the left-right coupling test
+        and the linear-omission search.
 
     """
 
@@ -138,6 +144,9 @@ class DiagnosisConfig:
     residual_highpass_hz: Optional[float] = None
     agreement: AgreementConfig = field(default_factory=AgreementConfig)
     progress: bool = False
+    motion: MotionConfig = field(default_factory=MotionConfig)
+    coupling: CouplingConfig = field(default_factory=CouplingConfig)
+    omissions: OmissionConfig = field(default_factory=OmissionConfig)
 
     def __post_init__(self):
         if self.linear not in ('auto', 'frf', 'regression'):
@@ -526,7 +535,8 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
         else:
             coupling = left_right_coupling(
                 real, reference, real_linear, channels,
-                settle_samples(fs_hz, rec0.input_quantity, config.features), hp)
+                settle_samples(fs_hz, rec0.input_quantity, config.features), hp,
+                config.coupling)
         added = [coupling] if coupling is not None else []
         findings, omitted = add_omissions(findings, real, sim, reference, channels, sources,
                                           config, pooled)
@@ -539,7 +549,7 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
     # Motion findings (clip, tyre in the air) carry no terms, so they skip the holdout gate,
     # but the real motion differs from the simulated one: the written model is then chosen
     # between the reference and the plain fit on the real data (no longer "no change").
-    motion = motion_findings(real, sim, sources)
+    motion = motion_findings(real, sim, sources, config.motion)
     findings, fit, model = compare(findings, real, reference, mode, holdout, outcomes,
                                    channels, sources, partners, config,
                                    lambda recs: _real_linear(recs, config).model,
