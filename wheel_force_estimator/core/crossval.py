@@ -30,7 +30,6 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 import scipy.signal
 
-from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spectra import CrossSpectra
 
 #: Number of blocks the training data is cut into (folds).
@@ -166,11 +165,6 @@ def held_out_power(h: np.ndarray, spectra: CrossSpectra, hp_weight: np.ndarray) 
     see = np.maximum(spectra.syy - 2.0 * cross + quad, 0.0)
     weights = np.stack([np.ones_like(hp_weight), hp_weight])              # (2, nf)
     return HeldOutPower(weights @ see, weights @ spectra.syy)
-
-
-def fold_spectra(blocks: Sequence[CrossSpectra], k: int) -> CrossSpectra:
-    """Return the combined spectra of every block but ``k`` (the training side of fold k)."""
-    return combine_spectra([s for j, s in enumerate(blocks) if j != k])
 
 
 def response_on_grid(taps: np.ndarray, delay: int, n_fft: int) -> np.ndarray:

@@ -23,8 +23,9 @@ import datetime
 from typing import Mapping, Optional, Sequence, Tuple
 
 import numpy as np
-import scipy.fft
 
+from wheel_force_estimator.core.crossval import blend_weight
+from wheel_force_estimator.core.crossval import response_on_grid
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.filtering import fir_from_frf
@@ -388,14 +389,7 @@ def stored_condition(cond_sxx: np.ndarray) -> np.ndarray:
 
 def _fir_response_on_grid(fir: FirFilter, n_fft: int) -> np.ndarray:
     """Return the response (nf, n_out, n_in) of ``fir`` on the ``n_fft`` grid (exact)."""
-    lag_major = np.zeros((n_fft,) + fir.taps.shape[:2])
-    taps = np.moveaxis(fir.taps, -1, 0)
-    delay = fir.delay_samples
-    # circular placement with lag zero at index 0, so the rfft is relative to lag zero
-    lag_major[:fir.n_taps - delay] = taps[delay:]
-    if delay:
-        lag_major[n_fft - delay:] = taps[:delay]
-    return scipy.fft.rfft(lag_major, axis=0)
+    return response_on_grid(fir.taps, fir.delay_samples, n_fft)
 
 
 def _interp_to(f_new: np.ndarray, f_old: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -436,8 +430,7 @@ def splice_estimates(long_est: FrfEstimate, h_long: np.ndarray, short_est: FrfEs
     """
     f = long_est.f_hz
     n_fft = 2 * (f.size - 1)
-    ramp = np.clip((1.5 * crossover_hz - f) / (0.5 * crossover_hz), 0.0, 1.0)
-    w = 0.5 - 0.5 * np.cos(np.pi * ramp)                # 1 below the crossover, 0 above 1.5x
+    w = blend_weight(f, crossover_hz)                   # 1 below the crossover, 0 above 1.5x
     h_short = _fir_response_on_grid(short_fir, n_fft)
     h = w[:, None, None] * h_long + (1.0 - w[:, None, None]) * h_short
 
