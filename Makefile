@@ -1,4 +1,5 @@
-# wheel_force_estimator: `make demo` and `make test` are all a fresh machine needs.
+# wheel_force_estimator: `make demo` and `make test` are all a fresh machine needs;
+# `make test-all` adds the slow tier (what CI runs, `.ci/run`).
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -9,7 +10,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 export RMW_IMPLEMENTATION ?= rmw_fastrtps_cpp
 export MPLBACKEND ?= Agg
 
-.PHONY: venv test demo bench bench-diagnose clean lint
+.PHONY: venv test test-all demo bench bench-diagnose clean lint
 
 venv: $(STAMP)
 
@@ -21,12 +22,18 @@ $(STAMP): setup.py setup.cfg package.xml requirements-dev.txt
 	touch $(STAMP)
 
 # The ROS graph tests first, alone (their timing checks measure the node beside nothing else),
-# then every other file on all cores.
-PYTEST = AMENT_PREFIX_PATH=$(CURDIR)/$(VENV) $(BIN)/python -m pytest -q -p no:cacheprovider
+# then every other file on all cores.  `make test` is the fast tier (tests marked `slow`
+# deselected); `make test-all` runs everything.  Both print the 25 slowest tests.
+PYTEST = AMENT_PREFIX_PATH=$(CURDIR)/$(VENV) $(BIN)/python -m pytest -q -p no:cacheprovider \
+	--durations=25
+TIER ?= -m 'not slow'
 
 test: venv
-	$(PYTEST) test/test_ros_*.py
-	$(PYTEST) -n auto --dist loadfile --ignore-glob='*/test_ros_*.py' test
+	$(PYTEST) $(TIER) test/test_ros_*.py
+	$(PYTEST) $(TIER) -n auto --dist loadfile --ignore-glob='*/test_ros_*.py' test
+
+test-all: venv
+	$(MAKE) test TIER=
 
 lint: venv
 	$(BIN)/ament_flake8 wheel_force_estimator test bench setup.py

@@ -22,18 +22,22 @@ import sys
 import tempfile
 import time
 
+from benchutil import ros_testing
+from benchutil import ROS_TESTING_SCRIPT
 import numpy as np
 
 from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.core.model import save_model
-from wheel_force_estimator.ros.testing import isolated_ros_env
-from wheel_force_estimator.ros.testing import sample_stamps
-from wheel_force_estimator.ros.testing import SpinningParticipant
-from wheel_force_estimator.ros.testing import start_node
-from wheel_force_estimator.ros.testing import stop_node
-from wheel_force_estimator.ros.testing import synthetic_accel
-from wheel_force_estimator.ros.testing import synthetic_model
-from wheel_force_estimator.ros.testing import wait_until
+
+_support = ros_testing()
+isolated_ros_env = _support.isolated_ros_env
+sample_stamps = _support.sample_stamps
+SpinningParticipant = _support.SpinningParticipant
+start_node = _support.start_node
+stop_node = _support.stop_node
+synthetic_accel = _support.synthetic_accel
+synthetic_model = _support.synthetic_model
+wait_until = _support.wait_until
 
 FS_HZ = 512.0
 CORNERS = ('lf', 'rf', 'lr', 'rr')
@@ -74,7 +78,7 @@ def one_run(env, model_path, topics, kind, seed):
     try:
         assert wait_until(lambda: all(p.get_subscription_count() for p in feeder.pubs), 60.0)
         readers = [subprocess.Popen(
-            [sys.executable, '-m', 'wheel_force_estimator.ros.testing', '--type', kind,
+            [sys.executable, str(ROS_TESTING_SCRIPT), '--type', kind,
              reliability, '5', str(N_SAMPLES), '20', *topics],
             env=env, stdout=subprocess.PIPE, text=True)
             for reliability in ('reliable', 'best_effort')]

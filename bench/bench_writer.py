@@ -8,7 +8,7 @@ writes; default 250 000 samples = 1 M messages) as rosbag2 mcap and sqlite3 and 
 messages per second of
 
 * the bulk writer (``write_forces``), mcap chunks uncompressed (default) and zstd, and
-* the baseline: payloads CDR-encoded in bulk (``fastcdr.encode_rows``) then handed to rosbags'
+* the baseline: payloads CDR-encoded in bulk (``cdr.encode_wrench``) then handed to rosbags'
   ``Writer.write`` one message at a time (the writer before the bulk one),
 
 checks both bags read back to the same forces, and prints the speed-up and the real-time
@@ -20,7 +20,6 @@ Usage: ``.venv/bin/python bench/bench_writer.py [--samples N] [--repeat K]
 [--storage mcap|sqlite3]``
 """
 import argparse
-import functools
 import os
 from pathlib import Path
 import shutil
@@ -38,7 +37,7 @@ from wheel_force_estimator.bagio import read_wrench_topics
 from wheel_force_estimator.bagio import TopicConfig
 from wheel_force_estimator.bagio import write_forces
 from wheel_force_estimator.bagio import writer
-from wheel_force_estimator.bagio.fastcdr import encode_rows
+from wheel_force_estimator.bagio.cdr import encode_wrench
 from wheel_force_estimator.bagio.fastcdr import WRENCH
 from wheel_force_estimator.bagio.reader import jazzy_typestore
 
@@ -52,20 +51,20 @@ def per_message_writer(path: Path, stamp, force_n, topics, storage: str) -> None
     store = jazzy_typestore()
     plugin = StoragePlugin.MCAP if storage == 'mcap' else StoragePlugin.SQLITE3
 
-    def serialize(msg):
-        return store.serialize_cdr(msg, WRENCH.msgtype)
-
     with Writer(path, version=8, storage_plugin=plugin) as bag:
-        conns, datas = [], []
+        conns, payloads = [], []
         for k, topic in enumerate(topics.output_topics):
             conns.append(bag.add_connection(topic, WRENCH.msgtype, typestore=store))
-            rows = encode_rows(WRENCH, stamp, force_n[3 * k:3 * k + 3].T,
-                               writer._make_wrench(store, topics.frame_ids[k]), serialize)
-            datas.append(rows.tobytes())
-        length = len(datas[0]) // len(stamp)
+            payloads.append(encode_wrench(stamp, force_n[3 * k:3 * k + 3],
+                                          topics.frame_ids[k]))
         for i, t in enumerate(stamp.tolist()):
-            for conn, data in zip(conns, datas):
-                bag.write(conn, t, data[i * length:(i + 1) * length])
+            for conn, rows in zip(conns, payloads):
+                bag.write(conn, t, rows[i])
+
+
+def _zstd_mcap(file, plan, version, metadata_text, compression=''):
+    """Write mcap with zstd chunks whatever compression the writer asks for."""
+    mcap_writer.write_mcap(file, plan, version, metadata_text, 'zstd')
 
 
 def _timed(run, path: Path, repeat: int) -> float:
@@ -113,8 +112,7 @@ def main(argv=None) -> int:
             line('rosbags Writer per message', base)
             variants = [('bulk writer', None)]
             if storage == 'mcap':
-                variants.append(('bulk writer, zstd chunks', functools.partial(
-                    mcap_writer.write_mcap, compression='zstd')))
+                variants.append(('bulk writer, zstd chunks', _zstd_mcap))
             for name, storage_writer in variants:
                 saved = writer.STORAGES[storage]
                 if storage_writer is not None:  # bench only: swap the storage writer

@@ -6,13 +6,23 @@ from pathlib import Path
 import sys
 import time
 
+#: The tests' support package (``test/support``): the ROS helpers live there, not in the
+#: installed package.
+TEST_DIR = Path(__file__).resolve().parents[1] / 'test'
+#: ``test/support/ros_testing.py``, also run as a script (the message counter process).
+ROS_TESTING_SCRIPT = TEST_DIR / 'support' / 'ros_testing.py'
+
 
 def test_support(name: str):
-    """Import and return ``test/support/NAME.py``: fixtures the benchmarks share with tests."""
-    root = str(Path(__file__).resolve().parents[1] / 'test')
-    if root not in sys.path:
-        sys.path.insert(0, root)
+    """Return the module ``test/support/<name>.py`` (test fixtures the package does not ship)."""
+    if str(TEST_DIR) not in sys.path:
+        sys.path.insert(0, str(TEST_DIR))
     return importlib.import_module(f'support.{name}')
+
+
+def ros_testing():
+    """Return the module ``test/support/ros_testing.py`` (synthetic models, DDS isolation)."""
+    return test_support('ros_testing')
 
 
 def best_of(func, repeat=3):

@@ -66,6 +66,12 @@ from wheel_force_estimator.diagnosis.reference import FrfReference
 from wheel_force_estimator.diagnosis.reference import RegressionReference
 from wheel_force_estimator.diagnosis.selection import SelectionConfig
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchutil import test_support  # noqa: E402,I100
+
+#: The known-answer pairs and structures (test fixtures, not shipped in the package).
+FIXTURES = test_support('diagnosis_synthetic')
+
 SYNTHETIC = ('none', 'offset_drift', 'bump_stop', 'rebound_stop', 'cubic_stiffness',
              'damper_asymmetry', 'coulomb_friction', 'backlash', 'tire_lift_off',
              'anti_roll_bar', 'time_delay', 'sensor_saturation', 'mass_error',
@@ -84,12 +90,6 @@ DRAWN = {'bump_stop': ('stiffness_n_per_m', 'progressive_n_per_m3'),
          'mass_error': ('fraction',), 'stiffness_error': ('fraction',),
          'damping_error': ('fraction',)}
 SHARED = Path(__file__).resolve().parents[1].parent / 'shared' / 'data'
-
-
-def synthetic_fixtures():
-    """Return the known-answer fixtures (``test/support/diagnosis_synthetic.py``)."""
-    from benchutil import test_support
-    return test_support('diagnosis_synthetic')
 
 
 #: A second car for ``--car suv``: heavier, taller, stiffer, all-wheel drive - what "other
@@ -193,7 +193,7 @@ def run_synthetic(seeds, effects):
           f'written (plain fit on real; written model)')
     for effect in effects:
         for seed in seeds:
-            sim, real, holdout, _ = synthetic_fixtures().synthetic_pair(effect, seed=seed)
+            sim, real, holdout, _ = FIXTURES.synthetic_pair(effect, seed=seed)
             result = diagnose(real, sim, holdout, config)
             naive = diagnose(real, RegressionReference.fit(sim, config.features, 'sim'),
                              holdout, replace(config, selection=NAIVE))
@@ -498,7 +498,7 @@ RIG_EFFECTS = ('none', 'coulomb_friction', 'damper_asymmetry', 'cubic_stiffness'
 def _rig_record(effect, seed, quantity, seconds=60.0, fs_hz=256.0):
     """One corner of the synthetic law driven by its displacement or velocity, 5 % noise."""
     import numpy as np
-    sy = synthetic_fixtures()
+    sy = FIXTURES
     rng = np.random.default_rng(seed)
     m = sy.random_motion(rng, int(seconds * fs_hz), fs_hz)
     lin = sy.linear_force(m)
@@ -550,8 +550,8 @@ def run_rigs(seeds=range(3)):
 
 def run_structures():
     import numpy as np
-    structure_recording = synthetic_fixtures().structure_recording
-    STRUCTURES = synthetic_fixtures().STRUCTURES
+    structure_recording = FIXTURES.structure_recording
+    STRUCTURES = FIXTURES.STRUCTURES
     print('\n== lightly damped structures (base-excited 5-13 Hz modes, 2-5 % damping; 2 x 60 s '
           'to fit, 60 s holdout; RMSE %, 1 Hz high-pass, mean over outputs, report half)')
     print(f'{"case":24s} {"paper segment: named":28s} {"fit":>6s} {"written":>8s}   '

@@ -5,8 +5,8 @@ import os
 
 import pytest
 
-from wheel_force_estimator.ros.testing import isolated_ros_env
-from wheel_force_estimator.ros.testing import TEST_DOMAIN_VARIABLE
+from support.ros_testing import isolated_ros_env
+from support.ros_testing import TEST_DOMAIN_VARIABLE
 
 
 def pytest_configure(config):

@@ -3,12 +3,12 @@
 """Bulk CDR layout against rosbags' serialiser (the reference), and its fallbacks."""
 import numpy as np
 import pytest
+from support.cdr_rows import encode_rows
 
+from wheel_force_estimator.bagio.cdr import payload_length
 from wheel_force_estimator.bagio.fastcdr import decode_records
 from wheel_force_estimator.bagio.fastcdr import decode_rows
-from wheel_force_estimator.bagio.fastcdr import encode_rows
 from wheel_force_estimator.bagio.fastcdr import IMU
-from wheel_force_estimator.bagio.fastcdr import payload_length
 from wheel_force_estimator.bagio.fastcdr import TopicDecoder
 from wheel_force_estimator.bagio.fastcdr import WRENCH
 from wheel_force_estimator.bagio.reader import jazzy_typestore

@@ -6,20 +6,25 @@ Bags written by real ROS tooling (../shared/data/ros_bags): ROS 1 Imu and rosbag
 Sources (see ../shared/data/README.md): robot_localization test bags (BSD) and ros2/rosbag2
 test resources (Apache-2.0).
 """
-from pathlib import Path
-
 import numpy as np
 import pytest
+from rosbags.highlevel import AnyReader
+from support.shared_data import dataset
+from support.shared_data import SHARED_DATA
 
 from wheel_force_estimator.bagio import read_imu_topic
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import read_string_topic
 from wheel_force_estimator.core.errors import BagError
 
-BAGS = Path(__file__).resolve().parents[2] / 'shared' / 'data' / 'ros_bags'
-pytestmark = pytest.mark.skipif(not BAGS.is_dir(),
-                                reason=f'shared data folder {BAGS} not present (../shared)')
+BAGS = SHARED_DATA / 'ros_bags'
 TALKERS = ['rosbag2_talker_mcap', 'rosbag2_talker_sqlite3']
+
+
+@pytest.fixture(autouse=True)
+def _bags_present():
+    """Fail in CI, skip elsewhere, when ../shared/data/ros_bags is absent."""
+    dataset('ros_bags')
 
 
 @pytest.mark.parametrize('name,count,period_ms,first_stamp', [
@@ -59,19 +64,28 @@ def test_talker_storages_agree():
 
 
 @pytest.mark.parametrize('name', TALKERS)
-def test_generic_path_never_reads_silently_short(name):
-    """
-    Fail rather than return fewer messages than the bag index lists.
+def test_generic_path_reads_every_talker_message(name):
+    # The message-by-message (rosbags) path gives the bulk path's 10 messages: a reader that
+    # matched connections on QoS and dropped this bag's /topic (metadata.yaml and storage
+    # disagree on QoS) would return fewer.
+    msgs = read_string_topic(BAGS / name, '/topic', bulk=False)
+    assert len(msgs) == 10
+    assert msgs == read_string_topic(BAGS / name, '/topic')
 
-    rosbags' reader matches rosbag2 topics on QoS too; these fixtures' metadata.yaml and
-    storage disagree on QoS, so it may yield nothing.
-    """
-    try:
-        msgs = read_string_topic(BAGS / name, '/topic', bulk=False)
-    except BagError as err:
-        assert 'lists 10 messages but 0 could be read' in str(err)
-    else:
-        assert len(msgs) == 10
+
+def test_generic_path_never_reads_silently_short(monkeypatch):
+    # rosbags' AnyReader (the path of ROS 1 bags) can yield fewer messages than the index lists
+    # (it matches rosbag2 connections on QoS too): the reader must refuse rather than return
+    # 3060 of 3061.
+    original = AnyReader.messages
+
+    def drop_last(self, *args, **kwargs):
+        return list(original(self, *args, **kwargs))[:-1]
+
+    monkeypatch.setattr(AnyReader, 'messages', drop_last)
+    with pytest.raises(BagError, match='/imu/data: the bag index lists 3061 messages but 3060 '
+                                       'could be read'):
+        read_imu_topic(BAGS / 'robot_localization_test2.bag', '/imu/data')
 
 
 @pytest.mark.parametrize('name', TALKERS)

@@ -143,7 +143,7 @@ def test_both_look_ahead_options_are_a_usage_error(setup, capsys):
 
 
 def test_look_ahead_from_the_params_file_follows_the_node_section_precedence(tmp_path):
-    from wheel_force_estimator.cli.live import configured_look_ahead_s
+    from wheel_force_estimator.cli.common import configured_look_ahead_s
     from wheel_force_estimator.core.errors import ConfigError
     from wheel_force_estimator.core.live_estimator import DEFAULT_LIVE_LOOK_AHEAD_S
     both = tmp_path / 'both.yaml'

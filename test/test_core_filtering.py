@@ -10,7 +10,6 @@ from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.errors import NonFiniteError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filtering import acausal_energy_fraction
-from wheel_force_estimator.core.filtering import choose_causal_delay
 from wheel_force_estimator.core.filtering import fir_from_frf
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.filtering import with_delay
@@ -181,12 +180,8 @@ def test_acausal_energy_and_causal_delay_on_hand_built_taps():
     assert acausal_energy_fraction(fir, 2) == pytest.approx(1 / 16, abs=1e-15)
     assert acausal_energy_fraction(fir, 3) == 0.0
     assert acausal_energy_fraction(fir, 10) == 0.0
-    assert choose_causal_delay(fir, 0.5) == 0
-    assert choose_causal_delay(fir, 5 / 16) == 0
-    assert choose_causal_delay(fir, 0.1) == 2
-    assert choose_causal_delay(fir, 0.0) == 3
     zero = FirFilter(np.zeros((1, 1, 4)), 2, FS_HZ)
-    assert acausal_energy_fraction(zero, 0) == 0.0 and choose_causal_delay(zero) == 0
+    assert acausal_energy_fraction(zero, 0) == 0.0
 
 
 def test_with_delay_truncates_look_ahead_and_keeps_response():
@@ -203,9 +198,9 @@ def test_with_delay_truncates_look_ahead_and_keeps_response():
     ref = fir.frequency_response(f_chk)
     errors = []
     for max_fraction in (1e-2, 1e-4, 1e-6):
-        d = choose_causal_delay(fir, max_fraction)
-        assert acausal_energy_fraction(fir, d) <= max_fraction
-        assert d == 0 or acausal_energy_fraction(fir, d - 1) > max_fraction
+        # the shortest look-ahead that discards at most max_fraction of the energy
+        d = next(d for d in range(fir.delay_samples + 1)
+                 if acausal_energy_fraction(fir, d) <= max_fraction)
         short = with_delay(fir, d)
         assert short.delay_samples == d
         assert short.n_taps == fir.n_taps - (fir.delay_samples - d)
@@ -330,7 +325,5 @@ def test_errors_are_precise():
         fir_from_frf(F_HZ, h, FS_HZ, delay_samples=N_FFT)
     with pytest.raises(ConfigError, match=r'delay_samples must be in \[0, 13\]'):
         with_delay(fir, 14)
-    with pytest.raises(ConfigError, match='max_fraction'):
-        choose_causal_delay(fir, 1.0)
     with pytest.raises(ConfigError, match='delay_samples must be >= 0'):
         acausal_energy_fraction(fir, -1)

@@ -5,12 +5,11 @@ import json
 
 import numpy as np
 import pytest
+from support.diagnosis_synthetic import make_recording
 
 from wheel_force_estimator.cli.main import main
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.core.predict import select_filter
-
-from support.diagnosis_synthetic import make_recording  # noqa: I100  (the tests' shared fixtures)
 
 
 def _write_npz(path, rec):

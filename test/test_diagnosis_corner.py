@@ -3,6 +3,7 @@
 """The differentiator low-pass of displacement / velocity rigs: two corners, the gate chooses."""
 import numpy as np
 import pytest
+from support import diagnosis_synthetic as sy
 
 from wheel_force_estimator.core import physics_laws as law
 from wheel_force_estimator.diagnosis import diagnose

@@ -5,7 +5,8 @@ Physics inside a structure (:mod:`diagnosis.dynamic`).
 
 A term whose force reaches the sensor through the structure's own response.
 
-The structures are base-excited modes (``support.diagnosis_synthetic.structure_recording``): the
+The structures are base-excited modes (``structure_recording`` of
+``test/support/diagnosis_synthetic.py``): the
 inputs are base accelerations, the output the base force, and the nonlinear element sits
 between base and an unmeasured mass.
 """
@@ -13,17 +14,17 @@ import json
 
 import numpy as np
 import pytest
+from support.diagnosis_synthetic import structure_recording
 
 from wheel_force_estimator.cli.main import main
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis.run import DiagnosisConfig
 
-from support.diagnosis_synthetic import structure_recording  # noqa: I100  (shared fixture)
-
 CLI_DESIGN = DiagnosisConfig(choose_resolution=True)
 
 
+@pytest.mark.slow
 def test_friction_inside_a_structure_is_named_with_its_response_and_written(tmp_path):
     # Known answer: a friction joint of 10 % of the spring force in the 8 Hz mode.  A static
     # term cannot reach the base force (the best static friction: 16.7 % vs 17.1 % plain);
@@ -57,6 +58,7 @@ def test_friction_inside_a_structure_is_named_with_its_response_and_written(tmp_
     assert evaluated['rmse_hp1_pct'] == pytest.approx(fit['after']['f'], abs=0.1)
 
 
+@pytest.mark.slow
 def test_a_moderate_hardening_inside_a_structure_is_named_at_its_mode():
     # A cubic spring of 1 % of the linear force at the RMS deflection (a fifth of the bench's
     # case, whose plain-load state is too wrong to correct): named with its response at the
@@ -69,7 +71,8 @@ def test_a_moderate_hardening_inside_a_structure_is_named_at_its_mode():
     assert result.fit.after['f0'] < 0.9 * result.fit.real_linear['f0']
 
 
-@pytest.mark.parametrize('case', ['linear, 1 input', 'linear, 3 inputs'])
+@pytest.mark.parametrize('case', ['linear, 1 input',
+                                  pytest.param('linear, 3 inputs', marks=pytest.mark.slow)])
 def test_linear_structures_name_nothing_inside(case):
     # Null: the FIR's own misfit at a lightly damped mode is linear; without the linear
     # companions a friction feature "explained" 37 % of it on the 3-input structure.
@@ -79,6 +82,7 @@ def test_linear_structures_name_nothing_inside(case):
     assert result.fit.after == result.fit.real_linear
 
 
+@pytest.mark.slow
 def test_without_a_holdout_the_term_inside_is_written_on_the_refitted_fir():
     # Bug caught: without a holdout the reference + terms was written; a term inside the
     # structure was fitted with the FIR refitted around it, so on the plain FIR its linear

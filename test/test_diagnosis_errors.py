@@ -6,15 +6,14 @@ import re
 
 import numpy as np
 import pytest
+from support.diagnosis_synthetic import make_recording
+from support.diagnosis_synthetic import synthetic_pair
 
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
 from wheel_force_estimator.diagnosis import MotionRecording
 from wheel_force_estimator.diagnosis.features import FeatureConfig
-
-from support.diagnosis_synthetic import make_recording  # noqa: I100  (the tests' shared fixtures)
-from support.diagnosis_synthetic import synthetic_pair  # noqa: I100  (the tests' shared fixtures)
 
 CONFIG = DiagnosisConfig(linear='regression')
 

@@ -3,6 +3,7 @@
 """Several inputs: the physics may hang on an input other than the linearly dominant one."""
 import numpy as np
 import pytest
+from support import diagnosis_synthetic as sy
 
 from wheel_force_estimator.core import physics_laws as law
 from wheel_force_estimator.diagnosis import diagnose
@@ -41,6 +42,7 @@ def test_pairing_by_coherence_is_recognised():
     assert pairing(('f0', 'f1'), ('x0', 'x1'), recs)[0] == ('x0', 'x1')
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('effect', ['bump_stop', 'coulomb_friction'])
 def test_physics_on_the_weaker_input_is_named_with_that_input(effect):
     real = [_two_actuators(effect, 1), _two_actuators(effect, 2)]
@@ -66,6 +68,7 @@ def test_a_linear_two_actuator_rig_names_nothing():
     assert result.fit.model == 'real_linear'
 
 
+@pytest.mark.slow
 def test_the_input_search_shows_progress_on_a_terminal(monkeypatch):
     import io
     import sys

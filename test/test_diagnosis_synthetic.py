@@ -5,13 +5,12 @@ import json
 
 import numpy as np
 import pytest
+from support.diagnosis_synthetic import synthetic_pair
 
 from wheel_force_estimator.core.physics import apply_physics
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
-
-from support.diagnosis_synthetic import synthetic_pair  # noqa: I100  (the tests' shared fixtures)
 
 # The synthetic law is a static force-from-motion law, so the per-channel linear law is the
 # exact "simulation" model (an FRF of acceleration cannot represent its displacement term).
@@ -31,6 +30,7 @@ def results():
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('effect', EFFECTS)
 def test_concealed_effect_is_named_first(results, effect):
     result, info = results[effect]
@@ -45,6 +45,7 @@ def test_concealed_effect_is_named_first(results, effect):
     assert result.fit.data == 'holdout'
 
 
+@pytest.mark.slow
 def test_only_writable_models_are_scored_as_after(results):
     # The reference here is a static law (not an FRF): it cannot be written, so the written
     # model is built on the FIR fitted on the real data, and `after` is that model's figure.
@@ -59,6 +60,7 @@ def test_only_writable_models_are_scored_as_after(results):
             assert result.fit.after == result.fit.real_linear
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('effect', ['none', 'offset_drift'])
 def test_nothing_beyond_noise_gives_no_findings(results, effect):
     result, _ = results[effect]
@@ -70,6 +72,7 @@ def test_nothing_beyond_noise_gives_no_findings(results, effect):
     assert result.fit.after == result.fit.real_linear
 
 
+@pytest.mark.slow
 def test_unaffected_channel_gets_no_term(results):
     for effect in EFFECTS:
         if effect == 'anti_roll_bar':
@@ -78,6 +81,7 @@ def test_unaffected_channel_gets_no_term(results):
         assert all('rf_fz' not in f.channels for f in result.findings), effect
 
 
+@pytest.mark.slow
 def test_bump_stop_parameters_and_json(results):
     result, _ = results['bump_stop']
     finding = result.findings[0]
@@ -96,6 +100,7 @@ def test_bump_stop_parameters_and_json(results):
     assert 'compression' in result.summary[0]
 
 
+@pytest.mark.slow
 def test_anti_roll_bar_is_one_shared_finding(results):
     result, _ = results['anti_roll_bar']
     finding = result.findings[0]
@@ -105,12 +110,14 @@ def test_anti_roll_bar_is_one_shared_finding(results):
     assert finding.parameters['stiffness_n_per_m'] == pytest.approx(4000.0, rel=0.3)
 
 
+@pytest.mark.slow
 def test_time_delay_is_estimated(results):
     result, _ = results['time_delay']
     # 0.1 sample at 256 Hz; the grid starts at 0.1 sample.
     assert result.findings[0].parameters['delay_s'] == pytest.approx(0.1 / 256.0, rel=0.5)
 
 
+@pytest.mark.slow
 def test_terms_reproduce_the_reported_after_fit(results):
     result, _ = results['damper_asymmetry']
     sim, real, holdout, _ = synthetic_pair('damper_asymmetry', seed=7)

@@ -145,6 +145,7 @@ def _forces(bag):
     return force_n
 
 
+@pytest.mark.slow
 def test_corrupt_bags_and_wrong_rate_fail_alone_on_a_local_cluster(data, tmp_path, capsys):
     """Bug caught: one bad bag aborting the run, or a failure without a reason or exit 1."""
     bad = tmp_path / 'fleet'
@@ -183,6 +184,7 @@ def test_corrupt_bags_and_wrong_rate_fail_alone_on_a_local_cluster(data, tmp_pat
     assert 'failed' in (tmp_path / 'report' / 'report.md').read_text()
 
 
+@pytest.mark.slow
 def test_interrupted_run_resumes_to_the_uninterrupted_table(cluster, data, tmp_path):
     """Bug caught: a resumed run recomputing finished bags or ending with another table."""
     model = data / 'model.npz'
@@ -225,6 +227,7 @@ def test_interrupted_run_resumes_to_the_uninterrupted_table(cluster, data, tmp_p
     assert (other.n_cached, other.n_computed) == (0, 5)
 
 
+@pytest.mark.slow
 def test_a_bag_that_kills_two_workers_is_failed_and_the_rest_finish(
         cluster, data, tmp_path):
     """Bug caught: a crashing bag retried forever, aborting the run, or taking others down."""

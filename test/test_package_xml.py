@@ -31,7 +31,8 @@ RUN_KEYS = {
     'builtin_interfaces': 'builtin_interfaces', 'sensor_msgs': 'sensor_msgs',
     'geometry_msgs': 'geometry_msgs', 'std_msgs': 'std_msgs',
     'diagnostic_msgs': 'diagnostic_msgs', 'ament_index_python': 'ament_index_python',
-    'launch': 'launch', 'launch_ros': 'launch_ros',
+    'launch': 'launch', 'launch_ros': 'launch_ros', 'std_srvs': 'std_srvs',
+    'lifecycle_msgs': 'lifecycle_msgs',
     # optional speed-ups, imported only when installed
     'isal': None,
     # rosbags' own dependencies (zstd / lz4 chunks, sqlite3 bags), come with it
@@ -46,6 +47,8 @@ TEST_KEYS = {
     'catkin_pkg': 'python3-catkin-pkg', 'lxml': 'etree', 'mcap': None,
     'ament_copyright': 'ament_copyright', 'ament_flake8': 'ament_flake8',
     'ament_pep257': 'ament_pep257', 'rosgraph_msgs': 'rosgraph_msgs',
+    # the lifecycle services the tests call (an exec dependency: rclpy.lifecycle needs it)
+    'lifecycle_msgs': 'lifecycle_msgs',
 }
 
 
@@ -78,9 +81,11 @@ def test_package_xml_dependencies_cover_every_import():
         key = RUN_KEYS[module]
         if key is not None and module not in ('dask', 'distributed'):
             assert key in execs, f'{module}: <exec_depend>{key}</exec_depend> missing'
-    test_modules = _imported_modules((ROOT / 'test').glob('*.py')) - stdlib - third_party
-    # the tests' own helper modules (test/*.py) are not dependencies
-    test_modules -= {'conftest', 'benchutil'} | {p.stem for p in (ROOT / 'test').glob('*.py')}
+    test_modules = _imported_modules((ROOT / 'test').rglob('*.py')) - stdlib - third_party
+    # the tests' own helper modules (test/*.py, the test/support package) are not dependencies
+    test_modules -= {'conftest', 'benchutil', 'support'}
+    test_modules -= {p.stem for p in (ROOT / 'test').glob('*.py')}
+    test_modules -= {p.name for p in (ROOT / 'test').iterdir() if (p / '__init__.py').is_file()}
     unknown = test_modules - set(TEST_KEYS)
     assert not unknown, f'test imports without a package.xml mapping: {sorted(unknown)}'
     for module in test_modules:
@@ -88,7 +93,8 @@ def test_package_xml_dependencies_cover_every_import():
         if key == 'etree':
             key = 'python3-lxml'
         if key is not None:
-            assert key in tests, f'{module}: <test_depend>{key}</test_depend> missing'
+            # what the package runs with is there for its tests too
+            assert key in tests | execs, f'{module}: <test_depend>{key}</test_depend> missing'
     # pytest-timeout is a plugin (a marker, not an import)
     assert 'python3-pytest-timeout' in tests
 

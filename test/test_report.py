@@ -398,11 +398,6 @@ def test_rubric_counts_table_reproduces_paper_table_2_counts():
         tables.rubric_counts_table({'bad': -1})
 
 
-def test_count_rubric():
-    assert tables.count_rubric([[10.0, 25.0], [99.0, 100.0]]) == {
-        'perfect': 1, 'great': 1, 'good': 0, 'bad': 1, 'not_qualified': 1}
-
-
 # ---------------------------------------------------------------- markdown report
 def test_report_writer_links_images_relatively(tmp_path, f_hz):
     report = ReportWriter(tmp_path / 'out' / 'report')

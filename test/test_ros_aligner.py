@@ -8,6 +8,7 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.ros.aligner import AlignedSamples
 from wheel_force_estimator.ros.aligner import CornerAligner
+from wheel_force_estimator.ros.aligner import OutOfTolerance
 from wheel_force_estimator.ros.aligner import StampJump
 
 PERIOD = 1_953_125  # ns at 512 Hz
@@ -36,7 +37,8 @@ def collect(events):
 
 def check_accounting(aligner):
     c = aligner.counters()
-    total = c['aligned'] + c['duplicate'] + c['late'] + c['incomplete'] + c['pending']
+    total = (c['aligned'] + c['duplicate'] + c['late'] + c['incomplete']
+             + c['out_of_tolerance'] + c['pending'])
     np.testing.assert_array_equal(c['received'], total)
     return c
 
@@ -239,7 +241,96 @@ def test_random_fault_sequences_always_account_for_every_message():
         check_accounting(al)
 
 
+def jittered(st, corner, rng, fraction=0.2):
+    """Stamps of one corner's own clock: each off the grid by up to +-fraction of a period."""
+    return st + np.round(rng.uniform(-fraction, fraction, st.size) * PERIOD).astype(np.int64)
+
+
+def test_jitter_within_the_tolerance_releases_every_sample_stamped_by_the_median():
+    # Bug caught: exact-stamp matching (0 samples out), or a corner paired with its neighbour
+    # sample (values of k and k +- 1 mixed), or a float median rounding 1e12-ns stamps.
+    rng = np.random.default_rng(7)
+    st = stamps(0, 400)
+    corner_st = [jittered(st, c, rng) for c in range(4)]
+    al = CornerAligner(tolerance_ns=PERIOD // 2, period_ns=PERIOD)
+    released = []
+    for lo in range(0, 400, 7):
+        for c in rng.permutation(4):
+            part = corner_st[c][lo:lo + 7]
+            al.push(int(c), part, values(c, st[lo:lo + 7]))
+        released += al.drain()
+    got_st, got_x, _, _ = collect(released)
+    np.testing.assert_array_equal(got_x, np.concatenate([values(c, st) for c in range(4)]))
+    ordered = np.sort(np.stack(corner_st), axis=0)
+    np.testing.assert_array_equal(got_st, ordered[1] + (ordered[2] - ordered[1]) // 2)
+    c = check_accounting(al)
+    np.testing.assert_array_equal(c['aligned'], [400] * 4)
+    assert c['incomplete'].sum() == c['out_of_tolerance'].sum() == 0
+
+
+def test_missing_sample_under_jitter_is_incomplete_not_out_of_tolerance():
+    rng = np.random.default_rng(8)
+    st = stamps(0, 50)
+    al = CornerAligner(tolerance_ns=PERIOD // 2, period_ns=PERIOD)
+    for c in range(4):
+        keep = np.delete(np.arange(50), [20, 21]) if c == 2 else np.arange(50)
+        al.push(c, jittered(st, c, rng)[keep], values(c, st[keep]))
+    got_st, got_x, _, _ = collect(al.drain())
+    kept = np.delete(st, [20, 21])
+    np.testing.assert_array_equal(got_x, np.concatenate([values(c, kept) for c in range(4)]))
+    c = check_accounting(al)
+    np.testing.assert_array_equal(c['incomplete'], [2, 2, 0, 2])
+    assert c['out_of_tolerance'].sum() == 0
+
+
+def test_corner_clock_offset_beyond_the_tolerance_is_counted_with_the_offset_never_merged():
+    # Bug caught: stamps outside the tolerance merged anyway, or dropped without a trace.
+    st = stamps(0, 40)
+    al = CornerAligner(tolerance_ns=PERIOD // 10, period_ns=PERIOD)
+    offset = 3 * PERIOD // 10
+    for c in range(4):
+        al.push(c, st + (offset if c == 0 else 0), values(c, st))
+    events = al.drain()
+    assert collect(events)[0].size == 0
+    reports = [e for e in events if isinstance(e, OutOfTolerance)]
+    assert {r.corner for r in reports} == {0, 1, 2, 3}
+    for r in reports:
+        assert abs(r.offset_ns - offset) <= 1, r
+    c = check_accounting(al)
+    assert c['out_of_tolerance'].sum() > 0 and c['aligned'].sum() == 0
+    # The same offset within a wider tolerance is one sample, stamped by the median.
+    al = CornerAligner(tolerance_ns=PERIOD // 2, period_ns=PERIOD)
+    for c in range(4):
+        al.push(c, st + (offset if c == 0 else 0), values(c, st))
+    got_st, _, _, _ = collect(al.drain())
+    np.testing.assert_array_equal(got_st, st)
+
+
+def test_random_jittered_fault_sequences_account_for_every_message():
+    rng = np.random.default_rng(12)
+    for trial in range(20):
+        al = CornerAligner(max_pending=int(rng.integers(5, 60)), tolerance_ns=PERIOD // 2,
+                           period_ns=PERIOD)
+        base = [0] * 4
+        for _ in range(60):
+            c = int(rng.integers(4))
+            n = int(rng.integers(1, 15))
+            st = jittered(stamps(base[c], n), c, rng, 0.25)
+            if rng.random() < 0.2:
+                st = np.delete(st, rng.integers(n))
+            base[c] += n
+            al.push(c, st, np.zeros((3, st.size)))
+            for e in al.drain():
+                if isinstance(e, AlignedSamples):
+                    assert np.all(np.diff(e.stamp_ns) > 0)
+        check_accounting(al)
+
+
 def test_bad_arguments_are_rejected():
+    with pytest.raises(ConfigError, match='half the sample period'):
+        CornerAligner(tolerance_ns=PERIOD // 2 + 1, period_ns=PERIOD)
+    with pytest.raises(ConfigError, match='tolerance_ns must be >= 0'):
+        CornerAligner(tolerance_ns=-1)
     with pytest.raises(ConfigError, match='max_pending'):
         CornerAligner(max_pending=0)
     al = CornerAligner()

@@ -7,6 +7,7 @@ Each test starts node processes and talks to them from participants in their own
 (random domain, localhost only: parallel runs never meet).
 """
 from pathlib import Path
+import signal
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -18,6 +19,13 @@ from rclpy.qos import QoSProfile
 from rclpy.qos import ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
+from support.ros_testing import sample_stamps
+from support.ros_testing import SpinningParticipant
+from support.ros_testing import start_node
+from support.ros_testing import stop_node
+from support.ros_testing import synthetic_accel
+from support.ros_testing import synthetic_model
+from support.ros_testing import wait_until
 
 from wheel_force_estimator.bagio.cdr import decode_wrench
 from wheel_force_estimator.bagio.cdr import encode_imu
@@ -27,19 +35,14 @@ from wheel_force_estimator.ros.diagnostics import status_values
 from wheel_force_estimator.ros.pacing import CATCH_UP_FACTOR
 from wheel_force_estimator.ros.pacing import HURRY_FACTOR
 from wheel_force_estimator.ros.pacing import PACE_BURST_S
-from wheel_force_estimator.ros.testing import sample_stamps
-from wheel_force_estimator.ros.testing import SpinningParticipant
-from wheel_force_estimator.ros.testing import start_node
-from wheel_force_estimator.ros.testing import stop_node
-from wheel_force_estimator.ros.testing import synthetic_accel
-from wheel_force_estimator.ros.testing import synthetic_model
-from wheel_force_estimator.ros.testing import wait_until
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(180)]
 
 FS_HZ = 512.0
 CORNERS = ('lf', 'rf', 'lr', 'rr')
 CONFIG = Path(__file__).resolve().parents[1] / 'config' / 'wheel_force.yaml'
+# The message counter runs as a process of its own (like `ros2 topic echo`).
+ROS_TESTING_SCRIPT = Path(__file__).resolve().parent / 'support' / 'ros_testing.py'
 # live_look_ahead_s = 0.05 s (the shipped default) at 512 Hz
 LOOK_AHEAD = round(0.05 * FS_HZ)
 # node vs offline: the same Predictor, different call lengths: FFT rounding only (~1e-15)
@@ -130,6 +133,7 @@ def by_name(msg):
     return {s.name: (s, status_values(s)) for s in msg.status}
 
 
+@pytest.mark.slow
 def test_two_cars_in_one_graph_with_one_params_file(
         ros_env, model_and_file, tmp_path, node_procs):
     model, path = model_and_file
@@ -154,7 +158,13 @@ def test_two_cars_in_one_graph_with_one_params_file(
         time.sleep(0.5)
         for ns, accel in data.items():
             peer.publish(ns, stamps, accel, rate=4.0)
-        assert wait_until(lambda: all(len(r) == n for r in peer.raw.values()), 20.0), \
+        # The look-ahead waits for more data; stopping the nodes completes it.
+        assert wait_until(lambda: all(len(r) == n - LOOK_AHEAD for r in peer.raw.values()),
+                          20.0), {t: len(r) for t, r in peer.raw.items()}
+        for proc in procs:
+            proc.send_signal(signal.SIGINT)
+        assert [proc.wait(20) for proc in procs] == [0, 0]
+        assert wait_until(lambda: all(len(r) == n for r in peer.raw.values()), 5.0), \
             {t: len(r) for t, r in peer.raw.items()}
         for ns, accel in data.items():
             expected = predict_forces(model, accel, LOOK_AHEAD)
@@ -176,7 +186,8 @@ def test_two_cars_in_one_graph_with_one_params_file(
         ids = {s.hardware_id for m in peer.health for s in m.status}
         assert ids == {'/car1/wheel_force_node', '/car2/rear_axle_wft'}
         names = {s.name for m in peer.health for s in m.status}
-        assert {'wheel_force_node: lf', 'rear_axle_wft: rr', 'rear_axle_wft'} <= names
+        assert {'/car1/wheel_force_node: lf', '/car1/wheel_force_node',
+                '/car2/rear_axle_wft: rr', '/car2/rear_axle_wft'} <= names
     finally:
         peer.close()
         codes = [stop_node(p) for p in procs]
@@ -205,21 +216,29 @@ def test_sim_time_with_a_paused_clock_and_input_that_stops(
         peer.publish('', stamps, accel, rate=2.0,
                      clock_on=lambda i: i < n // 4 or i >= 3 * n // 4)
         n_health = len(peer.health)
-        assert wait_until(lambda: all(len(r) == n for r in peer.raw.values()), 10.0), \
-            [len(r) for r in peer.raw.values()]
-        # the tail was flushed on the steady clock: no /clock since the input stopped
+        # All but the look-ahead, which waits for more data (a pause is not the end)
+        assert wait_until(lambda: all(len(r) == n - LOOK_AHEAD for r in peer.raw.values()),
+                          10.0), [len(r) for r in peer.raw.values()]
+        # the input stopped: the damage so far is reported on the steady clock (no /clock)
         assert wait_until(lambda: peer.damage and status_values(
-            peer.damage[-1].status[0])['samples'] == str(n), 5.0)
+            peer.damage[-1].status[0])['samples'] == str(n - LOOK_AHEAD), 5.0)
         time.sleep(1.2)
         assert len(peer.health) > n_health        # health keeps coming without /clock
+        proc.send_signal(signal.SIGINT)           # shutdown completes the look-ahead
+        assert proc.wait(20) == 0
+        assert wait_until(lambda: all(len(r) == n for r in peer.raw.values()), 5.0), \
+            [len(r) for r in peer.raw.values()]
+        assert wait_until(lambda: status_values(
+            peer.damage[-1].status[0])['samples'] == str(n), 5.0)
     finally:
         peer.close()
-    assert stop_node(proc) == 0
-    # damage every 0.5 s of data time, stamped at the boundaries, then the final one
+    # damage every 0.5 s of data time, stamped at the boundaries, the one when the input
+    # stopped, then the final one
     stamps_ns = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in peer.damage]
     periodic = [int(stamps[0]) + k * 500_000_000 for k in range(1, 8)]
-    assert stamps_ns[:7] == periodic
-    assert stamps_ns[7] == int(stamps[-1]) + round(1e9 / FS_HZ)
+    period_ns = round(1e9 / FS_HZ)
+    assert stamps_ns == periodic + [int(stamps[-1 - LOOK_AHEAD]) + period_ns,
+                                    int(stamps[-1]) + period_ns]
     # the last damage = offline pseudo damage of the published forces
     from wheel_force_estimator.core.fatigue import pseudo_damage
     _, wrench = peer.forces('/virtual_wft/lf/wrench')
@@ -259,9 +278,11 @@ def test_output_leaves_at_the_input_rhythm_never_a_block_at_once_at_1x(
     stamps = sample_stamps(n)
     accel = synthetic_accel(n, FS_HZ, seed=44)
     topics = [f'/virtual_wft/{c}/wrench' for c in CORNERS]
+    # The look-ahead of the last samples waits for more data (a pause is not the end).
+    n_out = n - LOOK_AHEAD
     recorder = subprocess.Popen(
-        [sys.executable, '-m', 'wheel_force_estimator.ros.testing', '--source-stamps',
-         'reliable', str(n), str(n), '20', *topics],
+        [sys.executable, str(ROS_TESTING_SCRIPT), '--source-stamps',
+         'reliable', str(n), str(n_out), '20', *topics],
         env=ros_env, stdout=subprocess.PIPE, text=True)
     peer = Peer('pace_feeder')
     try:
@@ -275,7 +296,7 @@ def test_output_leaves_at_the_input_rhythm_never_a_block_at_once_at_1x(
         if recorder.poll() is None:
             recorder.kill()
         recorder.wait()
-    assert out['counts'] == [n] * 4, out['counts']
+    assert out['counts'] == [n_out] * 4, out['counts']
     # The pacer's bound (pacing.py): at most CATCH_UP_FACTOR x the input rate with
     # PACE_BURST_S of it at once, both x HURRY_FACTOR while the node is more than two blocks
     # behind (this machine may be loaded); one more burst for a batch written across the
@@ -317,14 +338,14 @@ def test_input_topic_of_the_wrong_type_is_named_once(
     finally:
         peer.close()
     # while the other corners deliver, only rf is stale, and the node status says why
-    assert any(h['wheel_force_node: rf'][1]['stale'] == 'true'
-               and 'WrenchStamped' in h['wheel_force_node: rf'][0].message
-               and all(h[f'wheel_force_node: {c}'][1]['stale'] == 'false'
+    assert any(h['/wheel_force_node: rf'][1]['stale'] == 'true'
+               and 'WrenchStamped' in h['/wheel_force_node: rf'][0].message
+               and all(h[f'/wheel_force_node: {c}'][1]['stale'] == 'false'
                        for c in ('lf', 'lr', 'rr'))
-               and h['wheel_force_node'][0].level == b'\x02' for h in during), during
+               and h['/wheel_force_node'][0].level == b'\x02' for h in during), during
     for corner in ('lf', 'lr', 'rr'):
-        assert int(last[f'wheel_force_node: {corner}'][1]['received']) == n
-    assert last['wheel_force_node: rf'][1]['received'] == '0'
+        assert int(last[f'/wheel_force_node: {corner}'][1]['received']) == n
+    assert last['/wheel_force_node: rf'][1]['received'] == '0'
     assert stop_node(proc) == 0
     lines = [ln for ln in log.read_text().splitlines() if 'publisher(s) of type' in ln]
     assert len(lines) == 1, lines
@@ -335,9 +356,10 @@ def test_sigterm_flushes_the_look_ahead_and_publishes_everything(
         ros_env, model_and_file, tmp_path, node_procs):
     model, path = model_and_file
     log = tmp_path / 'node.log'
-    # a stall flush would come only after 60 s: what arrives below is the shutdown's doing
-    proc = node_procs(path, ros_env, {'input_reliability': 'reliable',
-                                      'flush_timeout_s': 60.0}, log_path=log)
+    # a pause never flushes (data time decides): what arrives below is the shutdown's doing.
+    # A deep input history: at 4x a 100 ms stall of this loaded machine overflows 200.
+    proc = node_procs(path, ros_env, {'input_reliability': 'reliable', 'input_qos_depth': 5000},
+                      log_path=log)
     n = 1000                                  # not a multiple of the block: a partial block
     stamps = sample_stamps(n)
     accel = synthetic_accel(n, FS_HZ, seed=46)
@@ -348,7 +370,7 @@ def test_sigterm_flushes_the_look_ahead_and_publishes_everything(
         peer.publish('', stamps, accel, rate=4.0)
         # everything but the look-ahead and the partial block is published while running
         assert wait_until(lambda: min(len(r) for r in peer.raw.values()) >= n - LOOK_AHEAD - 16,
-                          10.0)
+                          10.0), ([len(r) for r in peer.raw.values()], log.read_text()[-3000:])
         time.sleep(0.5)
         assert max(len(r) for r in peer.raw.values()) < n     # the tail waits for more input
         proc.send_signal(15)

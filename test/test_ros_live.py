@@ -2,9 +2,16 @@
 # SPDX-License-Identifier: Apache-2.0
 """The node with a live (causal) estimator, through real rclpy/DDS (issue 16)."""
 import dataclasses
+import signal
 
 import numpy as np
 import pytest
+from support.ros_testing import sample_stamps
+from support.ros_testing import start_node
+from support.ros_testing import stop_node
+from support.ros_testing import synthetic_accel
+from support.ros_testing import synthetic_model
+from support.ros_testing import wait_until
 
 from wheel_force_estimator.bagio import write_recording
 from wheel_force_estimator.core.live_estimator import CausalEstimator
@@ -14,12 +21,6 @@ from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.ros.params import PARAMETERS
 from wheel_force_estimator.ros.replay import replay_bag
 from wheel_force_estimator.ros.replay import ReplaySettings
-from wheel_force_estimator.ros.testing import sample_stamps
-from wheel_force_estimator.ros.testing import start_node
-from wheel_force_estimator.ros.testing import stop_node
-from wheel_force_estimator.ros.testing import synthetic_accel
-from wheel_force_estimator.ros.testing import synthetic_model
-from wheel_force_estimator.ros.testing import wait_until
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(180)]
 
@@ -32,7 +33,7 @@ RTOL = 1e-9
 _NAMES = {spec.name for spec in PARAMETERS}
 LOOK_AHEAD_PARAM = 'live_look_ahead_s' if 'live_look_ahead_s' in _NAMES else 'causal_delay_s'
 NODE_PARAMS = {'damage_publish_period_s': 0.2, 'input_reliability': 'reliable',
-               'input_qos_depth': 5000, 'flush_timeout_s': 1.0, 'block_size': 16}
+               'input_qos_depth': 5000, 'block_size': 16}
 
 
 def live_model(seed=31):
@@ -63,7 +64,8 @@ def test_node_at_block_16_equals_offline_causal_prediction(ros_env, tmp_path):
         bag = tmp_path / 'validation'
         write_recording(bag, stamps, accel_mps2=accel)
         settings = ReplaySettings(rate=4.0, wait_subscribers_s=30.0, settle_s=3.0, record=True)
-        recording, result = replay_bag(bag, settings)
+        recording, result = replay_bag(bag, settings,
+                                       after_play=lambda: proc.send_signal(signal.SIGINT))
         assert len(recording.segments) == 2
         assert result.output_counts == (stamps.size,) * 4, log.read_text()[-2000:]
         np.testing.assert_array_equal(result.output_stamp_ns, stamps)
@@ -72,8 +74,9 @@ def test_node_at_block_16_equals_offline_causal_prediction(ros_env, tmp_path):
         np.testing.assert_allclose(result.output_force_n, expected, rtol=0,
                                    atol=RTOL * np.abs(expected).max())
         assert 'no live (causal) estimator' not in log.read_text()
+        assert proc.wait(20) == 0                    # stopped after the replay
     finally:
-        assert stop_node(proc) == 0
+        stop_node(proc)
 
 
 def test_node_warns_once_for_a_model_without_live_estimator(ros_env, tmp_path):

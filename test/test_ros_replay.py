@@ -6,6 +6,8 @@ import sys
 
 import numpy as np
 import pytest
+from support.ros_testing import isolated_ros_env
+from support.ros_testing import sample_stamps
 
 from wheel_force_estimator.cli.node import build_ros_args
 from wheel_force_estimator.core.errors import ConfigError
@@ -13,8 +15,6 @@ from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.ros.replay import imu_frame_ids_from_config
 from wheel_force_estimator.ros.replay import replay_samples
 from wheel_force_estimator.ros.replay import ReplaySettings
-from wheel_force_estimator.ros.testing import isolated_ros_env
-from wheel_force_estimator.ros.testing import sample_stamps
 
 pytestmark = pytest.mark.ros
 
@@ -65,14 +65,22 @@ def test_replay_cli_reports_a_missing_bag_without_traceback(tmp_path):
 def test_replay_without_node_publishes_on_schedule(monkeypatch):
     for key, value in isolated_ros_env().items():
         monkeypatch.setenv(key, value)
-    stamps = sample_stamps(256)
-    settings = ReplaySettings(rate=8.0, wait_subscribers_s=0.0, match_delay_s=0.0,
+    rate = 8.0
+    stamps = sample_stamps(1024)
+    settings = ReplaySettings(rate=rate, wait_subscribers_s=0.0, match_delay_s=0.0,
                               record=True, settle_s=0.1)
-    result = replay_samples(stamps, np.zeros((12, 256)), settings)
-    assert result.n_samples == 256
-    # 0.5 s of signal at 8x: about 62 ms of wall time (allow scheduling slack).
-    assert 0.05 < result.wall_s < 1.0
+    result = replay_samples(stamps, np.zeros((12, 1024)), settings)
+    assert result.n_samples == 1024
+    # The last sample is due (stamp span) / rate after the first: 2.0 s / 8 = 0.25 s.  The
+    # player sleeps until each sample is due, so it cannot finish earlier (a rate applied
+    # twice would take 31 ms); it ends later only by the lateness it measured itself
+    # (max_behind_s) plus the publishing of one last burst (32 samples x 4 corners, well under
+    # 50 ms), so a replay at half the rate (0.5 s) fails too.  Whatever the lateness, a replay
+    # that ignores --rate takes the 2 s of real time, over half of which is refused.
+    due_s = (stamps[-1] - stamps[0]) * 1e-9 / rate
+    assert due_s <= result.wall_s <= due_s + result.max_behind_s + 0.05
+    assert result.wall_s < 0.5 * rate * due_s
     assert result.output_stamp_ns.size == 0 and result.output_counts == (0, 0, 0, 0)
     assert result.damage is None
     with pytest.raises(ShapeError, match='not increasing'):
-        replay_samples(stamps[::-1], np.zeros((12, 256)), settings)
+        replay_samples(stamps[::-1], np.zeros((12, 1024)), settings)

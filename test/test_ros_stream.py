@@ -3,6 +3,9 @@
 """The node's estimation stream (blocks, gaps, flush, jumps, damage), without ROS."""
 import numpy as np
 import pytest
+from support.ros_testing import sample_stamps
+from support.ros_testing import synthetic_accel
+from support.ros_testing import synthetic_model
 
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
@@ -10,9 +13,6 @@ from wheel_force_estimator.core.fatigue import pseudo_damage
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.core.predict import Predictor
 from wheel_force_estimator.ros.stream import ForceStream
-from wheel_force_estimator.ros.testing import sample_stamps
-from wheel_force_estimator.ros.testing import synthetic_accel
-from wheel_force_estimator.ros.testing import synthetic_model
 
 # The stream and predict_forces run the same overlap-add engine with different call lengths;
 # they differ only by FFT rounding, ~1e-15 of the signal.  1e-12 relative leaves room for the
@@ -183,6 +183,53 @@ def test_restart_after_stamp_jump_resets_filter_and_damage(model):
     assert_close(y2, predict_forces(model, x[:, :300]))
     np.testing.assert_allclose(stream.damage(), pseudo_damage(y2, 5.0), rtol=1e-12)
     assert stream.counts['jumps'] == 1 and stream.counts['gaps'] == 0
+
+
+def test_event_split_damage_runs_are_the_offline_damage_of_each_event_span(model):
+    # Bug caught: the split placed at the filter's output (delay samples late) instead of in
+    # data time, or the filter restarted at an event (estimates no longer offline).  Spans
+    # follow evaluate's event rule: a sample belongs to the last event started at or before
+    # its stamp.
+    n = 2000
+    x = synthetic_accel(n, seed=13)
+    stamps = sample_stamps(n)
+    events = [(int(stamps[700]), 'belgian_block'), (int(stamps[1333]) - 1000, 'cobbles')]
+    stream = ForceStream(Predictor(model), 16, 5.0, damage_period_s=1.0)
+    lo = 0
+    for k, (start_ns, name) in zip((700, 1333, n), events + [(None, None)]):
+        stream.feed(stamps[lo:k], x[:, lo:k])
+        if name is not None:
+            stream.split_damage(start_ns - 1, name)      # stamps >= start_ns: the new run
+        lo = k
+    stream.flush()
+    s, y = stream.take()
+    assert_close(y, predict_forces(model, x))                    # one filter, never reset
+    finals = [r for r in stream.take_damage_reports() if r.final]
+    finals.append(stream.final_damage_report())
+    assert [r.run for r in finals] == ['', 'belgian_block', 'cobbles']
+    starts = np.searchsorted(s, [start for start, _ in events])
+    for r, part in zip(finals, np.split(np.arange(n), starts)):
+        assert r.n_samples == part.size
+        np.testing.assert_allclose(r.damage, pseudo_damage(y[:, part], 5.0), rtol=1e-9)
+
+
+def test_reset_damage_reports_the_run_and_restarts_from_zero(model):
+    n = 1000
+    x = synthetic_accel(n, seed=14)
+    stamps = sample_stamps(n)
+    stream = ForceStream(Predictor(model), 16, 5.0)
+    assert stream.reset_damage() is None                      # nothing estimated yet
+    stream.feed(stamps[:600], x[:, :600])
+    s1, y1 = stream.take()
+    final = stream.reset_damage()
+    assert final.final and final.n_samples == s1.size
+    np.testing.assert_allclose(final.damage, pseudo_damage(y1, 5.0), rtol=1e-12)
+    assert np.all(stream.damage() == 0.0)
+    stream.feed(stamps[600:], x[:, 600:])
+    stream.flush()
+    s2, y2 = stream.take()
+    assert_close(np.concatenate([y1, y2], axis=1), predict_forces(model, x))
+    np.testing.assert_allclose(stream.damage(), pseudo_damage(y2, 5.0), rtol=1e-12)
 
 
 def test_short_segment_shorter_than_the_delay(model):

@@ -21,13 +21,30 @@ import scipy.signal
 
 from wheel_force_estimator.sim import dynamics
 from wheel_force_estimator.sim import simulate
-from wheel_force_estimator.sim.linear import corner_accel_response
+from wheel_force_estimator.sim.dynamics import N_STATE
 from wheel_force_estimator.sim.linear import linearise
 from wheel_force_estimator.sim.linear import modes
+from wheel_force_estimator.sim.linear import road_input_matrix
 from wheel_force_estimator.sim.vehicle import corner_layout
 from wheel_force_estimator.sim.vehicle import GRAVITY_MPS2
 from wheel_force_estimator.sim.vehicle import quarter_car
 from wheel_force_estimator.sim.vehicle import VehicleParams
+
+
+def corner_accel_response(packed, speed_mps: float, corner: int, f_hz: np.ndarray):
+    """Return the linear FRF road height -> vertical spindle acceleration of one corner."""
+    a = linearise(packed, speed_mps)
+    b = road_input_matrix(packed, speed_mps, corner)
+    idx = dynamics.S_CORNER + 9 * corner + dynamics.C_ZD
+    eye = np.eye(N_STATE)
+    h = np.empty(len(f_hz), dtype=complex)
+    for k, f in enumerate(f_hz):
+        s = 2j * np.pi * f
+        u = b[:, 0] + b[:, 1] * s / speed_mps
+        x = np.linalg.solve(s * eye - a, u)
+        h[k] = a[idx] @ x + u[idx]
+    return h
+
 
 CAR = VehicleParams()
 

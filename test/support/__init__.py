@@ -1,3 +1,3 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
-"""Fixtures the tests and the benchmarks share (``bench/benchutil.test_support``)."""
+"""Test support shared by the test files: fixtures and helpers that do not ship in the package."""

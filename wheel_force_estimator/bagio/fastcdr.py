@@ -1,7 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Bulk decoding/encoding of recorded messages, checked against the rosbags (de)serialiser.
+Bulk decoding of recorded messages, checked against the rosbags (de)serialiser.
 
 The layouts and byte offsets are :mod:`.cdr`'s (the one codec, which the live node uses
 too); this module adds what reading and writing *bags* needs on top.
@@ -27,11 +27,9 @@ from wheel_force_estimator.bagio.cdr import IMU  # noqa: F401 (the bag readers' 
 from wheel_force_estimator.bagio.cdr import IMU_TYPE  # noqa: F401
 from wheel_force_estimator.bagio.cdr import Layout
 from wheel_force_estimator.bagio.cdr import LAYOUTS  # noqa: F401
-from wheel_force_estimator.bagio.cdr import payload_length
 from wheel_force_estimator.bagio.cdr import STRING_TYPE  # noqa: F401
 from wheel_force_estimator.bagio.cdr import WRENCH  # noqa: F401
 from wheel_force_estimator.bagio.cdr import WRENCH_TYPE  # noqa: F401
-from wheel_force_estimator.core.errors import BagError
 
 # Messages per layout group compared field by field with the generic deserialiser.
 N_VALIDATE = 3
@@ -41,16 +39,6 @@ _CDR_LE = 0x0001  # encapsulation id, read big-endian from bytes 0..1
 _HEAD_DTYPE = np.dtype({'names': ['enc', 'sec', 'nsec', 'strlen'],
                         'formats': ['>u2', '<i4', '<u4', '<u4'],
                         'offsets': [0, 4, 8, 12], 'itemsize': 16})
-
-
-def _record_dtype(layout: Layout, strlen: int) -> np.dtype:
-    values_at = body_offset(strlen) + layout.value_offset
-    return np.dtype({
-        'names': ['enc', 'sec', 'nsec', 'values'],
-        'formats': ['>u2', '<i4', '<u4', ('<f8', (3,))],
-        'offsets': [0, 4, 8, values_at],
-        'itemsize': payload_length(layout, strlen),
-    })
 
 
 def extract(layout: Layout, msg) -> Tuple[int, Tuple[float, float, float]]:
@@ -314,51 +302,3 @@ class TopicDecoder:
             order = np.argsort(log_time, kind='stable')
             log_time, stamp, values = log_time[order], stamp[order], values[order]
         return DecodedTopic(log_time, stamp, values, self.n_fast)
-
-
-def encode_rows(layout: Layout, stamp_ns: np.ndarray, values: np.ndarray,
-                make_msg: Callable, serialize: Callable[[object], bytes]) -> np.ndarray:
-    """
-    Serialise n messages of one topic in bulk (the writer's fast path).
-
-    Parameters
-    ----------
-    layout : Layout
-        Message layout.
-    stamp_ns : numpy.ndarray, shape (n,), int64
-        Header stamps (>= 0).
-    values : numpy.ndarray, shape (n, 3), float64
-        x, y, z values.
-    make_msg : callable
-        ``make_msg(stamp_ns, (x, y, z)) -> message`` building the full message (constant
-        fields such as frame_id and covariances included).
-    serialize : callable
-        Generic serialiser ``serialize(msg) -> bytes``; defines the byte template and checks
-        the first and last rows.
-
-    Returns
-    -------
-    numpy.ndarray, shape (n, L), uint8
-        One payload per row.
-
-    Raises
-    ------
-    BagError
-        The bulk encoding disagrees with the generic serialiser (unexpected layout).
-
-    """
-    n = len(stamp_ns)
-    template = np.frombuffer(bytes(serialize(make_msg(0, (0.0, 0.0, 0.0)))), np.uint8)
-    strlen = int(template[12:16].view('<u4')[0])
-    if len(template) != payload_length(layout, strlen):
-        raise BagError(f'{layout.msgtype}: unexpected serialised length {len(template)}')
-    rows = np.tile(template, (n, 1))
-    rec = rows.view(_record_dtype(layout, strlen))[:, 0]
-    rec['sec'] = stamp_ns // _NS_PER_S
-    rec['nsec'] = stamp_ns % _NS_PER_S
-    rec['values'] = values
-    for i in {0, n - 1} if n else ():
-        ref = bytes(serialize(make_msg(int(stamp_ns[i]), tuple(values[i]))))
-        if ref != rows[i].tobytes():
-            raise BagError(f'{layout.msgtype}: bulk CDR encoding differs from rosbags at row {i}')
-    return rows

@@ -12,13 +12,10 @@ the records in storage order, which is always possible and checks every record l
 import struct
 from typing import Callable, Dict, Iterator, List, Tuple
 
-OP_HEADER = 0x01
-OP_FOOTER = 0x02
 OP_SCHEMA = 0x03
 OP_CHANNEL = 0x04
 OP_MESSAGE = 0x05
 OP_CHUNK = 0x06
-OP_MESSAGE_INDEX = 0x07
 OP_DATA_END = 0x0F
 #: Message record body before the payload: channel(2) sequence(4) log_time(8) publish_time(8).
 MESSAGE_BODY_MIN = 22

@@ -38,7 +38,7 @@ NODE_ONLY_KEYS = frozenset({
     'model_path', 'imu_frame_ids', 'block_size', 'live_look_ahead_s', 'sn_slope',
     'damage_publish_period_s', 'damage_budget', 'stale_timeout_samples', 'input_qos_depth',
     'input_reliability', 'output_qos_depth', 'flush_timeout_s', 'sample_rate_hz',
-    'unknown_torque', 'use_sim_time',
+    'unknown_torque', 'use_sim_time', 'sync_tolerance_s', 'autostart', 'damage_per_event',
 })
 
 DEFAULT_IMU_TOPICS = tuple(f'spindle/{c}/imu' for c in CORNERS)

@@ -100,6 +100,8 @@ def load_fit_config(path=None, **overrides):
     ------
     ConfigError
         Unreadable file, unknown key or a value of the wrong type (file and key named).
+    UsageError
+        A value outside its range (file, key and range named; ``main`` exits 2).
 
     """
     # What `wheel-force fit` uses when neither the params file nor the command line says
@@ -114,7 +116,8 @@ def load_fit_config(path=None, **overrides):
     try:
         return FitConfig(**values)
     except ConfigError as err:
-        raise ConfigError(f'{path or "defaults"}: {err}') from err
+        # a value outside its range is a usage error (exit 2), named with its range
+        raise UsageError(f'{path or "command line"}: {FIT_SECTION}: {err}') from err
 
 
 def explicit_fit_keys(path=None, **overrides) -> frozenset:
@@ -340,3 +343,85 @@ def check_bag_model(model, model_path):
     """
     from wheel_force_estimator.core.spindle import spindle_layout
     return spindle_layout(model, str(model_path))
+
+
+# --------------------------------------------------------------- --causal options
+# ``--causal`` means "what the node publishes": the model's live estimator at the configured
+# look-ahead, through the same Predictor the node uses.  Which filter a look-ahead gets is
+# decided in one place, core.predict.select_filter; here it is only announced.
+
+def add_causal_arguments(parser: argparse.ArgumentParser, what: str) -> None:
+    """Register ``--causal``, ``--live-look-ahead-s`` and ``--causal-delay-samples``."""
+    parser.add_argument('--causal', action='store_true',
+                        help=f'{what} the live (causal) estimate the node publishes: the '
+                             "model's live estimator at the configured look-ahead")
+    parser.add_argument('--live-look-ahead-s', type=float, metavar='S',
+                        help='look-ahead of the live estimate [s] (implies --causal; default: '
+                             'live_look_ahead_s of the params file, else 0.05)')
+    parser.add_argument('--causal-delay-samples', type=int, metavar='N',
+                        help='look-ahead of the live estimate in samples (implies --causal)')
+
+
+def configured_look_ahead_s(config_path=None, override: Optional[float] = None) -> float:
+    """
+    Return the live look-ahead [s]: ``override``, else the params file's, else the default.
+
+    Raises
+    ------
+    ConfigError
+        Unreadable params file or a value that is not a number >= 0 (file and key named).
+
+    """
+    from wheel_force_estimator.bagio.topics import node_parameters
+    from wheel_force_estimator.core.live_estimator import DEFAULT_LIVE_LOOK_AHEAD_S
+    value, where = override, '--live-look-ahead-s'
+    if value is None and config_path is not None:
+        # The node reads the same sections with the same precedence (bagio.topics).
+        params, sections = node_parameters(config_path)
+        if 'live_look_ahead_s' in params:
+            value = params['live_look_ahead_s']
+            where = f'{config_path}: {sections}.ros__parameters.live_look_ahead_s'
+    if value is None:
+        return DEFAULT_LIVE_LOOK_AHEAD_S
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0.0:
+        raise ConfigError(f'{where} = {value!r}: expected a look-ahead >= 0 s')
+    return float(value)
+
+
+def causal_delay(args: argparse.Namespace, fs_hz: float) -> Optional[int]:
+    """Return the requested look-ahead [samples], or ``None`` for the two-sided filter."""
+    from wheel_force_estimator.core.live_estimator import look_ahead_samples
+    if args.causal_delay_samples is not None:
+        if args.live_look_ahead_s is not None:
+            raise UsageError('give --causal-delay-samples or --live-look-ahead-s, not both')
+        return args.causal_delay_samples
+    if args.causal or args.live_look_ahead_s is not None:
+        return look_ahead_samples(
+            configured_look_ahead_s(getattr(args, 'config', None), args.live_look_ahead_s),
+            fs_hz)
+    return None
+
+
+def announce(model, model_path, delay: Optional[int]) -> Optional[str]:
+    """
+    Say which filter a look-ahead gets; return the fallback message, if any.
+
+    Raises
+    ------
+    ConfigError
+        A look-ahead the model's live estimators were not fitted for (as the node).
+
+    """
+    from wheel_force_estimator.core.live_estimator import find_live
+    from wheel_force_estimator.core.predict import select_filter
+    _, fallback = select_filter(model, delay)
+    if delay is None:
+        return None
+    ms = 1e3 * delay / model.fs_hz
+    if fallback:
+        print(f'warning: {model_path}: {fallback}', file=sys.stderr)
+    elif delay != model.fir_delay_samples:
+        est = find_live(model.live, delay)
+        print(f'live estimator: look-ahead {delay} samples ({ms:.1f} ms), '
+              f'{est.info.get("method", "?")}, history {est.history_samples / model.fs_hz:.2f} s')
+    return fallback

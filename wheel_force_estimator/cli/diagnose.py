@@ -166,7 +166,7 @@ def command(args: argparse.Namespace) -> int:
             # Like `fit`, the written model carries live estimators for the node (the
             # configured look-ahead first).  A model whose linear map is the --model's keeps
             # that model's estimators (or none, when it is written unchanged).
-            from wheel_force_estimator.cli.live import configured_look_ahead_s
+            from wheel_force_estimator.cli.common import configured_look_ahead_s
             from wheel_force_estimator.core.live_estimator import LiveDesign
             from wheel_force_estimator.core.live_estimator import SWEEP_LOOK_AHEADS_S
             from wheel_force_estimator.diagnosis.written import with_live_estimators

@@ -46,68 +46,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         'counted over its gap-free segments in order) on the prediction of '
                         'the whole record; each range is judged as a segment of its own. '
                         'diagnose prints this for a single holdout file in fit.report_on')
-    from wheel_force_estimator.cli.live import add_causal_arguments
+    from wheel_force_estimator.cli.common import add_causal_arguments
     add_causal_arguments(p, 'evaluate')
     add_generic_arguments(p)
     return p
-
-
-def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None, ranges=None):
-    """
-    Predict and evaluate bag recordings; return ``(Evaluation, segments)``.
-
-    ``ranges`` (``--samples``, one recording) keeps only those samples of the prediction.
-    """
-    from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator.cli.predict import predict_recording
-    from wheel_force_estimator.core.evaluation import EvalSegment
-    from wheel_force_estimator.core.evaluation import evaluate_segments
-
-    segments, events = [], []
-    for rec in recordings:
-        segments.extend(selected([
-            EvalSegment(seg.force_n, pred, stamps, f'{rec.path}#{i}')
-            for i, ((stamps, pred), seg) in enumerate(
-                zip(predict_recording(model, rec, causal_delay_samples), rec.segments))],
-            ranges, rec.path))
-        events.extend(rec.events)
-    events.sort()
-    forces = model.output_channels[:len(OUTPUT_CHANNELS)]   # moments, if any, follow
-    evaluation = evaluate_segments(segments, model.fs_hz, forces, sn_slope, events=events)
-    return evaluation, segments
-
-
-def evaluate_generic(model, recordings, sn_slope, causal_delay_samples=None, ranges=None):
-    """Predict and evaluate generic recordings (``DaqRecording``); return the same pair."""
-    from wheel_force_estimator.core.evaluation import EvalSegment
-    from wheel_force_estimator.core.evaluation import evaluate_segments
-    from wheel_force_estimator.core.predict import predict_forces
-
-    segments = [piece for rec in recordings for piece in selected(
-        [EvalSegment(rec.outputs, predict_forces(model, rec.inputs, causal_delay_samples),
-                     rec.stamp_ns(), rec.path)], ranges, rec.path)]
-    evaluation = evaluate_segments(segments, model.fs_hz, model.output_channels, sn_slope)
-    return evaluation, segments
-
-
-def selected(segments, ranges, path):
-    """
-    Return ``segments`` cut to ``ranges`` (``--samples``; None: all of them).
-
-    Raises
-    ------
-    RecordingError
-        A range ends after the recording's last aligned sample (the file named).
-
-    """
-    if ranges is None:
-        return segments
-    from wheel_force_estimator.core.errors import RecordingError
-    from wheel_force_estimator.core.evaluation import select_samples
-    try:
-        return select_samples(segments, ranges)
-    except ValueError as err:
-        raise RecordingError(f'{path}: --samples {err}') from err
 
 
 def sample_ranges(args):
@@ -170,9 +112,11 @@ def check_generic_model(model, model_path, request) -> None:
 def command(args: argparse.Namespace) -> int:
     """Run ``evaluate``; return the exit code."""
     from wheel_force_estimator.cli.common import generic_request
-    from wheel_force_estimator.cli.live import announce
-    from wheel_force_estimator.cli.live import causal_delay
+    from wheel_force_estimator.cli.common import announce
+    from wheel_force_estimator.cli.common import causal_delay
     from wheel_force_estimator.core.model import load_model
+    from wheel_force_estimator.offline import evaluate_generic
+    from wheel_force_estimator.offline import evaluate_recordings
     from wheel_force_estimator.report.builders import evaluation_text
 
     request = generic_request(args, args.recordings)
@@ -201,8 +145,9 @@ def command(args: argparse.Namespace) -> int:
     extra = None
     if delay is not None and delay != model.fir_delay_samples:
         # The live estimate side by side with the offline one, and against look-ahead.
-        from wheel_force_estimator.cli import live
-        cmp = live.compare(model, lambda d: evaluation if d == delay else run(d)[0], delay)
+        from wheel_force_estimator.offline import compare
+        from wheel_force_estimator.report import live
+        cmp = compare(model, lambda d: evaluation if d == delay else run(d)[0], delay)
         print('\n' + live.comparison_text(cmp, model.fs_hz))
         doc.update(live.comparison_json(cmp, model.fs_hz))
         doc['offline'] = {'channels': cmp.offline.to_json()['channels']}

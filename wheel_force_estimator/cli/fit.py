@@ -20,6 +20,7 @@ import argparse
 import dataclasses
 import functools
 from pathlib import Path
+import sys
 from typing import Tuple
 
 from wheel_force_estimator.cli.common import add_generic_arguments
@@ -128,16 +129,18 @@ def command(args: argparse.Namespace) -> int:
     chosen = request is not None and 'segment_length' not in explicit
     fitted = fit_design(data.segments, data.fs_hz, config, data.input_channels,
                         data.output_channels, data.input_quantity, data.fit_info, fallback,
-                        chosen, chosen, default_long)
+                        chosen, chosen, default_long, imposed=explicit)
     model = fitted.model
     path = save_model(model, args.out_model)
     summary = coherence_summary(model)
     _print_summary(model, summary, fitted, data)
     if args.report:
-        from wheel_force_estimator.cli import live
+        from wheel_force_estimator.offline import compare
+        from wheel_force_estimator.offline import training_evaluator
+        from wheel_force_estimator.report import live
         from wheel_force_estimator.report.builders import write_fit_report
-        cmp = live.compare(model, live.training_evaluator(model, data.segments),
-                           model.live[0].look_ahead_samples)
+        cmp = compare(model, training_evaluator(model, data.segments),
+                      model.live[0].look_ahead_samples)
         print(live.comparison_text(cmp, model.fs_hz))
         extra = functools.partial(live.report_section, cmp=cmp, fs_hz=model.fs_hz,
                                   data='Training data (in-sample: `evaluate --causal` on '
@@ -150,7 +153,7 @@ def command(args: argparse.Namespace) -> int:
 
 def _with_live(config, args):
     """Return ``config`` designing the live estimators (configured look-ahead first)."""
-    from wheel_force_estimator.cli.live import configured_look_ahead_s
+    from wheel_force_estimator.cli.common import configured_look_ahead_s
     from wheel_force_estimator.core.live_estimator import LiveDesign
     from wheel_force_estimator.core.live_estimator import SWEEP_LOOK_AHEADS_S
     look = configured_look_ahead_s(args.config, args.live_look_ahead_s)
@@ -180,6 +183,9 @@ def _print_summary(model, summary, fitted, data: _TrainingData) -> None:
         print(f'  not used (too short for one Welch segment): {line}')
     if note:
         print(note)
+    if fitted.warning:
+        print(fitted.warning, file=sys.stderr)
+    _print_design(model)
     print(f'estimator: {model.estimator}   segment: {config.segment_length}   '
           f'windows averaged: {model.fit["n_windows"]}')
     if config.long_segment_length:
@@ -202,3 +208,19 @@ def _print_summary(model, summary, fitted, data: _TrainingData) -> None:
               f'({1e3 * first.look_ahead_samples / model.fs_hz:.1f} ms), '
               f'{first.info["method"]}, history {first.history_samples / model.fs_hz:.2f} s; '
               f'also stored: {others or "-"} ms')
+
+
+def _print_design(model) -> None:
+    """Print the design each output was given and its held-out (cross-validated) RMSE."""
+    design = model.fit.get('design') or {}
+    if design.get('method') != 'blocked_cross_validation':
+        return
+    imposed = ', '.join(design['imposed']) or 'none'
+    print(f'design chosen by blocked cross-validation ({design["n_blocks"]} blocks; imposed '
+          f'settings: {imposed}); held-out RMSE % unfiltered / 1 Hz high-passed:')
+    for name, row in design['rows'].items():
+        detail = ', '.join(f'{k} {v:g}' if isinstance(v, float) else f'{k} {v}'
+                           for k, v in row.items()
+                           if k not in ('family', 'cv_rmse_pct', 'cv_rmse_hp1_pct'))
+        print(f'  {name:6s} {row["family"]:8s} {row["cv_rmse_pct"]:6.1f} '
+              f'{row["cv_rmse_hp1_pct"]:6.1f}   {detail}')

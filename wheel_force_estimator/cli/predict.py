@@ -2,7 +2,6 @@
 # SPDX-License-Identifier: Apache-2.0
 """``wheel-force predict MODEL BAG -o OUT_BAG``: virtual WFT forces into a new rosbag2."""
 import argparse
-from pathlib import Path
 
 from wheel_force_estimator.cli.common import add_namespace_argument
 from wheel_force_estimator.cli.common import topic_config
@@ -24,73 +23,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--compression', choices=('zstd', 'none'), default='zstd',
                    help='mcap chunk compression of OUT_BAG (default zstd: ~30 %% of the size, '
                         'read by ros2 bag and rosbags; ignored for sqlite3)')
-    from wheel_force_estimator.cli.live import add_causal_arguments
+    from wheel_force_estimator.cli.common import add_causal_arguments
     add_causal_arguments(p, 'predict')
     return p
-
-
-def input_storage(path) -> str:
-    """Return the storage plugin of a rosbag2 directory, ``mcap`` for anything else."""
-    meta = Path(path) / 'metadata.yaml'
-    if meta.is_file() and 'sqlite3' in meta.read_text():
-        return 'sqlite3'
-    return 'mcap'
-
-
-def predict_recording(model, recording, causal_delay_samples=None):
-    """Predict every segment of ``recording``; return a list of ``(stamp_ns, force_n)``."""
-    from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator.core.predict import predict_forces
-    # the forces come first; moments, if the model has them, follow (core.spindle)
-    n = len(OUTPUT_CHANNELS)
-    return [(seg.stamp_ns, predict_forces(model, seg.accel_mps2, causal_delay_samples)[:n])
-            for seg in recording.segments]
-
-
-def stream_recording(model, recording, causal_delay_samples=None):
-    """
-    Return the stamps and the forces of every segment as one stream of blocks.
-
-    The forces are computed while the bag is written (:class:`..bagio.blocks.SignalBlocks`),
-    one block ahead in a worker thread, so an hour of forces is never held whole.
-    """
-    import numpy as np
-
-    from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator.bagio.blocks import SignalBlocks
-    from wheel_force_estimator.core.predict import iter_forces
-
-    segments = recording.segments
-    stamps = (segments[0].stamp_ns if len(segments) == 1
-              else np.concatenate([seg.stamp_ns for seg in segments]))
-
-    def blocks():
-        n = len(OUTPUT_CHANNELS)  # the forces; moments, if any, follow (core.spindle)
-        for seg in segments:
-            for block in iter_forces(model, seg.accel_mps2, causal_delay_samples):
-                yield block[:n]
-    return stamps, SignalBlocks(OUTPUT_CHANNELS, stamps.size, prefetched(blocks()))
-
-
-def prefetched(items):
-    """
-    Yield ``items`` while a worker thread already computes the next one.
-
-    FFTs, matrix products and large copies release the GIL, so filtering overlaps the bag
-    writing.
-    """
-    from concurrent.futures import ThreadPoolExecutor
-
-    it = iter(items)
-    done = object()
-    with ThreadPoolExecutor(max_workers=1) as pool:
-        ahead = pool.submit(next, it, done)
-        while True:
-            item = ahead.result()
-            if item is done:
-                return
-            ahead = pool.submit(next, it, done)
-            yield item
 
 
 def command(args: argparse.Namespace) -> int:
@@ -98,9 +33,11 @@ def command(args: argparse.Namespace) -> int:
     from wheel_force_estimator.bagio import write_recording
     from wheel_force_estimator.cli.common import check_bag_model
     from wheel_force_estimator.cli.common import read_recordings
-    from wheel_force_estimator.cli.live import announce
-    from wheel_force_estimator.cli.live import causal_delay
+    from wheel_force_estimator.cli.common import announce
+    from wheel_force_estimator.cli.common import causal_delay
     from wheel_force_estimator.core.model import load_model
+    from wheel_force_estimator.offline import input_storage
+    from wheel_force_estimator.offline import stream_recording
 
     model = load_model(args.model)
     check_bag_model(model, args.model)

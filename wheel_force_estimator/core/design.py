@@ -23,14 +23,24 @@ FRF of the written model) call :func:`fit_design`, so the two can never drift ap
 - the model's ``units`` name the declared input quantity.
 """
 import dataclasses
-from typing import Mapping, Optional, Sequence, Tuple
+import sys
+from typing import Iterable, Mapping, Optional, Sequence, Tuple
 
+
+from wheel_force_estimator.core.crossval import N_BLOCKS
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.model import FrfModel
+from wheel_force_estimator.core.physics_laws import QUANTITIES
+from wheel_force_estimator.core.pipeline import build_model
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.resolution import choose_segment_length
+from wheel_force_estimator.core.search import fit_chosen
+from wheel_force_estimator.core.search import MIN_SCORING_SEGMENT
+from wheel_force_estimator.core.search import search
+from wheel_force_estimator.core.validation import as_signals
+
 
 #: What ``wheel-force fit`` uses when neither the params file nor the command line says
 #: otherwise (the library's ``FitConfig()`` keeps the single-resolution paper method): the
@@ -65,6 +75,9 @@ class DesignedFit:
         Segments left out (too short for one Welch segment), with their lengths.
     note : str
         Why the settings differ from the ones asked for (empty when they do not).
+    warning : str
+        Why the design was not cross-validated (records too short, named), for stderr and
+        the report; empty when it was (or was not asked for).
 
     """
 
@@ -73,6 +86,7 @@ class DesignedFit:
     used: Tuple[TrainingSegment, ...]
     skipped: Tuple[str, ...]
     note: str
+    warning: str = ''
 
 
 def _short_record_fallback(config: FitConfig, segments, fs_hz: float) -> Tuple[FitConfig, str]:
@@ -193,7 +207,9 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
                short_record_fallback: bool = False,
                segment_fallback: bool = False,
                choose_resolution: bool = False,
-               long_window_fallback: Optional[bool] = None) -> DesignedFit:
+               long_window_fallback: Optional[bool] = None,
+               cross_validate: bool = True,
+               imposed: Iterable[str] = ()) -> DesignedFit:
     """
     Fit a model as ``wheel-force fit`` does.
 
@@ -226,6 +242,12 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
         Allow the one-resolution fallback when the records hold no more windows of the long
         segment than inputs (bags and generic recordings whose long segment the user did not
         choose); None = as ``short_record_fallback``.
+    cross_validate : bool
+        Choose each output's design by blocked cross-validation
+        (:func:`cross_validated_fit`); records too short for it are fitted with ``config``
+        alone, and ``note`` says so naming them.
+    imposed : iterable of str
+        Fit settings the user chose (params file or command line): the search keeps them.
 
     Returns
     -------
@@ -270,9 +292,57 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
         skipped.extend(f'{s.source}: {s.accel_mps2.shape[1]} samples < segment length '
                        f'{config.segment_length}' for s in short)
         used = [s for s in used if s.accel_mps2.shape[1] >= config.segment_length]
+    model, warning = None, ''
+    if cross_validate:
+        model = _cross_validated_model(used, fs_hz, config, input_channels, output_channels,
+                                       input_quantity, fit_info, frozenset(imposed))
+        if model is None:
+            warning = _too_short_note(used, fs_hz, config)
     note = '\n'.join(n for n in notes if n)
-    model = fit_model(used, fs_hz, config, input_channels, output_channels, fit_info=fit_info,
-                      input_quantity=input_quantity)
+    if model is None:
+        model = fit_model(used, fs_hz, config, input_channels, output_channels,
+                          fit_info=fit_info, input_quantity=input_quantity)
     model = dataclasses.replace(model, units={'input': INPUT_UNITS[input_quantity],
                                               'output': 'N'})
-    return DesignedFit(model, config, tuple(used), tuple(skipped), note)
+    if warning:
+        model = dataclasses.replace(model, fit=dict(model.fit, design={
+            'method': 'defaults', 'reason': warning}))
+    return DesignedFit(model, config, tuple(used), tuple(skipped), note, warning)
+
+
+def _too_short_note(used, fs_hz: float, config: FitConfig) -> str:
+    """Say which recordings were too short to cross-validate and what was fitted instead."""
+    total = sum(s.accel_mps2.shape[1] for s in used)
+    names = ', '.join(f'{s.source} ({s.accel_mps2.shape[1] / fs_hz:.1f} s)' for s in used[:4])
+    more = f' and {len(used) - 4} more' if len(used) > 4 else ''
+    return (f'note: {names}{more}: {total / fs_hz:.1f} s in all is too short to '
+            f'cross-validate the design ({N_BLOCKS} blocks of two '
+            f'{max(MIN_SCORING_SEGMENT, config.segment_length)}-sample windows each at '
+            f'least); fitted with the documented defaults (H1, segment '
+            f'{config.segment_length}, long segment {config.long_segment_length or "off"}).')
+
+
+def _cross_validated_model(used, fs_hz, config, input_channels, output_channels,
+                           input_quantity, fit_info, imposed) -> Optional[FrfModel]:
+    """Return the cross-validated model (``None`` when the records are too short)."""
+    for seg in used:
+        as_signals(seg.accel_mps2, f'accelerations of {seg.source}', input_channels)
+        as_signals(seg.force_n, f'forces of {seg.source}', output_channels)
+    order = QUANTITIES.index(input_quantity)
+    searched = search(used, fs_hz, config, input_channels, order, imposed, progress)
+    if searched is None:
+        return None
+    choice, welch, lags = searched
+    est, h, fir, live, extra, static_x, static_y = fit_chosen(
+        used, choice, welch, lags, fs_hz, config, order, input_channels)
+    extra = dict(extra, design=choice.record(output_channels))
+    return build_model(used, fs_hz, config, input_channels, output_channels,
+                       (est, h, fir, live, extra, static_x, static_y), fit_info)
+
+
+def progress(iterable, desc: str):
+    """Wrap ``iterable`` in a tqdm bar when stderr is a terminal (long fits)."""
+    if not sys.stderr.isatty():
+        return iterable
+    from tqdm import tqdm
+    return tqdm(iterable, desc=desc, leave=False)

@@ -3,7 +3,7 @@
 """
 Judge a prediction like a durability engineer (the ``evaluate`` command's numeric part).
 
-Conventions for several recordings / gap-separated segments (documented in the README):
+Conventions for several recordings / gap-separated segments (documented in docs/design.md):
 
 - RMSE %: segments are concatenated and the global means removed; the 1 Hz high-passed variant
   filters each segment on its own (zero phase) before concatenating, so no filter runs across

@@ -22,11 +22,11 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filter_design import butter_sos
-from wheel_force_estimator.core.rainflow import _BLOCK_SAMPLES
-from wheel_force_estimator.core.rainflow import _check_residue
-from wheel_force_estimator.core.rainflow import _push_channels
-from wheel_force_estimator.core.rainflow import _reversal_mask
-from wheel_force_estimator.core.rainflow import _total_damage
+from wheel_force_estimator.core.rainflow import BLOCK_SAMPLES
+from wheel_force_estimator.core.rainflow import check_residue
+from wheel_force_estimator.core.rainflow import push_channels
+from wheel_force_estimator.core.rainflow import reversal_mask
+from wheel_force_estimator.core.rainflow import total_damage
 from wheel_force_estimator.core.validation import as_signals
 from wheel_force_estimator.core.validation import positive_float
 
@@ -72,7 +72,7 @@ class StreamingDamage:
             raise ConfigError(f'n_channels must be an integer >= 1, got {n_channels!r}')
         self._n_channels = int(n_channels)
         self._sn_slope = positive_float(sn_slope, 'sn_slope')
-        self._half = _check_residue(residue)
+        self._half = check_residue(residue)
         self.reset()
 
     @property
@@ -124,18 +124,18 @@ class StreamingDamage:
             raise ShapeError(
                 f'damage stream block starting at sample {start}: expected '
                 f'{self._n_channels} channels, got {chunk.shape[0]}')
-        for first in range(0, chunk.shape[1], _BLOCK_SAMPLES):
-            self._update_valid(chunk[:, first:first + _BLOCK_SAMPLES])
+        for first in range(0, chunk.shape[1], BLOCK_SAMPLES):
+            self._update_valid(chunk[:, first:first + BLOCK_SAMPLES])
 
     def _update_valid(self, block):
-        """Consume a validated, non-empty block of at most ``_BLOCK_SAMPLES`` samples."""
+        """Consume a validated, non-empty block of at most ``BLOCK_SAMPLES`` samples."""
         if self._n_samples == 0:
             # The first sample opens the record: it starts every channel's stack.
             self._last = block[:, 0].copy()
             self._stacks[:, 0] = self._last
             self._n_stack[:] = 1
         y = np.concatenate([self._last[:, np.newaxis], block], axis=1)
-        mask, self._direction = _reversal_mask(y, self._direction)
+        mask, self._direction = reversal_mask(y, self._direction)
         rows, cols = np.nonzero(mask)
         values = y[rows, cols]
         offsets = np.zeros(self._n_channels + 1, dtype=np.int64)
@@ -145,8 +145,8 @@ class StreamingDamage:
             grown = np.empty((self._n_channels, max(needed, 2 * self._stacks.shape[1])))
             grown[:, :self._stacks.shape[1]] = self._stacks
             self._stacks = grown
-        _push_channels(values, offsets, self._stacks, self._n_stack, self._closed,
-                       self._sn_slope)
+        push_channels(values, offsets, self._stacks, self._n_stack, self._closed,
+                      self._sn_slope)
         self._last = block[:, -1].copy()
         self._n_samples += block.shape[1]
 
@@ -161,8 +161,8 @@ class StreamingDamage:
             (the last sample taken as the end of the record).  Zero before the first reversal.
 
         """
-        return _total_damage(self._stacks, self._n_stack, self._last, self._closed,
-                             self._sn_slope, self._half)
+        return total_damage(self._stacks, self._n_stack, self._last, self._closed,
+                            self._sn_slope, self._half)
 
 
 def pseudo_damage(x, sn_slope: float = 5.0, residue: str = 'half') -> np.ndarray:
@@ -196,12 +196,12 @@ def pseudo_damage(x, sn_slope: float = 5.0, residue: str = 'half') -> np.ndarray
     """
     x = as_signals(x, 'pseudo damage input', min_samples=0)
     sn_slope = positive_float(sn_slope, 'sn_slope')
-    _check_residue(residue)
+    check_residue(residue)
     if x.shape[0] == 0:
         return np.zeros(0)
     stream = StreamingDamage(x.shape[0], sn_slope, residue)
-    for first in range(0, x.shape[1], _BLOCK_SAMPLES):
-        stream._update_valid(x[:, first:first + _BLOCK_SAMPLES])
+    for first in range(0, x.shape[1], BLOCK_SAMPLES):
+        stream._update_valid(x[:, first:first + BLOCK_SAMPLES])
     return stream.damage()
 
 
@@ -300,7 +300,7 @@ def relative_damage_spectrum(x, fs_hz: float, sn_slope: float = 5.0, bands_hz=No
     x = as_signals(x, 'relative damage spectrum input', min_samples=0)
     fs_hz = positive_float(fs_hz, 'fs_hz')
     sn_slope = positive_float(sn_slope, 'sn_slope')
-    _check_residue(residue)
+    check_residue(residue)
     bands = _check_bands(damage_bands_hz(fs_hz) if bands_hz is None else bands_hz, fs_hz)
     out = np.zeros((x.shape[0], len(bands)))
     if x.shape[1] == 0:

@@ -54,7 +54,7 @@ from wheel_force_estimator.core.validation import positive_float
 DEFAULT_TAPER_FRACTION = 0.25
 
 
-def _as_index(value, name: str) -> int:
+def as_index(value, name: str) -> int:
     try:
         return operator.index(value)
     except TypeError as err:
@@ -111,7 +111,7 @@ class FirFilter:
         if not np.isfinite(taps).all():
             o, i, k = np.argwhere(~np.isfinite(taps))[0]
             raise NonFiniteError(f'FIR taps: non-finite value at output {o}, input {i}, tap {k}')
-        delay = _as_index(self.delay_samples, 'delay_samples')
+        delay = as_index(self.delay_samples, 'delay_samples')
         if not 0 <= delay < taps.shape[2]:
             raise ConfigError(
                 f'delay_samples must be in [0, {taps.shape[2]}) for {taps.shape[2]} taps, '
@@ -287,7 +287,7 @@ def fir_from_frf(f_hz, h, fs_hz, delay_samples: Optional[int] = None, f_min_hz=0
         raise ConfigError(
             f'pass band [{f_min}, {f_max}] Hz with {transition} Hz edges contains no FRF bin '
             f'other than DC (df = {df:g} Hz)')
-    delay = n_fft // 2 if delay_samples is None else _as_index(delay_samples, 'delay_samples')
+    delay = n_fft // 2 if delay_samples is None else as_index(delay_samples, 'delay_samples')
     if not 0 <= delay < n_fft:
         raise ConfigError(f'delay_samples must be in [0, {n_fft}), got {delay}')
     fraction = _taper_fraction(taper_fraction)
@@ -332,51 +332,13 @@ def acausal_energy_fraction(fir: FirFilter, delay_samples: int) -> float:
         ``delay_samples`` negative or not an integer.
 
     """
-    keep = _as_index(delay_samples, 'delay_samples')
+    keep = as_index(delay_samples, 'delay_samples')
     if keep < 0:
         raise ConfigError(f'delay_samples must be >= 0, got {keep}')
     energy = np.square(fir.taps).sum(axis=(0, 1))
     total = energy.sum()
     n_drop = max(fir.delay_samples - keep, 0)
     return float(energy[:n_drop].sum() / total) if total > 0.0 else 0.0
-
-
-def choose_causal_delay(fir: FirFilter, max_fraction=0.01) -> int:
-    """
-    Return the smallest look-ahead whose discarded acausal energy is <= ``max_fraction``.
-
-    Parameters
-    ----------
-    fir : FirFilter
-        The filter (usually the centred design of :func:`fir_from_frf`).
-    max_fraction : float
-        Largest acceptable :func:`acausal_energy_fraction`, in [0, 1).
-
-    Returns
-    -------
-    int
-        Look-ahead in ``[0, fir.delay_samples]`` [samples].
-
-    Raises
-    ------
-    ConfigError
-        ``max_fraction`` outside [0, 1).
-
-    """
-    try:
-        limit = float(max_fraction)
-    except (TypeError, ValueError) as err:
-        raise ConfigError(f'max_fraction must be a number, got {max_fraction!r}') from err
-    if not 0.0 <= limit < 1.0:
-        raise ConfigError(f'max_fraction must be in [0, 1), got {max_fraction!r}')
-    energy = np.square(fir.taps).sum(axis=(0, 1))
-    total = energy.sum()
-    delay = fir.delay_samples
-    if total == 0.0 or delay == 0:
-        return 0
-    # Discarded energy for look-ahead d (d = 0..delay) is the sum of the first delay - d taps.
-    dropped = np.concatenate([np.cumsum(energy[:delay])[::-1], [0.0]]) / total
-    return int(np.argmax(dropped <= limit))
 
 
 def with_delay(fir: FirFilter, delay_samples: int,
@@ -408,7 +370,7 @@ def with_delay(fir: FirFilter, delay_samples: int,
         ``delay_samples`` outside ``[0, fir.delay_samples]``.
 
     """
-    delay = _as_index(delay_samples, 'delay_samples')
+    delay = as_index(delay_samples, 'delay_samples')
     if not 0 <= delay <= fir.delay_samples:
         raise ConfigError(
             f"delay_samples must be in [0, {fir.delay_samples}] (the filter's look-ahead), "

@@ -40,10 +40,10 @@ refuses a water level with undetrended windows.  A frequency where the inputs ho
 power was not excited: its ``sxx`` and ``syx`` are sensor noise or window leakage
 from the excited band, their ratio is not the system's response, and the coherence does not
 reveal it (leakage is coherent, and few long windows make chance coherence high).  Measured on
-the known-answer pairs of the tests' synthetic fixtures (excited 0.5-25 Hz, inputs 132 dB down
-below 0.5 Hz): without it the fitted gain there was 1.7e5 N per m/s² against about 200 for the
-noise-free fit of the same system, and the FIR's response to a record's first sample dominated
-the whole-record RMSE (240-5772 %).
+the known-answer pairs of ``test/support/diagnosis_synthetic.py`` (excited 0.5-25 Hz, inputs
+132 dB down below 0.5 Hz): without it the fitted gain there was 1.7e5 N per m/s² against
+about 200 for the noise-free fit of the same system, and the FIR's response to a record's first
+sample dominated the whole-record RMSE (240-5772 %).
 """
 from dataclasses import dataclass
 

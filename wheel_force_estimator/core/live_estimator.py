@@ -375,10 +375,10 @@ def design_causal(corr: Correlations, look_ahead: int, design: LiveDesign) -> Ca
         The regularised normal equations are not positive definite (no input power).
 
     """
-    return _solve(_NormalEquations(corr, look_ahead, design), look_ahead)
+    return LagOrderedFactor(NormalEquations(corr, look_ahead, design)).estimator(look_ahead)
 
 
-class _NormalEquations:
+class NormalEquations:
     """The regularised normal equations of the basis for look-ahead ``D`` (see notes)."""
 
     def __init__(self, corr: Correlations, look_ahead: int, design: LiveDesign):
@@ -423,8 +423,9 @@ class _NormalEquations:
         self.a = 0.5 * (a + a.T)
         width = np.diff(edges).astype(np.float64)
         power = rxx[np.arange(n_in), np.arange(n_in), t_max]
-        self.a[np.diag_indices_from(self.a)] += design.regularisation * (
-            power[:, None] * width[None, :]).ravel()
+        # the ridge per unit of regularisation (so another ridge needs no second build)
+        self.ridge_unit = (power[:, None] * width[None, :]).ravel()
+        self.a[np.diag_indices_from(self.a)] += design.regularisation * self.ridge_unit
         self.rhs = b.transpose(0, 2, 1).reshape(n_in * n_b, n_out)
         self.edges, self.n_in, self.n_out = edges, n_in, n_out
         self.info = {'method': METHOD, 'history_s': history / fs, 'fine_s': design.fine_s,
@@ -432,41 +433,6 @@ class _NormalEquations:
                      'regularisation': design.regularisation,
                      'n_training_samples': int(corr.n_samples)}
         self.fs_hz = fs
-
-    def sub(self, look_ahead: int) -> '_NormalEquations':
-        """
-        Return the equations of a shorter look-ahead (its basis drops the first lags).
-
-        Only the leading one-sample blocks (future lags) differ between look-aheads, so the
-        smaller problem is a principal submatrix: no second pass over the correlations.
-        """
-        drop = -int(self.edges[0]) - look_ahead
-        if drop < 0 or drop >= _fine_count(self.edges):
-            raise ConfigError(f'look-ahead {look_ahead} is not within the fine lags')
-        n_b = self.edges.size - 1
-        sel = (np.arange(self.n_in)[:, None] * n_b + np.arange(drop, n_b)[None, :]).ravel()
-        out = object.__new__(_NormalEquations)
-        out.__dict__.update(self.__dict__)
-        out.a = self.a[np.ix_(sel, sel)]
-        out.rhs = self.rhs[sel]
-        out.edges = self.edges[drop:]
-        return out
-
-
-def _solve(eq: _NormalEquations, look_ahead: int) -> CausalEstimator:
-    try:
-        theta = scipy.linalg.cho_solve(scipy.linalg.cho_factor(eq.a, check_finite=False),
-                                       eq.rhs, check_finite=False)
-    except np.linalg.LinAlgError as err:
-        raise InsufficientDataError(
-            f'live estimator (look-ahead {look_ahead} samples): the normal equations are not '
-            f'positive definite (inputs without power?)') from err
-    n_b = eq.edges.size - 1
-    theta = theta.reshape(eq.n_in, n_b, eq.n_out).transpose(2, 0, 1)        # (o, i, p)
-    n_fine = _fine_count(eq.edges)
-    info = dict(eq.info, look_ahead_s=look_ahead / eq.fs_hz, n_basis_per_input=int(n_b))
-    return CausalEstimator(look_ahead, theta[:, :, :n_fine], eq.edges[n_fine:],
-                           theta[:, :, n_fine:], info)
 
 
 def _fine_count(edges: np.ndarray) -> int:
@@ -479,9 +445,87 @@ def _fine_count(edges: np.ndarray) -> int:
 def design_live(corr: Correlations, design: LiveDesign) -> Tuple[CausalEstimator, ...]:
     """Design one estimator per distinct look-ahead of ``design`` (configured one first)."""
     looks = list(dict.fromkeys(look_ahead_samples(v, corr.fs_hz) for v in design.look_aheads_s))
-    # One set of equations for the longest look-ahead; the others are its submatrices.
-    full = _NormalEquations(corr, max(looks), design)
-    return tuple(_solve(full.sub(d), d) for d in looks)
+    # One factorisation of the longest look-ahead's equations serves every look-ahead.
+    factor = LagOrderedFactor(NormalEquations(corr, max(looks), design))
+    return tuple(factor.estimator(d) for d in looks)
+
+
+class LagOrderedFactor:
+    """
+    One Cholesky factorisation that serves every look-ahead up to the longest.
+
+    The look-ahead ``d`` equations are those of the longest look-ahead ``D`` without the
+    future lags ``-D .. -d-1`` (:meth:`NormalEquations.sub`).  Ordering the unknowns lag by
+    lag with the past first and the future lags last, nearest first (all inputs of one lag
+    together), makes each look-ahead's equations a *leading* principal submatrix, and the
+    Cholesky factor of a leading principal submatrix is the leading block of the full factor.
+    So a shorter look-ahead costs two triangular solves, not a factorisation.
+
+    Parameters
+    ----------
+    eq : NormalEquations
+        Equations of the longest look-ahead (its future lags one sample each).
+    regularisation : float, optional
+        Ridge to use instead of the one ``eq`` was built with [-].
+
+    Raises
+    ------
+    InsufficientDataError
+        The regularised equations are not positive definite.
+
+    """
+
+    def __init__(self, eq: 'NormalEquations', regularisation: Optional[float] = None):
+        n_b = eq.edges.size - 1
+        d_max = -int(eq.edges[0])
+        blocks = np.concatenate([np.arange(d_max, n_b), np.arange(d_max - 1, -1, -1)])
+        self._perm = (np.arange(eq.n_in)[None, :] * n_b + blocks[:, None]).ravel()
+        a = eq.a[np.ix_(self._perm, self._perm)]
+        if regularisation is not None:
+            ridge = (regularisation - eq.info['regularisation']) * eq.ridge_unit[self._perm]
+            a[np.diag_indices_from(a)] += ridge
+        try:
+            self._l = scipy.linalg.cholesky(a, lower=True, overwrite_a=True, check_finite=False)
+        except np.linalg.LinAlgError as err:
+            raise InsufficientDataError(
+                f'live estimator (look-ahead {d_max} samples): the normal equations are not '
+                f'positive definite (inputs without power?)') from err
+        self._rhs = eq.rhs[self._perm]
+        self._blocks, self._eq, self._d_max, self._n_b = blocks, eq, d_max, n_b
+        reg = eq.info['regularisation'] if regularisation is None else regularisation
+        self._info = dict(eq.info, regularisation=float(reg))
+
+    def theta(self, look_ahead: int) -> np.ndarray:
+        """
+        Return the coefficients for ``look_ahead`` samples, shape (n_out, n_in, n_basis).
+
+        Basis block ``p`` of the result is block ``p + D - look_ahead`` of the longest
+        look-ahead's basis.
+        """
+        d = int(look_ahead)
+        if not 0 <= d <= self._d_max:
+            raise ConfigError(f'look-ahead {d} is not within 0 .. {self._d_max}')
+        n_in = self._eq.n_in
+        m = n_in * (self._n_b - self._d_max + d)
+        lead = self._l[:m, :m]
+        z = scipy.linalg.solve_triangular(lead, self._rhs[:m], lower=True, check_finite=False)
+        sol = scipy.linalg.solve_triangular(lead, z, lower=True, trans='T', check_finite=False)
+        used = self._blocks[:m // n_in]                                   # basis block per lag
+        theta = np.empty((self._eq.n_out, n_in, self._n_b - self._d_max + d))
+        theta[:, :, used - (self._d_max - d)] = sol.reshape(used.size, n_in,
+                                                            self._eq.n_out).transpose(2, 1, 0)
+        return theta
+
+    def estimator(self, look_ahead: int) -> CausalEstimator:
+        """Return the live estimator for ``look_ahead`` samples."""
+        d = int(look_ahead)
+        theta = self.theta(d)
+        edges = self._eq.edges[self._d_max - d:]
+        n_fine = _fine_count(edges)
+        info = dict(self._info, look_ahead_s=d / self._eq.fs_hz,
+                    n_basis_per_input=int(edges.size - 1))
+        return CausalEstimator(d, theta[:, :, :n_fine], edges[n_fine:], theta[:, :, n_fine:],
+                               info)
 
 
 # -- model file section -----------------------------------------------------------------------

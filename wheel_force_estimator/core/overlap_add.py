@@ -17,7 +17,7 @@ import scipy.fft
 
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
-from wheel_force_estimator.core.filtering import _as_index
+from wheel_force_estimator.core.filtering import as_index
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.validation import as_signals
 
@@ -232,7 +232,7 @@ def apply_fir(fir: FirFilter, x, block_size: Optional[int] = None,
     x = as_signals(x, name)
     if x.shape[0] != fir.n_in:
         raise ShapeError(f'{name}: expected {fir.n_in} channels, got {x.shape[0]}')
-    block = 1 << 16 if block_size is None else _as_index(block_size, 'block_size')
+    block = 1 << 16 if block_size is None else as_index(block_size, 'block_size')
     if block < 1:
         raise ConfigError(f'block_size must be >= 1, got {block}')
     n = x.shape[1]

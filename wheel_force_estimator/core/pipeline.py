@@ -23,8 +23,9 @@ import datetime
 from typing import Mapping, Optional, Sequence, Tuple
 
 import numpy as np
-import scipy.fft
 
+from wheel_force_estimator.core.crossval import blend_weight
+from wheel_force_estimator.core.crossval import response_on_grid
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.filtering import fir_from_frf
@@ -41,6 +42,7 @@ from wheel_force_estimator.core.model import FrfModel
 from wheel_force_estimator.core.physics_laws import QUANTITIES
 from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spectra import cross_spectra
+from wheel_force_estimator.core.spectra import CrossSpectra
 from wheel_force_estimator.core.spectra import WelchConfig
 from wheel_force_estimator.core.validation import as_signals
 
@@ -163,6 +165,10 @@ class FitConfig:
         if self.f_max_hz is not None and not self.f_max_hz > self.f_min_hz:
             raise ConfigError(
                 f'f_max_hz ({self.f_max_hz!r}) must be > f_min_hz ({self.f_min_hz!r})')
+        # the estimator settings fail here, named, not at the first estimate
+        self.frf()
+        self.long_frf()
+        self.welch(1.0)
 
     def welch(self, fs_hz: float) -> WelchConfig:
         """Return the Welch configuration at ``fs_hz``."""
@@ -268,60 +274,104 @@ def fit_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConf
         sum_x += x.sum(axis=1)
         sum_y += y.sum(axis=1)
         n_total += x.shape[1]
+    if long_welch is not None and not long_spectra:
+        raise InsufficientDataError(
+            f'no segment is as long as long_segment_length = {config.long_segment_length} '
+            f'samples ({config.long_segment_length / fs_hz:g} s); longest: '
+            f'{max(seg.accel_mps2.shape[1] for seg in segments)} samples; record longer '
+            f'runs or set long_segment_length: 0 (single resolution)')
     combined = combine_spectra(spectra)
-    est = estimate_frf(combined, config.frf())
-    f_max = config.f_max_hz
-    h = est.h * coherence_weight(est.coherence_multiple, config.coherence_floor)[:, :, None]
-    h, bridged = _bridged(combined, h, config, order, input_channels)
-    fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
-                       keep_dc=config.f_min_hz == 0.0)
-    extra = {}
-    if long_welch is not None:
-        if not long_spectra:
-            raise InsufficientDataError(
-                f'no segment is as long as long_segment_length = {config.long_segment_length} '
-                f'samples ({config.long_segment_length / fs_hz:g} s); longest: '
-                f'{max(seg.accel_mps2.shape[1] for seg in segments)} samples; record longer '
-                f'runs or set long_segment_length: 0 (single resolution)')
-        long_combined = combine_spectra(long_spectra)
-        long_est = estimate_frf(long_combined, config.long_frf())
-        h_long = long_est.h * coherence_weight(long_est.coherence_multiple,
-                                               config.coherence_floor)[:, :, None]
-        # counted where the long estimate is used (see splice_estimates)
-        h_long, bridged_long = _bridged(long_combined, h_long, config, order, input_channels,
-                                        1.5 * config.crossover_hz)
-        est, h = splice_estimates(long_est, h_long, est, fir, config.crossover_hz)
-        fir = fir_from_frf(est.f_hz, h, fs_hz, f_max_hz=f_max, keep_dc=True)
-        extra = {'long_segment_length': config.long_segment_length,
-                 'n_windows_long': int(long_combined.n_windows),
-                 'bridged_lines_long': bridged_long,
-                 'crossover_hz': config.crossover_hz,
-                 'long_regularisation': config.long_regularisation}
+    long_combined = combine_spectra(long_spectra) if long_welch is not None else None
+    est, h, fir, extra = estimate_h1(combined, long_combined, config, fs_hz, order,
+                                     input_channels)
+    live = () if corr is None else design_live(corr.result(fs_hz), config.live)
+    return build_model(segments, fs_hz, config, input_channels, output_channels,
+                       (est, h, fir, live, extra, sum_x / n_total, sum_y / n_total), fit_info)
+
+
+def build_model(segments: Sequence[TrainingSegment], fs_hz: float, config: FitConfig,
+                input_channels: Sequence[str], output_channels: Sequence[str], parts,
+                fit_info: Optional[Mapping] = None) -> FrfModel:
+    """
+    Return the :class:`FrfModel` of a fit, with its ``fit`` metadata.
+
+    ``parts`` is ``(est, h, fir, live, extra, static_accel, static_force)``: the indicators
+    (:class:`.frf.FrfEstimate`), the FRF, its FIR, the live estimators, the estimate's own
+    metadata, and the static input and output.
+    """
+    est, h, fir, live, extra, static_x, static_y = parts
     info = {
         'segments': [seg.source for seg in segments],
         'durations_s': [seg.accel_mps2.shape[1] / fs_hz for seg in segments],
-        'total_duration_s': n_total / fs_hz,
-        'n_windows': int(combined.n_windows),
+        'total_duration_s': sum(seg.accel_mps2.shape[1] for seg in segments) / fs_hz,
         'window': config.window, 'segment_length': config.segment_length,
         'overlap': config.overlap, 'detrend': config.detrend,
         'regularisation': config.regularisation, 'water_level': config.water_level,
         'unexcited': config.unexcited,
-        'bridged_lines': bridged,
-        'f_min_hz': config.f_min_hz, 'f_max_hz': f_max,
+        'f_min_hz': config.f_min_hz, 'f_max_hz': config.f_max_hz,
         'coherence_floor': config.coherence_floor,
     }
     info.update(extra)
     info.update(dict(fit_info or {}))
-    live = () if corr is None else design_live(corr.result(fs_hz), config.live)
     return FrfModel(
         fs_hz=fs_hz, input_channels=tuple(input_channels),
         output_channels=tuple(output_channels), f_hz=est.f_hz, h=h,
         coherence_ordinary=est.coherence_ordinary, coherence_multiple=est.coherence_multiple,
         cond_sxx=stored_condition(est.cond_sxx), fir_taps=fir.taps,
-        fir_delay_samples=fir.delay_samples,
-        static_force_n=sum_y / n_total, static_accel_mps2=sum_x / n_total,
-        estimator=config.estimator, fit=info, live=live,
+        fir_delay_samples=fir.delay_samples, static_force_n=static_y,
+        static_accel_mps2=static_x, estimator=config.estimator, fit=info, live=live,
         created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds'))
+
+
+def estimate_h1(spectra: CrossSpectra, long_spectra: Optional[CrossSpectra], config: FitConfig,
+                fs_hz: float, order: int, input_channels: Sequence[str]):
+    """
+    Return the (dual-resolution) H1 estimate of combined spectra and its FIR.
+
+    Parameters
+    ----------
+    spectra : CrossSpectra
+        Combined short-segment spectra.
+    long_spectra : CrossSpectra or None
+        Combined long-segment spectra (two resolutions) or ``None``.
+    config : FitConfig
+        Settings.
+    fs_hz : float
+        Sample rate [Hz].
+    order : int
+        Time derivatives of displacement the inputs are (bridging domain).
+    input_channels : sequence of str
+        Input names (bridged-line counts).
+
+    Returns
+    -------
+    (FrfEstimate, numpy.ndarray, FirFilter, dict)
+        Indicators, the FRF ``h`` on the model grid, its FIR realisation and the ``fit``
+        metadata of the estimate (window counts, bridged lines, long-segment settings).
+
+    """
+    f_max = config.f_max_hz
+    est = estimate_frf(spectra, config.frf())
+    h = est.h * coherence_weight(est.coherence_multiple, config.coherence_floor)[:, :, None]
+    h, bridged = _bridged(spectra, h, config, order, input_channels)
+    fir = fir_from_frf(est.f_hz, h, fs_hz, f_min_hz=config.f_min_hz, f_max_hz=f_max,
+                       keep_dc=config.f_min_hz == 0.0)
+    extra = {'n_windows': int(spectra.n_windows), 'bridged_lines': bridged}
+    if long_spectra is not None:
+        long_est = estimate_frf(long_spectra, config.long_frf())
+        h_long = long_est.h * coherence_weight(long_est.coherence_multiple,
+                                               config.coherence_floor)[:, :, None]
+        # counted where the long estimate is used (see splice_estimates)
+        h_long, bridged_long = _bridged(long_spectra, h_long, config, order, input_channels,
+                                        1.5 * config.crossover_hz)
+        est, h = splice_estimates(long_est, h_long, est, fir, config.crossover_hz)
+        fir = fir_from_frf(est.f_hz, h, fs_hz, f_max_hz=f_max, keep_dc=True)
+        extra.update({'long_segment_length': config.long_segment_length,
+                      'n_windows_long': int(long_spectra.n_windows),
+                      'bridged_lines_long': bridged_long,
+                      'crossover_hz': config.crossover_hz,
+                      'long_regularisation': config.long_regularisation})
+    return est, h, fir, extra
 
 
 def stored_condition(cond_sxx: np.ndarray) -> np.ndarray:
@@ -339,14 +389,7 @@ def stored_condition(cond_sxx: np.ndarray) -> np.ndarray:
 
 def _fir_response_on_grid(fir: FirFilter, n_fft: int) -> np.ndarray:
     """Return the response (nf, n_out, n_in) of ``fir`` on the ``n_fft`` grid (exact)."""
-    lag_major = np.zeros((n_fft,) + fir.taps.shape[:2])
-    taps = np.moveaxis(fir.taps, -1, 0)
-    delay = fir.delay_samples
-    # circular placement with lag zero at index 0, so the rfft is relative to lag zero
-    lag_major[:fir.n_taps - delay] = taps[delay:]
-    if delay:
-        lag_major[n_fft - delay:] = taps[:delay]
-    return scipy.fft.rfft(lag_major, axis=0)
+    return response_on_grid(fir.taps, fir.delay_samples, n_fft)
 
 
 def _interp_to(f_new: np.ndarray, f_old: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -387,8 +430,7 @@ def splice_estimates(long_est: FrfEstimate, h_long: np.ndarray, short_est: FrfEs
     """
     f = long_est.f_hz
     n_fft = 2 * (f.size - 1)
-    ramp = np.clip((1.5 * crossover_hz - f) / (0.5 * crossover_hz), 0.0, 1.0)
-    w = 0.5 - 0.5 * np.cos(np.pi * ramp)                # 1 below the crossover, 0 above 1.5x
+    w = blend_weight(f, crossover_hz)                   # 1 below the crossover, 0 above 1.5x
     h_short = _fir_response_on_grid(short_fir, n_fft)
     h = w[:, None, None] * h_long + (1.0 - w[:, None, None]) * h_short
 

@@ -39,7 +39,7 @@ RESIDUE_POLICIES = ('half', 'none')
 
 # Samples per internal block: bounds the temporaries of the turning-point search (~25 B per
 # sample and channel) whatever the record length; results do not depend on it.
-_BLOCK_SAMPLES = 1 << 16
+BLOCK_SAMPLES = 1 << 16
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,14 +75,14 @@ class RainflowCycles:
             object.__setattr__(self, field, arr)
 
 
-def _check_residue(residue) -> bool:
+def check_residue(residue) -> bool:
     """Return True when residue half cycles are counted; reject unknown policies."""
     if residue not in RESIDUE_POLICIES:
         raise ConfigError(f'residue must be one of {RESIDUE_POLICIES}, got {residue!r}')
     return residue == 'half'
 
 
-def _reversal_mask(y, direction):
+def reversal_mask(y, direction):
     """
     Find the reversals of a block of samples given the direction the load was moving in.
 
@@ -138,7 +138,7 @@ def _push_point(stack, n, value, sn_slope, cycles, n_cycles, record):
 
 
 @njit(cache=True)
-def _push_channels(values, offsets, stacks, n_stack, closed, sn_slope):
+def push_channels(values, offsets, stacks, n_stack, closed, sn_slope):
     """Push each channel's turning points ``values[offsets[c]:offsets[c + 1]]`` on its stack."""
     no_cycles = np.empty((2, 0))
     for ch in range(n_stack.shape[0]):
@@ -160,7 +160,7 @@ def _count_points(points, stack, cycles):
 
 
 @njit(cache=True)
-def _total_damage(stacks, n_stack, last, closed, sn_slope, half):
+def total_damage(stacks, n_stack, last, closed, sn_slope, half):
     """Damage so far: closed cycles, cycles the last sample closes, residue if ``half``."""
     out = closed.copy()
     no_cycles = np.empty((2, 0))
@@ -218,10 +218,10 @@ def turning_points(x) -> np.ndarray:
     x = _as_channel(x, 'rainflow input')
     direction = np.zeros(1, dtype=np.int8)
     found = []
-    for start in range(0, x.size, _BLOCK_SAMPLES):
+    for start in range(0, x.size, BLOCK_SAMPLES):
         prev = x[max(start - 1, 0):max(start, 1)]
-        y = np.concatenate([prev, x[start:start + _BLOCK_SAMPLES]])[np.newaxis, :]
-        mask, direction = _reversal_mask(y, direction)
+        y = np.concatenate([prev, x[start:start + BLOCK_SAMPLES]])[np.newaxis, :]
+        mask, direction = reversal_mask(y, direction)
         found.append(y[0, :-1][mask[0]])
     reversals = np.concatenate(found) if found else np.empty(0)
     if reversals.size == 0:
@@ -256,7 +256,7 @@ def rainflow(x, residue: str = 'half') -> RainflowCycles:
         Unknown ``residue`` policy.
 
     """
-    half = _check_residue(residue)
+    half = check_residue(residue)
     points = turning_points(x)
     stack = np.empty(points.size)
     cycles = np.empty((2, points.size // 2))

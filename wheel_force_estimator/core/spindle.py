@@ -48,11 +48,6 @@ class SpindleLayout:
     force_rows: Tuple[Tuple[int, int, int], ...]
     torque_rows: Optional[Tuple[Tuple[int, int, int], ...]]
 
-    @property
-    def n_forces(self) -> int:
-        """Return the number of force rows (they come first)."""
-        return len(OUTPUT_CHANNELS)
-
 
 def spindle_layout(model, where: str) -> SpindleLayout:
     """

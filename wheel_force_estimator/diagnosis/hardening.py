@@ -119,7 +119,7 @@ def add_omissions(findings, real, sim, reference, channels, sources, config,
     filters = config.features.resolved(rec0.fs_hz, rec0.input_quantity)
     hp = config.selection.highpass_hz
     extra = linear_omissions(real, sim, reference, channels, skip, hp, sources,
-                             rec0.input_quantity, filters)
+                             rec0.input_quantity, filters, config.omissions)
     kept = []
     for f in extra:
         if f.physics == 'stiffness_error':

@@ -76,7 +76,11 @@ class FrfReference:
             fitted = fit_design(segments, rec0.fs_hz, config, rec0.input_channels,
                                 rec0.output_channels, rec0.input_quantity,
                                 {'diagnosis': name}, short_record_fallback, segment_fallback,
-                                choose_resolution, long_window_fallback)
+                                choose_resolution, long_window_fallback,
+                                # The diagnosis compares candidates on its own holdout halves;
+                                # its real-data linear model keeps the single design until
+                                # that comparison runs on fit's cross-validation (issue 30).
+                                cross_validate=False)
         except WheelForceError as err:
             raise DiagnosisError(f'cannot fit the linear FRF on the {name} recordings: '
                                  f'{err}') from err

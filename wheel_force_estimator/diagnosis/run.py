@@ -45,6 +45,7 @@ from wheel_force_estimator.diagnosis.agreement import agreed_findings
 from wheel_force_estimator.diagnosis.agreement import AgreementConfig
 from wheel_force_estimator.diagnosis.choice import compare
 from wheel_force_estimator.diagnosis.corner import with_sharper_corner
+from wheel_force_estimator.diagnosis.coupling import CouplingConfig
 from wheel_force_estimator.diagnosis.coupling import left_right_coupling
 from wheel_force_estimator.diagnosis.dynamic import dynamic_findings
 from wheel_force_estimator.diagnosis.features import FeatureConfig
@@ -66,6 +67,8 @@ from wheel_force_estimator.diagnosis.locate import locate_channel
 from wheel_force_estimator.diagnosis.locate import regime_ratios
 from wheel_force_estimator.diagnosis.motion import merge_motion
 from wheel_force_estimator.diagnosis.motion import motion_findings
+from wheel_force_estimator.diagnosis.motion import MotionConfig
+from wheel_force_estimator.diagnosis.omissions import OmissionConfig
 from wheel_force_estimator.diagnosis.prepared import axis
 from wheel_force_estimator.diagnosis.prepared import group_pieces
 from wheel_force_estimator.diagnosis.prepared import pieces
@@ -134,6 +137,9 @@ class DiagnosisConfig:
     progress : bool
         Show a tqdm bar on stderr, when it is a terminal, for the search over inputs
         (:mod:`diagnosis.sources`; minutes for a dozen unnamed inputs).
+    motion, coupling, omissions : MotionConfig, CouplingConfig, OmissionConfig
+        Settings of the motion findings (clip, tyre lift-off), the left-right coupling test
+        and the linear-omission search.
 
     """
 
@@ -150,6 +156,9 @@ class DiagnosisConfig:
     residual_highpass_hz: Optional[float] = None
     agreement: AgreementConfig = field(default_factory=AgreementConfig)
     progress: bool = False
+    motion: MotionConfig = field(default_factory=MotionConfig)
+    coupling: CouplingConfig = field(default_factory=CouplingConfig)
+    omissions: OmissionConfig = field(default_factory=OmissionConfig)
 
     def __post_init__(self):
         if self.linear not in ('auto', 'frf', 'regression'):
@@ -542,7 +551,8 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
         if real_linear is not None:
             coupling = left_right_coupling(
                 real, reference, real_linear, channels,
-                settle_samples(fs_hz, rec0.input_quantity, config.features), hp)
+                settle_samples(fs_hz, rec0.input_quantity, config.features), hp,
+                config.coupling)
         added = [coupling] if coupling is not None else []
         findings, omitted = add_omissions(findings, real, sim, reference, channels, sources,
                                           config, pooled)
@@ -555,7 +565,7 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
     # Motion findings (clip, tyre in the air) carry no terms, so they skip the holdout gate,
     # but the real motion differs from the simulated one: the written model is then chosen
     # between the reference and the plain fit on the real data (no longer "no change").
-    motion = motion_findings(real, sim, sources)
+    motion = motion_findings(real, sim, sources, config.motion)
     findings, fit, model = compare(findings, real, reference, mode, holdout, channels,
                                    sources, partners, config,
                                    lambda recs: _real_linear(recs, config).model,

@@ -123,11 +123,11 @@ def run_fleet(model_path, paths: Sequence, out_dir, *, reference_paths: Sequence
         A PATH without bags, an unreachable scheduler.
 
     """
-    from wheel_force_estimator.cli.common import check_bag_model
     from wheel_force_estimator.core.model import load_model
+    from wheel_force_estimator.core.spindle import spindle_layout
 
     model = load_model(model_path)
-    check_bag_model(model, model_path)
+    spindle_layout(model, str(model_path))
     out = Path(out_dir)
     exclude = [out]
     references = [BagRef(r.path, f'{REFERENCE_ID}/{r.bag_id}')

@@ -6,8 +6,8 @@ One fleet task: a bag's path in, its :class:`.result.BagResult` out.
 The task runs in a Dask worker process and reads everything itself (bag, model, params file)
 from a filesystem the workers share, so no array travels through the scheduler.  It uses the
 commands' own paths, nothing copied: ``predict``'s per-segment prediction
-(``cli.predict.predict_recording`` = ``core.predict.iter_forces`` block by block), and, when
-the bag carries the WFT topics, ``evaluate``'s evaluation (``cli.evaluate.evaluate_recordings``);
+(``offline.predict_recording`` = ``core.predict.iter_forces`` block by block), and, when
+the bag carries the WFT topics, ``evaluate``'s evaluation (``offline.evaluate_recordings``);
 damage and relative damage spectrum come from ``core.evaluation.damage_figures``, the rule
 ``evaluate`` applies.  So ``damage`` is exactly ``evaluate``'s ``damage_prediction``.
 
@@ -138,10 +138,10 @@ def process_bag(ref: BagRef, settings: FleetSettings) -> BagResult:
 
 def _process(ref: BagRef, settings: FleetSettings) -> BagResult:
     from wheel_force_estimator.bagio import read_recording
-    from wheel_force_estimator.cli.evaluate import evaluate_recordings
-    from wheel_force_estimator.cli.predict import predict_recording
     from wheel_force_estimator.core.evaluation import damage_figures
     from wheel_force_estimator.core.fatigue import damage_bands_hz
+    from wheel_force_estimator.offline import evaluate_recordings
+    from wheel_force_estimator.offline import predict_recording
 
     model = _model(settings.model_path, settings.model_sha256)
     topics = _topics(settings.config_path)
@@ -186,7 +186,7 @@ def _write_forces(ref: BagRef, forces_dir: str, topics, stamps, forces) -> Path:
     is replaced.
     """
     from wheel_force_estimator.bagio import write_recording
-    from wheel_force_estimator.cli.predict import input_storage
+    from wheel_force_estimator.offline import input_storage
 
     final = Path(forces_dir) / ref.bag_id
     scratch = Path(forces_dir) / _PARTIAL_DIR / uuid.uuid4().hex

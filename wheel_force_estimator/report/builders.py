@@ -19,15 +19,15 @@ from wheel_force_estimator.report.evaluation_plots import plot_damage_ratio
 from wheel_force_estimator.report.evaluation_plots import plot_relative_damage_spectrum
 from wheel_force_estimator.report.evaluation_plots import plot_rmse_colormap
 from wheel_force_estimator.report.evaluation_plots import plot_time_overlay
-from wheel_force_estimator.report.figures import _unit
+from wheel_force_estimator.report.figures import channel_unit
 from wheel_force_estimator.report.figures import ratio_unit
 from wheel_force_estimator.report.markdown import ReportWriter
-from wheel_force_estimator.report.spectral_plots import _same_axis_pairs
 from wheel_force_estimator.report.spectral_plots import plot_asd
 from wheel_force_estimator.report.spectral_plots import plot_coherence
 from wheel_force_estimator.report.spectral_plots import plot_condition_number
 from wheel_force_estimator.report.spectral_plots import plot_frf_diagonal
 from wheel_force_estimator.report.spectral_plots import plot_frf_matrix
+from wheel_force_estimator.report.spectral_plots import same_axis_pairs
 
 
 def evaluation_text(evaluation) -> str:
@@ -53,7 +53,7 @@ def evaluation_text(evaluation) -> str:
 def paired_inputs(input_channels, output_channels) -> Optional[List[int]]:
     """Return the input index paired with each output (see the module notes), or None."""
     n_in, n_out = len(input_channels), len(output_channels)
-    pairs = _same_axis_pairs(tuple(input_channels), tuple(output_channels))
+    pairs = same_axis_pairs(tuple(input_channels), tuple(output_channels))
     if len(pairs) == n_out:
         return [i for _, i in pairs]
     if n_in == n_out:
@@ -66,7 +66,7 @@ def paired_inputs(input_channels, output_channels) -> Optional[List[int]]:
 def output_units(model) -> List[str]:
     """Return the unit of each output: from vehicle names (N, N·m), else the model's."""
     fallback = str(model.units.get('output', 'N'))
-    return [_unit(c) if _unit(c) != '-' else fallback for c in model.output_channels]
+    return [channel_unit(c) if channel_unit(c) != '-' else fallback for c in model.output_channels]
 
 
 def write_fit_report(directory, model, summary, extra=None) -> Path:
@@ -98,7 +98,7 @@ def write_fit_report(directory, model, summary, extra=None) -> Path:
                      for n in model.output_channels)
     out.table('| output | mean multiple coherence 0.5-50 Hz | bands < 0.5 [Hz] |\n'
               '|---|---|---|\n' + rows)
-    if _same_axis_pairs(model.input_channels, model.output_channels):
+    if same_axis_pairs(model.input_channels, model.output_channels):
         out.heading('FRF diagonal', 2)
         out.image(plot_frf_diagonal(d / 'frf_diagonal.png', model.f_hz, model.h,
                                     model.input_channels, model.output_channels),
@@ -114,9 +114,33 @@ def write_fit_report(directory, model, summary, extra=None) -> Path:
     out.image(plot_condition_number(d / 'condition_number.png', model.f_hz,
                                     model.cond_sxx),
               'Condition number of the input cross-spectral matrix')
+    _design_section(out, d, model)
     if extra is not None:
         extra(out, d)
     return out.write()
+
+
+def _design_section(out: ReportWriter, d: Path, model) -> None:
+    """Write how the design was chosen: each output's choice, every candidate, a plot."""
+    from wheel_force_estimator.report.design_plots import design_tables
+    from wheel_force_estimator.report.design_plots import plot_design_scores
+    design = model.fit.get('design') or {}
+    out.heading('Design', 2)
+    if design.get('method') != 'blocked_cross_validation':
+        out.paragraph(design.get('reason') or 'The design was not cross-validated.')
+        return
+    imposed = ', '.join(f'`{k}`' for k in design['imposed']) or 'none'
+    out.paragraph(
+        f'Chosen per output by blocked cross-validation: {design["n_blocks"]} blocks of '
+        f'contiguous chunks ({", ".join(f"{b:.0f}" for b in design["blocks_s"])} s), each '
+        f'held out in turn and scored on its Welch spectra '
+        f'({design["scoring_segment_length"]}-sample segments). Settings imposed by the '
+        f'params file or the command line (kept, not searched): {imposed}.')
+    choice, table = design_tables(design, model.output_channels)
+    out.table(choice)
+    out.image(plot_design_scores(d / 'design_scores.png', design, model.output_channels),
+              'Held-out RMSE of every candidate per output; the chosen one in red')
+    out.table(table)
 
 
 def write_evaluation_report(directory, model, evaluation, segments, extra=None) -> Path:
@@ -162,7 +186,7 @@ def write_evaluation_report(directory, model, evaluation, segments, extra=None) 
     mag = None if paired is None else np.stack(
         [np.interp(evaluation.f_hz, model.f_hz, np.abs(model.h[:, o, i]))
          for o, i in enumerate(paired)])
-    vehicle = all(_unit(c) != '-' for c in ch)  # units per channel from the names
+    vehicle = all(channel_unit(c) != '-' for c in ch)  # units per channel from the names
     gain = None if vehicle else ratio_unit(model.units.get('output', 'N'),
                                            model.units.get('input', 'm/s^2'))
     out.image(plot_asd(d / 'asd.png', evaluation.f_hz, evaluation.asd_target,

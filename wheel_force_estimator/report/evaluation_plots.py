@@ -18,18 +18,18 @@ import numpy as np
 
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
-from wheel_force_estimator.report.figures import _axis
-from wheel_force_estimator.report.figures import _label
-from wheel_force_estimator.report.figures import _non_negative
-from wheel_force_estimator.report.figures import _png_path
-from wheel_force_estimator.report.figures import _RUBRIC_TEXT
-from wheel_force_estimator.report.figures import _save
+from wheel_force_estimator.report.figures import as_axis
+from wheel_force_estimator.report.figures import channel_label
 from wheel_force_estimator.report.figures import channel_units
+from wheel_force_estimator.report.figures import check_non_negative
 from wheel_force_estimator.report.figures import COLOR_ERROR
 from wheel_force_estimator.report.figures import COLOR_PREDICTION
 from wheel_force_estimator.report.figures import COLOR_TARGET
 from wheel_force_estimator.report.figures import DPI
+from wheel_force_estimator.report.figures import png_path
 from wheel_force_estimator.report.figures import RUBRIC_COLORS
+from wheel_force_estimator.report.figures import RUBRIC_TEXT_COLOURS
+from wheel_force_estimator.report.figures import save_figure
 from wheel_force_estimator.report.tables import check_names
 from wheel_force_estimator.report.tables import check_values
 from wheel_force_estimator.report.tables import DAMAGE_RATIO_GOOD
@@ -88,9 +88,9 @@ def plot_time_overlay(path, t_s, target, prediction, channels: Sequence[str],
     ShapeError, NonFiniteError, ConfigError
 
     """
-    out = _png_path(path)
+    out = png_path(path)
     names = check_names(channels, 'channels')
-    t = _axis(t_s, 't_s')
+    t = as_axis(t_s, 't_s')
     y_true = check_values(target, 'target', (len(names), t.size))
     y_pred = check_values(prediction, 'prediction', (len(names), t.size))
     unit_of = channel_units(names, units)
@@ -111,7 +111,7 @@ def plot_time_overlay(path, t_s, target, prediction, channels: Sequence[str],
     for k, ax in enumerate(axes):
         for values, colour, lw, alpha, label in series:
             ax.plot(*_envelope(t, values[k]), color=colour, lw=lw, alpha=alpha, label=label)
-        ax.set_ylabel(f'{_label(names[k])}\n[{unit_of[k]}]', fontsize=9)
+        ax.set_ylabel(f'{channel_label(names[k])}\n[{unit_of[k]}]', fontsize=9)
         ax.tick_params(labelsize=8)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel('time [s]')
@@ -122,7 +122,7 @@ def plot_time_overlay(path, t_s, target, prediction, channels: Sequence[str],
     handles, labels = axes[0].get_legend_handles_labels()
     # Below the axes: an 'outside upper' legend collides with the suptitle.
     fig.legend(handles, labels, loc='outside lower center', ncols=3)
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_damage_ratio(path, channels: Sequence[str], ratio) -> Path:
@@ -148,10 +148,10 @@ def plot_damage_ratio(path, channels: Sequence[str], ratio) -> Path:
     ShapeError, NonFiniteError, ConfigError
 
     """
-    out = _png_path(path)
+    out = png_path(path)
     names = check_names(channels, 'channels')
     r = check_values(ratio, 'ratio', (len(names),))
-    _non_negative(r, 'ratio', names)
+    check_non_negative(r, 'ratio', names)
     low, high = DAMAGE_RATIO_GOOD
     positive = r[r > 0]
     y_min = min(0.1, positive.min() / 2.0) if positive.size else 0.1
@@ -176,7 +176,7 @@ def plot_damage_ratio(path, channels: Sequence[str], ratio) -> Path:
     ax.set_yscale('log')
     ax.set_ylim(y_min, y_max)
     ax.set_xlim(-0.6, len(names) - 0.4)
-    ax.set_xticks(x, [_label(n) for n in names], fontsize=9)
+    ax.set_xticks(x, [channel_label(n) for n in names], fontsize=9)
     ax.set_ylabel('damage ratio prediction / target [-]')
     ax.set_title('Pseudo damage ratio per channel', fontsize=12)
     ax.grid(alpha=0.3, axis='y', which='both')
@@ -185,7 +185,7 @@ def plot_damage_ratio(path, channels: Sequence[str], ratio) -> Path:
                         Patch(color=RUBRIC_COLORS[0], label='inside band'),
                         Patch(color=RUBRIC_COLORS[4], label='outside band')],
                fontsize=8, loc='outside lower center', ncols=3)
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_relative_damage_spectrum(path, channels: Sequence[str], bands_hz, rds_target,
@@ -213,7 +213,7 @@ def plot_relative_damage_spectrum(path, channels: Sequence[str], bands_hz, rds_t
     ShapeError, NonFiniteError, ConfigError
 
     """
-    out = _png_path(path)
+    out = png_path(path)
     names = check_names(channels, 'channels')
     bands = np.asarray(bands_hz, dtype=np.float64)
     if bands.ndim != 2 or bands.shape[1] != 2 or bands.shape[0] < 1:
@@ -224,8 +224,8 @@ def plot_relative_damage_spectrum(path, channels: Sequence[str], bands_hz, rds_t
     n_bands = bands.shape[0]
     target = check_values(rds_target, 'rds_target', (len(names), n_bands))
     pred = check_values(rds_prediction, 'rds_prediction', (len(names), n_bands))
-    _non_negative(target, 'rds_target', names)
-    _non_negative(pred, 'rds_prediction', names)
+    check_non_negative(target, 'rds_target', names)
+    check_non_negative(pred, 'rds_prediction', names)
     group = n_bands + 1.0
     centre = np.arange(len(names))[:, np.newaxis] * group + np.arange(n_bands)
     fig = Figure(figsize=(max(9.0, 0.24 * centre.size + 2.0), 5.0), dpi=DPI,
@@ -248,7 +248,7 @@ def plot_relative_damage_spectrum(path, channels: Sequence[str], bands_hz, rds_t
         ax.text(0.5, 0.5, 'no damage in any band', transform=ax.transAxes, ha='center')
     ax.set_xticks(centre.ravel(), [str(b + 1) for b in range(n_bands)] * len(names),
                   minor=True, fontsize=6)
-    ax.set_xticks(centre.mean(axis=1), [_label(n) for n in names], fontsize=9)
+    ax.set_xticks(centre.mean(axis=1), [channel_label(n) for n in names], fontsize=9)
     ax.tick_params(axis='x', which='major', pad=12, length=0)
     ax.set_xlim(centre.min() - 1.0, centre.max() + 1.0)
     ax.set_ylabel('pseudo damage [-]')
@@ -256,7 +256,7 @@ def plot_relative_damage_spectrum(path, channels: Sequence[str], bands_hz, rds_t
     ax.set_title(f'Relative damage spectrum (bands {band_text})', fontsize=11)
     ax.grid(alpha=0.3, axis='y', which='major')
     ax.legend(fontsize=9, loc='upper right')
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_rmse_colormap(path, events: Sequence[str], channels: Sequence[str], rmse_pct) -> Path:
@@ -283,7 +283,7 @@ def plot_rmse_colormap(path, events: Sequence[str], channels: Sequence[str], rms
     ShapeError, NonFiniteError, ConfigError
 
     """
-    out = _png_path(path)
+    out = png_path(path)
     ev = check_names(events, 'events')
     names = check_names(channels, 'channels')
     pct = check_values(rmse_pct, 'rmse_pct', (len(ev), len(names)))
@@ -299,8 +299,8 @@ def plot_rmse_colormap(path, events: Sequence[str], channels: Sequence[str], rms
               vmax=len(RUBRIC_COLORS) - 0.5, aspect='auto', interpolation='nearest')
     for (e, c), value in np.ndenumerate(pct):
         ax.text(c, e, f'{value:.1f}', ha='center', va='center', fontsize=8,
-                color=_RUBRIC_TEXT[level[e, c]])
-    ax.set_xticks(np.arange(len(names)), [_label(n) for n in names], fontsize=9)
+                color=RUBRIC_TEXT_COLOURS[level[e, c]])
+    ax.set_xticks(np.arange(len(names)), [channel_label(n) for n in names], fontsize=9)
     ax.set_yticks(np.arange(len(ev)), list(ev), fontsize=9)
     ax.xaxis.tick_top()
     ax.tick_params(length=0)
@@ -311,4 +311,4 @@ def plot_rmse_colormap(path, events: Sequence[str], channels: Sequence[str], rms
     handles = [Patch(color=colour, label=f'{name} ({span})') for colour, name, span
                in zip(RUBRIC_COLORS, RUBRIC_NAMES, RUBRIC_RANGES)]
     fig.legend(handles=handles, loc='outside lower center', ncols=len(handles), fontsize=8)
-    return _save(fig, out)
+    return save_figure(fig, out)

@@ -35,11 +35,11 @@ COLOR_FRF = '#2ca02c'
 COLOR_ORDINARY = '#ff7f0e'
 # Green (perfect) to red (not qualified), like the paper's Figure 9 colour map.
 RUBRIC_COLORS = ('#1a9850', '#91cf60', '#fee08b', '#fc8d59', '#d73027')
-_RUBRIC_TEXT = ('white', 'black', 'black', 'black', 'white')
+RUBRIC_TEXT_COLOURS = ('white', 'black', 'black', 'black', 'white')
 
 
 # ---------------------------------------------------------------- validation / helpers
-def _png_path(path) -> Path:
+def png_path(path) -> Path:
     out = Path(path)
     if out.suffix.lower() != '.png':
         raise ConfigError(f'plot path {out}: must end in .png')
@@ -50,7 +50,7 @@ def _png_path(path) -> Path:
     return out
 
 
-def _axis(values, name: str, min_len: int = 2) -> np.ndarray:
+def as_axis(values, name: str, min_len: int = 2) -> np.ndarray:
     """Check a 1-D frequency or time vector: finite and strictly increasing."""
     arr = np.asarray(values, dtype=np.float64)
     if arr.ndim != 1 or arr.size < min_len:
@@ -63,20 +63,20 @@ def _axis(values, name: str, min_len: int = 2) -> np.ndarray:
     return arr
 
 
-def _non_negative(arr: np.ndarray, name: str, channels: Sequence[str]) -> None:
+def check_non_negative(arr: np.ndarray, name: str, channels: Sequence[str]) -> None:
     if (arr < 0).any():
         idx = np.argwhere(arr < 0)[0]
         raise ConfigError(f'{name}: negative value {arr[tuple(idx)].item()!r} for channel '
                           f'{channels[idx[0]]}')
 
 
-def _label(channel: str) -> str:
+def channel_label(channel: str) -> str:
     """Return 'lf_fx' as 'LF Fx', the paper's spelling; other names unchanged."""
     corner, sep, rest = channel.partition('_')
     return f'{corner.upper()} {rest.capitalize()}' if sep and corner in CORNERS else channel
 
 
-def _unit(channel: str) -> str:
+def channel_unit(channel: str) -> str:
     """Return the unit of a vehicle channel from its name ('lf_fx' -> N), '-' if unknown."""
     corner, _, quantity = channel.partition('_')
     if corner not in CORNERS:
@@ -106,7 +106,7 @@ def channel_units(channels: Sequence[str], units: Optional[Sequence[str]]) -> li
 
     """
     if units is None:
-        return [_unit(c) for c in channels]
+        return [channel_unit(c) for c in channels]
     units = [pretty_unit(str(u)) for u in units]
     if len(units) != len(channels):
         raise ShapeError(f'units: expected {len(channels)} entries (one per channel), '
@@ -114,6 +114,6 @@ def channel_units(channels: Sequence[str], units: Optional[Sequence[str]]) -> li
     return units
 
 
-def _save(fig: Figure, path: Path) -> Path:
+def save_figure(fig: Figure, path: Path) -> Path:
     fig.savefig(path, format='png', dpi=DPI)
     return path

@@ -19,11 +19,11 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from wheel_force_estimator.report.figures import _label
-from wheel_force_estimator.report.figures import _save
+from wheel_force_estimator.report.figures import channel_label
 from wheel_force_estimator.report.figures import COLOR_ERROR
 from wheel_force_estimator.report.figures import COLOR_PREDICTION
 from wheel_force_estimator.report.figures import COLOR_TARGET
+from wheel_force_estimator.report.figures import save_figure
 from wheel_force_estimator.report.tables import render
 
 _PCT_COLORS = {'50': '#2ca02c', '90': '#ff7f0e', '95': COLOR_ERROR, '99': '#9467bd'}
@@ -129,7 +129,7 @@ def plot_damage_rate_distribution(path, outcome) -> Path:
     ref = doc['reference']
     for i, c in enumerate(channels):
         ax = fig.add_subplot(nrows, ncols, i + 1)
-        ax.set_title(f'{_label(c)} (median {median[c]:.3g} N^k/h)', fontsize=9)
+        ax.set_title(f'{channel_label(c)} (median {median[c]:.3g} N^k/h)', fontsize=9)
         ax.tick_params(labelsize=7)
         if median[c] <= 0:
             ax.text(0.5, 0.5, 'no damage', ha='center', va='center', transform=ax.transAxes)
@@ -163,7 +163,7 @@ def plot_damage_rate_distribution(path, outcome) -> Path:
             ax.legend(fontsize=6, loc='lower right')
     fig.suptitle('Damage rate distribution over the fleet (percentile lines dashed, '
                  'reference solid)')
-    return _save(fig, Path(path))
+    return save_figure(fig, Path(path))
 
 
 def plot_rds_fleet_vs_reference(path, outcome) -> Path:
@@ -188,7 +188,7 @@ def plot_rds_fleet_vs_reference(path, outcome) -> Path:
             ax.bar(x + width / 2, ref['relative_damage_spectrum']['fraction'][c], width,
                    color=COLOR_TARGET, label='reference')
         ax.set_xticks(x, labels, fontsize=6)
-        ax.set_title(_label(c), fontsize=9)
+        ax.set_title(channel_label(c), fontsize=9)
         ax.set_ylim(0, 1)
         ax.tick_params(labelsize=7)
         if i % ncols == 0:
@@ -198,7 +198,7 @@ def plot_rds_fleet_vs_reference(path, outcome) -> Path:
         if i == 0:
             ax.legend(fontsize=6)
     fig.suptitle('Relative damage spectrum: fleet vs proving-ground reference')
-    return _save(fig, Path(path))
+    return save_figure(fig, Path(path))
 
 
 def write_fleet_report(out_dir, outcome) -> Path:

@@ -13,9 +13,9 @@ from typing import Dict, Sequence
 from matplotlib.figure import Figure
 import numpy as np
 
-from wheel_force_estimator.report.figures import _png_path
-from wheel_force_estimator.report.figures import _save
 from wheel_force_estimator.report.figures import DPI
+from wheel_force_estimator.report.figures import png_path
+from wheel_force_estimator.report.figures import save_figure
 
 
 def direction_groups(channels: Sequence[str]) -> Dict[str, np.ndarray]:
@@ -97,7 +97,7 @@ def plot_accuracy_vs_look_ahead(path, look_ahead_s, rmse_by_group: Dict[str, Seq
     pathlib.Path
 
     """
-    out = _png_path(path)
+    out = png_path(path)
     order = np.argsort(np.asarray(look_ahead_s, dtype=float))
     ms = 1e3 * np.asarray(look_ahead_s, dtype=float)[order]
     fig = Figure(figsize=(7.0, 4.2), dpi=DPI)
@@ -117,4 +117,56 @@ def plot_accuracy_vs_look_ahead(path, look_ahead_s, rmse_by_group: Dict[str, Seq
     ax.legend(fontsize=8, ncol=2)
     ax.set_title(title or 'Accuracy against look-ahead')
     fig.tight_layout()
-    return _save(fig, out)
+    return save_figure(fig, out)
+
+
+def comparison_json(cmp, fs_hz: float) -> dict:
+    """Return the ``live`` and ``look_ahead_sweep`` entries of ``evaluate --json``."""
+    ch = cmp.offline.channels
+    return {
+        'live': {'look_ahead_samples': cmp.look_ahead_samples,
+                 'look_ahead_s': cmp.look_ahead_samples / fs_hz, 'estimator': cmp.live_kind,
+                 'channels': cmp.live.to_json()['channels']},
+        'look_ahead_sweep': [
+            {'look_ahead_s': s, 'estimator': kind,
+             'rmse_pct_mean': direction_means(ch, ev.rmse_pct),
+             'rmse_hp1_pct_mean': direction_means(ch, ev.rmse_hp1_pct)}
+            for s, kind, ev in cmp.sweep],
+        'offline_rmse_pct_mean': direction_means(ch, cmp.offline.rmse_pct),
+    }
+
+
+def comparison_text(cmp, fs_hz: float) -> str:
+    """Return the terminal side-by-side table and the sweep."""
+    ms = 1e3 * cmp.look_ahead_samples / fs_hz
+    lines = [f'offline (two-sided) vs live ({cmp.live_kind}, look-ahead {ms:.1f} ms):',
+             comparison_table(cmp.offline, cmp.live, f'live {ms:.0f} ms'), '',
+             'mean RMSE % per direction against look-ahead:']
+    offline = direction_means(cmp.offline.channels, cmp.offline.rmse_pct)
+    lines.append('  offline two-sided: ' + '  '.join(f'{k} {v:.1f}' for k, v in offline.items()))
+    for s, kind, ev in cmp.sweep:
+        means = direction_means(ev.channels, ev.rmse_pct)
+        lines.append(f'  {1e3 * s:6.1f} ms ({kind}): '
+                     + '  '.join(f'{k} {v:.1f}' for k, v in means.items()))
+    return '\n'.join(lines)
+
+
+def report_section(out, directory, cmp, fs_hz: float, data: str) -> None:
+    """Append the offline-vs-live section (table + look-ahead plot) to a report."""
+    ms = 1e3 * cmp.look_ahead_samples / fs_hz
+    out.heading('Offline vs live', 2)
+    out.paragraph(f'{data}. Live = what the node publishes: the {cmp.live_kind} at a '
+                  f'look-ahead of {cmp.look_ahead_samples} samples ({ms:.1f} ms); offline = the '
+                  f'two-sided FIR of `predict`.')
+    out.table(comparison_table(cmp.offline, cmp.live, f'live {ms:.0f} ms', markdown=True))
+    ch = cmp.offline.channels
+    groups: dict = {}
+    for _, _, ev in cmp.sweep:
+        for k, v in direction_means(ch, ev.rmse_pct).items():
+            groups.setdefault(k, []).append(v)
+    kinds = sorted({kind for _, kind, _ in cmp.sweep})
+    out.image(plot_accuracy_vs_look_ahead(
+        Path(directory) / 'accuracy_vs_look_ahead.png', [s for s, _, _ in cmp.sweep], groups,
+        direction_means(ch, cmp.offline.rmse_pct), title=f'{" / ".join(kinds)}: accuracy '
+        f'against look-ahead'), 'Mean RMSE % per direction against look-ahead (live) and '
+        'the offline two-sided filter (dashed)')

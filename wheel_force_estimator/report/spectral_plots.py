@@ -19,20 +19,20 @@ from matplotlib.figure import Figure
 import numpy as np
 
 from wheel_force_estimator.core.errors import ConfigError
-from wheel_force_estimator.report.figures import _axis
-from wheel_force_estimator.report.figures import _label
-from wheel_force_estimator.report.figures import _non_negative
-from wheel_force_estimator.report.figures import _png_path
-from wheel_force_estimator.report.figures import _save
-from wheel_force_estimator.report.figures import _unit
+from wheel_force_estimator.report.figures import as_axis
+from wheel_force_estimator.report.figures import channel_label
+from wheel_force_estimator.report.figures import channel_unit
 from wheel_force_estimator.report.figures import channel_units
+from wheel_force_estimator.report.figures import check_non_negative
 from wheel_force_estimator.report.figures import COLOR_ERROR
 from wheel_force_estimator.report.figures import COLOR_FRF
 from wheel_force_estimator.report.figures import COLOR_ORDINARY
 from wheel_force_estimator.report.figures import COLOR_PREDICTION
 from wheel_force_estimator.report.figures import COLOR_TARGET
 from wheel_force_estimator.report.figures import DPI
+from wheel_force_estimator.report.figures import png_path
 from wheel_force_estimator.report.figures import ratio_unit
+from wheel_force_estimator.report.figures import save_figure
 from wheel_force_estimator.report.tables import check_names
 from wheel_force_estimator.report.tables import check_values
 
@@ -128,9 +128,9 @@ def plot_coherence(path, f_hz, coherence_multiple, coherence_ordinary_diag,
     ShapeError, NonFiniteError, ConfigError
 
     """
-    out = _png_path(path)
+    out = png_path(path)
     names = check_names(output_channels, 'output_channels')
-    f = _axis(f_hz, 'f_hz')
+    f = as_axis(f_hz, 'f_hz')
     multiple = check_values(coherence_multiple, 'coherence_multiple', (f.size, len(names)))
     ordinary = None if coherence_ordinary_diag is None else check_values(
         coherence_ordinary_diag, 'coherence_ordinary_diag', (f.size, len(names)))
@@ -145,7 +145,7 @@ def plot_coherence(path, f_hz, coherence_multiple, coherence_ordinary_diag,
         ax.axhline(0.5, color='0.4', ls='--', lw=0.8, label='0.5 threshold')
         ax.set_ylim(0.0, 1.05)
         ax.set_xlim(f[0], f_end)
-        ax.set_title(_label(names[i]), fontsize=10)
+        ax.set_title(channel_label(names[i]), fontsize=10)
         ax.grid(alpha=0.3)
         if row == n_rows - 1:
             ax.set_xlabel('frequency [Hz]')
@@ -153,10 +153,10 @@ def plot_coherence(path, f_hz, coherence_multiple, coherence_ordinary_diag,
             ax.set_ylabel('coherence [-]')
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc='outside lower center', ncols=len(labels))
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
-def _same_axis_pairs(inputs: Sequence[str], outputs: Sequence[str]) -> list:
+def same_axis_pairs(inputs: Sequence[str], outputs: Sequence[str]) -> list:
     """(out_index, in_index) for lf_fx <- lf_ax style pairs, in output order."""
     pairs = []
     for o, name in enumerate(outputs):
@@ -198,13 +198,13 @@ def plot_frf_diagonal(path, f_hz, h, input_channels: Sequence[str],
         ConfigError when no same-axis pair exists in the channel names.
 
     """
-    out = _png_path(path)
+    out = png_path(path)
     inputs = check_names(input_channels, 'input_channels')
     outputs = check_names(output_channels, 'output_channels')
-    f = _axis(f_hz, 'f_hz')
+    f = as_axis(f_hz, 'f_hz')
     frf = check_values(h, 'h', (f.size, len(outputs), len(inputs)), dtype=np.complex128)
     f_end = _f_max(f, f_max_hz)
-    pairs = _same_axis_pairs(inputs, outputs)
+    pairs = same_axis_pairs(inputs, outputs)
     if not pairs:
         raise ConfigError('output_channels: no output {corner}_f{axis} has a same-axis input '
                           f'{{corner}}_a{{axis}} in input_channels {list(inputs)}')
@@ -228,10 +228,10 @@ def plot_frf_diagonal(path, f_hz, h, input_channels: Sequence[str],
                 continue
             corner = outputs[o].partition('_')[0]
             _frf_lines(ax_mag, ax_ph, f, frf[:, o, i], colours[corner], corner.upper())
-            unit = f'{_unit(outputs[o])}/({_unit(inputs[i])})'
+            unit = f'{channel_unit(outputs[o])}/({channel_unit(inputs[i])})'
         ax_mag.set_yscale('log')
         _frf_axes(ax_mag, ax_ph, f'{q.capitalize()} / a{q[1:]}', unit, f[0], f_end)
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def _frf_lines(ax_mag, ax_ph, f, h_line, colour, label) -> None:
@@ -296,10 +296,10 @@ def plot_frf_matrix(path, f_hz, h, input_channels: Sequence[str],
     ShapeError, NonFiniteError, ConfigError
 
     """
-    out = _png_path(path)
+    out = png_path(path)
     inputs = check_names(input_channels, 'input_channels')
     outputs = check_names(output_channels, 'output_channels')
-    f = _axis(f_hz, 'f_hz')
+    f = as_axis(f_hz, 'f_hz')
     frf = check_values(h, 'h', (f.size, len(outputs), len(inputs)), dtype=np.complex128)
     f_end = _f_max(f, f_max_hz)
     if max_inputs < 1:
@@ -322,7 +322,7 @@ def plot_frf_matrix(path, f_hz, h, input_channels: Sequence[str],
             ax_mag.set_yscale('log')
         _frf_axes(ax_mag, ax_ph, name, unit, f[0], f_end)
         ax_mag.tick_params(labelbottom=False)
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 def plot_condition_number(path, f_hz, cond) -> Path:
@@ -347,8 +347,8 @@ def plot_condition_number(path, f_hz, cond) -> Path:
     ShapeError, NonFiniteError, ConfigError
 
     """
-    out = _png_path(path)
-    f = _axis(f_hz, 'f_hz')
+    out = png_path(path)
+    f = as_axis(f_hz, 'f_hz')
     c = check_values(cond, 'cond', (f.size,))
     if (c <= 0).any():
         raise ConfigError(f'cond: non-positive value {c[c <= 0][0].item()!r} at index '
@@ -362,7 +362,7 @@ def plot_condition_number(path, f_hz, cond) -> Path:
     ax.set_title('Condition number of the input cross-spectral matrix '
                  '(high: inputs nearly dependent, FRF ill-posed)', fontsize=11)
     ax.grid(alpha=0.3, which='both')
-    return _save(fig, out)
+    return save_figure(fig, out)
 
 
 # ---------------------------------------------------------------- evaluation plots
@@ -399,9 +399,9 @@ def plot_asd(path, f_hz, asd_target, asd_prediction, asd_error, channels: Sequen
     ShapeError, NonFiniteError, ConfigError
 
     """
-    out = _png_path(path)
+    out = png_path(path)
     names = check_names(channels, 'channels')
-    f = _axis(f_hz, 'f_hz')
+    f = as_axis(f_hz, 'f_hz')
     shape = (len(names), f.size)
     spectra = [check_values(asd_target, 'asd_target', shape),
                check_values(asd_prediction, 'asd_prediction', shape),
@@ -410,7 +410,7 @@ def plot_asd(path, f_hz, asd_target, asd_prediction, asd_error, channels: Sequen
     unit_of = channel_units(names, units)
     for arr, n in zip(spectra + ([] if frf is None else [frf]),
                       ('asd_target', 'asd_prediction', 'asd_error', 'frf_mag')):
-        _non_negative(arr, n, names)
+        check_non_negative(arr, n, names)
     fig, axes, cells, n_rows = _grid_figure(names, 4.4, 2.6,
                                             'Auto spectral density: target, prediction, error')
     n_cols = max(col for _, col in cells) + 1
@@ -423,7 +423,7 @@ def plot_asd(path, f_hz, asd_target, asd_prediction, asd_error, channels: Sequen
         ax.set_yscale('log')
         _spectrum_floor(ax, *(arr[k] for arr in spectra))
         ax.set_xlim(f[0], f[-1])
-        ax.set_title(_label(names[k]), fontsize=10)
+        ax.set_title(channel_label(names[k]), fontsize=10)
         ax.grid(alpha=0.3, which='major')
         if row == n_rows - 1:
             ax.set_xlabel('frequency [Hz]')
@@ -442,4 +442,4 @@ def plot_asd(path, f_hz, asd_target, asd_prediction, asd_error, channels: Sequen
     handles += twin_handles
     labels += [h.get_label() for h in twin_handles]
     fig.legend(handles, labels, loc='outside lower center', ncols=len(labels))
-    return _save(fig, out)
+    return save_figure(fig, out)

@@ -354,33 +354,3 @@ def rubric_counts_table(counts: Mapping[str, int], markdown: bool = False) -> st
         share = '-' if total == 0 else str(math.floor(100.0 * count / total + 0.5))
         rows.append([level, span, str(count), share])
     return render(header, rows, [False, False, True, True], markdown)
-
-
-def count_rubric(pct) -> dict:
-    """
-    Count RMSE values per rubric level.
-
-    Parameters
-    ----------
-    pct : array_like
-        RMSE values in percent (any shape), finite and >= 0.
-
-    Returns
-    -------
-    dict
-        Every level of ``RUBRIC_NAMES`` -> count, in rubric order.
-
-    Raises
-    ------
-    NonFiniteError
-        NaN or infinity.
-    ConfigError
-        A negative value.
-
-    """
-    arr = np.asarray(pct, dtype=np.float64)
-    check_values(arr, 'pct', arr.shape)
-    if (arr < 0).any():
-        raise ConfigError(f'pct: negative RMSE {arr[arr < 0].ravel()[0].item()!r}')
-    idx = rubric_index(arr).ravel()
-    return {name: int(np.count_nonzero(idx == i)) for i, name in enumerate(RUBRIC_NAMES)}

@@ -9,14 +9,23 @@ order, so each corner's stamps increase; the aligner relies on that and on nothi
 
 Rules
 -----
-* A sample is **complete** when every corner has delivered a message with exactly that stamp.
-  Complete samples are released in stamp order.
-* When stamp ``s`` completes, every pending stamp below ``s`` is incomplete for good (the
-  corner missing it has already moved past it) and is dropped: ``incomplete``.
+* A sample is **complete** when every corner has delivered one message and the stamps of these
+  messages lie within ``tolerance_ns`` of each other (largest minus smallest).  Four IMU
+  drivers, or IMUs stamped by the host on arrival, never give equal stamps; with a tolerance of
+  zero the stamps must be equal.  The complete sample is stamped with the **median** of its
+  corner stamps (exact, in integer ns: the mean of the two middle ones for four corners), so
+  one late or early corner does not move it, and equal stamps give that stamp.  Complete
+  samples are released in stamp order.
+* A pending stamp more than ``tolerance_ns`` older than another corner's oldest pending stamp
+  can no longer complete (that corner has moved past it; each corner's stamps increase) and is
+  dropped.  It is counted ``incomplete`` when the distance to that corner's stamp is a whole
+  number of sample periods give or take the tolerance (a sample missing on a corner), else
+  ``out_of_tolerance`` (the corners' clocks disagree by more than the tolerance), with the
+  distance seen (:class:`OutOfTolerance`).  Never silently merged.
 * At most ``max_pending`` samples wait per corner (a silent corner must not grow memory
   without bound); beyond that the oldest are dropped as ``incomplete``.
-* A message whose stamp equals the corner's previous one is a ``duplicate``; one at or below
-  the last released/dropped stamp is ``late``.  Both are dropped.
+* A message whose stamp equals the corner's previous one is a ``duplicate``; one older than the
+  last released/dropped stamp by more than the tolerance is ``late``.  Both are dropped.
 * A stamp **below** the corner's previous one (a bag restarted or looped) starts a new epoch.
   The epoch change completes when every corner has jumped back, so a clean loop loses no
   sample: until then the old epoch keeps aligning, the jumped corners' new samples wait.  Then
@@ -25,7 +34,7 @@ Rules
   new samples exceed ``max_pending``; the other corners then continue in the new epoch.
 
 Every message pushed is accounted for once: ``received == aligned + duplicate + late +
-incomplete + pending`` per corner (:meth:`CornerAligner.counters`).
+incomplete + out_of_tolerance + pending`` per corner (:meth:`CornerAligner.counters`).
 """
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Union
@@ -36,7 +45,7 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 
 #: Per-corner counters kept by :class:`CornerAligner` (messages).
-COUNTER_NAMES = ('received', 'aligned', 'duplicate', 'late', 'incomplete')
+COUNTER_NAMES = ('received', 'aligned', 'duplicate', 'late', 'incomplete', 'out_of_tolerance')
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,7 +81,32 @@ class StampJump:
     stamp_ns: int
 
 
-AlignerEvent = Union[AlignedSamples, StampJump]
+@dataclass(frozen=True)
+class OutOfTolerance:
+    """
+    Messages of one corner dropped because no other corner had a stamp close enough.
+
+    Attributes
+    ----------
+    corner : int
+        Corner index.
+    n_messages : int
+        Messages dropped (in one :meth:`CornerAligner.drain`).
+    first_stamp_ns : int
+        Stamp of the first of them [ns].
+    offset_ns : int
+        Largest distance seen to the other corner's stamp, minus the whole sample periods
+        in it [ns]; above the tolerance by definition.
+
+    """
+
+    corner: int
+    n_messages: int
+    first_stamp_ns: int
+    offset_ns: int
+
+
+AlignerEvent = Union[AlignedSamples, StampJump, OutOfTolerance]
 
 
 class _Buffer:
@@ -84,6 +118,10 @@ class _Buffer:
 
     def __len__(self) -> int:
         return self.stamps.size
+
+    def drop_head(self, n: int):
+        self.stamps = self.stamps[n:]
+        self.values = self.values[:, n:]
 
     def append(self, stamps: np.ndarray, values: np.ndarray):
         if self.stamps.size:
@@ -109,19 +147,33 @@ class CornerAligner:
         Values per message (3: acceleration x, y, z).
     max_pending : int
         Samples a corner may hold while waiting for the others, >= 1.
+    tolerance_ns : int
+        Corner stamps at most this far apart are one sample, >= 0 [ns].
+    period_ns : float, optional
+        Sample period [ns]: tells a missing sample (``incomplete``) from a clock offset
+        (``out_of_tolerance``).  ``None``: every drop is ``incomplete``.
 
     Raises
     ------
     ConfigError
-        On a non-positive size.
+        On a non-positive size, a negative tolerance, or a tolerance of half a period or more
+        (two samples of one corner could then be one sample).
 
     """
 
-    def __init__(self, n_corners: int = 4, n_values: int = 3, max_pending: int = 1024):
+    def __init__(self, n_corners: int = 4, n_values: int = 3, max_pending: int = 1024,
+                 tolerance_ns: int = 0, period_ns: Optional[float] = None):
         for name, value in (('n_corners', n_corners), ('n_values', n_values),
                             ('max_pending', max_pending)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ConfigError(f'aligner: {name} must be an integer >= 1, got {value!r}')
+        if not tolerance_ns >= 0:
+            raise ConfigError(f'aligner: tolerance_ns must be >= 0, got {tolerance_ns!r}')
+        if period_ns is not None and not (period_ns > 0 and 2 * tolerance_ns <= period_ns):
+            raise ConfigError(f'aligner: tolerance {tolerance_ns} ns must be at most half the '
+                              f'sample period ({period_ns:g} ns)')
+        self._tol = int(tolerance_ns)
+        self._period_ns = period_ns
         self._n = int(n_corners)
         self._n_values = int(n_values)
         self._max_pending = int(max_pending)
@@ -135,9 +187,10 @@ class CornerAligner:
         self._nxt = [_Buffer(self._n_values) for _ in range(n)]
         self._jumped = np.zeros(n, dtype=bool)
         self._last: List[Optional[int]] = [None] * n       # last accepted stamp per corner
-        self._floor: Optional[int] = None   # stamps <= floor are decided in this epoch
+        self._floor: Optional[int] = None   # stamps <= floor - tolerance are decided
         self._jump_stamp: Optional[int] = None
         self._events: List[AlignerEvent] = []
+        self._off = [None] * n               # per corner: [count, first stamp, worst offset]
 
     @property
     def n_corners(self) -> int:
@@ -232,7 +285,7 @@ class CornerAligner:
                 self._complete_jump()
             return
         if self._floor is not None:
-            late = fresh & (run <= self._floor)
+            late = fresh & (run <= self._floor - self._tol)
             self._counts['late'][corner] += int(late.sum())
             fresh &= ~late
         self._cur[corner].append(run[fresh], vals[:, fresh])
@@ -240,39 +293,76 @@ class CornerAligner:
 
     def _release(self):
         """Emit the complete samples of the current epoch; drop what can no longer complete."""
-        first = self._cur[0].stamps
-        if all(np.array_equal(first, buf.stamps) for buf in self._cur[1:]):
-            # The usual case: every corner delivered the same stamps.
-            if first.size:
-                values = np.concatenate([buf.values for buf in self._cur], axis=0)
-                self._counts['aligned'] += first.size
-                self._events.append(AlignedSamples(first, values))
-                self._floor = int(first[-1])
-                for buf in self._cur:
-                    buf.keep(np.zeros(first.size, dtype=bool))
-            return
-        common = first
-        for buf in self._cur[1:]:
-            if common.size == 0:
+        bufs = self._cur
+        tol = self._tol
+        while True:
+            n = min(len(buf) for buf in bufs)
+            if n == 0:
                 break
-            common = np.intersect1d(common, buf.stamps, assume_unique=True)
-        if common.size:
-            top = int(common[-1])
-            parts = []
-            for c, buf in enumerate(self._cur):
-                done = buf.stamps <= top
-                hit = np.isin(buf.stamps, common, assume_unique=True)
-                parts.append(buf.values[:, hit])
-                self._counts['aligned'][c] += common.size
-                self._counts['incomplete'][c] += int(done.sum()) - common.size
-                buf.keep(~done)
-            self._events.append(AlignedSamples(common, np.concatenate(parts, axis=0)))
-            self._floor = top
-        longest = max(len(buf) for buf in self._cur)
+            heads = np.stack([buf.stamps[:n] for buf in bufs])
+            spread = heads.max(axis=0) - heads.min(axis=0)
+            bad = np.flatnonzero(spread > tol)
+            k = int(bad[0]) if bad.size else n
+            if k:
+                self._emit(heads[:, :k], k)
+            if k == n:
+                break
+            # The corners' oldest stamps are too far apart: whatever lies more than the
+            # tolerance before the newest of them can never complete.
+            top = int(heads[:, k].max())
+            for c, buf in enumerate(bufs):
+                cut = int(np.searchsorted(buf.stamps, top - tol, side='left'))
+                if cut:
+                    self._count_unmatched(c, buf.stamps[:cut], top)
+                    buf.drop_head(cut)
+        self._report_offsets()
+        longest = max(len(buf) for buf in bufs)
         if longest > self._max_pending:
             cut = max(int(buf.stamps[len(buf) - self._max_pending - 1])
-                      for buf in self._cur if len(buf) > self._max_pending)
+                      for buf in bufs if len(buf) > self._max_pending)
             self._drop_through(cut)
+
+    def _emit(self, heads: np.ndarray, k: int):
+        """Release the first ``k`` pending samples of every corner as one block."""
+        if self._tol:
+            ordered = np.sort(heads, axis=0)
+            lo, hi = ordered[(self._n - 1) // 2], ordered[self._n // 2]
+            stamps = lo + (hi - lo) // 2          # median in integer ns: no float rounding
+        else:
+            stamps = heads[0]
+        values = np.concatenate([buf.values[:, :k] for buf in self._cur], axis=0)
+        for buf in self._cur:
+            buf.drop_head(k)
+        self._counts['aligned'] += k
+        self._events.append(AlignedSamples(stamps.copy(), values))
+        top = int(heads[:, -1].max())
+        self._floor = top if self._floor is None else max(self._floor, top)
+
+    def _count_unmatched(self, corner: int, dropped: np.ndarray, top_ns: int):
+        """Count stamps of ``corner`` that no other corner matched (missing or offset)."""
+        if self._period_ns is None:
+            self._counts['incomplete'][corner] += dropped.size
+            return
+        dist = (top_ns - dropped).astype(np.float64)
+        rest = np.abs(dist - np.round(dist / self._period_ns) * self._period_ns)
+        off = rest > self._tol
+        n_off = int(off.sum())
+        self._counts['incomplete'][corner] += dropped.size - n_off
+        if n_off:
+            self._counts['out_of_tolerance'][corner] += n_off
+            worst = int(round(rest[off].max()))
+            seen = self._off[corner]
+            if seen is None:
+                self._off[corner] = [n_off, int(dropped[off][0]), worst]
+            else:
+                seen[0] += n_off
+                seen[2] = max(seen[2], worst)
+
+    def _report_offsets(self):
+        for c, seen in enumerate(self._off):
+            if seen is not None:
+                self._events.append(OutOfTolerance(c, *seen))
+                self._off[c] = None
 
     def _drop_through(self, stamp_ns: int):
         """Drop every pending sample of the current epoch stamped <= ``stamp_ns``."""

@@ -15,8 +15,13 @@ stale, else OK.
 **Health** (``/diagnostics``, what ``diagnostic_aggregator`` and ``rqt_robot_monitor`` read,
 on a steady-clock period): one status per corner, ``name`` = ``{node}: {corner}``, with the
 input topic, the counters and staleness, and one status ``{node}`` for the node itself
-(model, latency, totals).  ``hardware_id`` is the node's fully qualified name, unique per
-instance.
+(model, latency, totals); ``{node}`` is the node's **fully qualified** name
+(``/car2/wheel_force_node``), so two cars launched from one launch file never share a status
+name in the aggregator.  ``hardware_id`` is the same name.  A corner's level is the damage
+budget's (as on the damage topic), WARN when its input is stale or stamps fell outside the
+sync tolerance since the last message; the node's is ERROR when a corner exceeds the
+budget.  The header stamp is the ROS time, or the steady clock while the ROS clock is not
+running (``use_sim_time`` before the first ``/clock``).
 """
 from dataclasses import dataclass
 from typing import Mapping, Sequence, Tuple
@@ -133,7 +138,7 @@ def build_damage_array(reports: Sequence[CornerReport], hardware_id: str, stamp_
     return msg
 
 
-def build_health_array(node_name: str, hardware_id: str, stamp_ns: int,
+def build_health_array(node_name: str, stamp_ns: int,
                        corners: Sequence[Tuple[str, int, str, Sequence[Tuple[str, object]]]],
                        node_status: Tuple[int, str, Sequence[Tuple[str, object]]]
                        ) -> DiagnosticArray:
@@ -143,11 +148,10 @@ def build_health_array(node_name: str, hardware_id: str, stamp_ns: int,
     Parameters
     ----------
     node_name : str
-        The node's name (status names are ``{node_name}: {corner}`` and ``{node_name}``).
-    hardware_id : str
-        The node's fully qualified name.
+        The node's fully qualified name: status names are ``{node_name}: {corner}`` and
+        ``{node_name}``, ``hardware_id`` is ``node_name``.
     stamp_ns : int
-        ``header.stamp`` [ns] (the node clock).
+        ``header.stamp`` [ns].
     corners : sequence of (corner, level, message, values)
         One per corner; ``level`` OK/WARN/ERROR (0/1/2), ``values`` key/value pairs.
     node_status : (level, message, values)
@@ -166,7 +170,7 @@ def build_health_array(node_name: str, hardware_id: str, stamp_ns: int,
     entries.append((node_name,) + tuple(node_status))
     for name, level, text, values in entries:
         msg.status.append(DiagnosticStatus(
-            level=_LEVEL_BYTES[level], name=name, message=text, hardware_id=hardware_id,
+            level=_LEVEL_BYTES[level], name=name, message=text, hardware_id=node_name,
             values=[KeyValue(key=str(k), value=str(v)) for k, v in values]))
     return msg
 

@@ -3,7 +3,12 @@
 """
 ``wheel_force_node``: the live virtual wheel force transducer.
 
-Wiring (all in ``WheelForceNode.__init__``; callbacks stay tiny):
+An ``rclpy`` lifecycle node (``docs/logger_graph.md``): ``__init__`` declares the parameters
+and the services (``~/reset_damage``, ``~/reload_model``), ``configure`` loads the model and
+makes the publishers, ``activate`` the subscriptions and timers, ``deactivate`` completes and
+publishes what is in flight, ``cleanup`` releases; ``autostart`` (default) runs configure and
+activate at start.  Every publisher and subscription takes ``qos_overrides.*``.  Wiring
+(callbacks stay tiny):
 
 * four ``sensor_msgs/Imu`` subscriptions, ``raw=True``, on relative topic names (they move with
   the node's namespace): a callback only appends the serialized bytes to its corner's list.
@@ -12,7 +17,7 @@ Wiring (all in ``WheelForceNode.__init__``; callbacks stay tiny):
   and fed to the shared :class:`~wheel_force_estimator.core.predict.Predictor` in blocks
   (:mod:`.stream`).  A batch is processed as soon as the buffered messages could complete a
   block, else by the housekeeping timer.
-* four ``geometry_msgs/WrenchStamped`` publishers (RELIABLE, KEEP_LAST ``output_qos_depth``),
+* four ``geometry_msgs/WrenchStamped`` publishers (RELIABLE, KEEP_LAST 1024 by default),
   one message per input sample per corner, stamped with the estimated input sample's stamp.
   **Steady output**: a finished block is not published in one burst (a reliable keep-last-5
   subscriber such as ``ros2 topic echo`` would lose most of it) but paced at the input
@@ -31,9 +36,19 @@ Wiring (all in ``WheelForceNode.__init__``; callbacks stay tiny):
 * health on ``/diagnostics`` (:mod:`.diagnostics`) every :data:`DIAGNOSTICS_PERIOD_S`.
 
 Timers run on the **steady clock**, not the ROS clock: with ``use_sim_time`` and a paused or
-absent ``/clock``, stall detection, flushing and health still run.  At SIGINT/SIGTERM the
-look-ahead is flushed, every remaining estimate and a final damage message are published, and
-the node exits 0.
+absent ``/clock``, stall detection and health still run.
+
+**Continuity is judged in data time.**  Corner stamps within ``sync_tolerance_s`` are one
+sample (:mod:`.aligner`, stamped by their median).  A pause of the input with no gap in the
+stamps (a paused replay, a DAQ hiccup) keeps the filter and its look-ahead: the held estimates
+leave when the data resumes, exactly as offline.  The stall only marks the inputs stale and
+publishes the damage so far.  The look-ahead is completed only at a gap in the stamps, at a
+stamp jump, and at shutdown.
+
+At SIGINT/SIGTERM the look-ahead is completed, the remaining estimates leave paced (at most
+:data:`SHUTDOWN_TAIL_S`), a final damage message is published, the acknowledgements are awaited
+against one deadline (:data:`SHUTDOWN_ACK_S`) and the node exits 0.  A second signal exits at
+once (status :data:`EXIT_INTERRUPTED`), logging how many estimates were not published.
 
 Faults never stop the node: they are counted, shown in the diagnostics, logged (gaps one line
 each, with the stamps either side; repeated faults with a throttled warning) and summarised at
@@ -41,7 +56,9 @@ shutdown.  Run with the ``EventsExecutor`` spun with a finite timeout (without o
 busy-spins and runs nothing).
 """
 import collections
+import dataclasses
 import gc
+import os
 import signal
 import threading
 import time
@@ -55,32 +72,39 @@ from rclpy.clock import ClockType
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
-from rclpy.impl.implementation_singleton import rclpy_implementation
+from rclpy.lifecycle import LifecycleNode
+from rclpy.lifecycle import LifecycleState
+from rclpy.lifecycle import TransitionCallbackReturn
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy
+from rclpy.qos import QoSPolicyKind
 from rclpy.qos import QoSProfile
 from rclpy.qos import ReliabilityPolicy
+from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import Imu
 from std_msgs.msg import String
+from std_srvs.srv import Trigger
 
 from wheel_force_estimator import CORNERS
 from wheel_force_estimator.bagio.cdr import decode_imu
 from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.bagio.cdr import encode_wrench
+from wheel_force_estimator.core.errors import ModelFileError
 from wheel_force_estimator.core.errors import WheelForceError
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.core.predict import Predictor
 from wheel_force_estimator.ros.aligner import AlignedSamples
 from wheel_force_estimator.ros.aligner import CornerAligner
-from wheel_force_estimator.ros.diagnostics import build_damage_array
-from wheel_force_estimator.ros.diagnostics import build_health_array
-from wheel_force_estimator.ros.diagnostics import CornerReport
-from wheel_force_estimator.ros.diagnostics import ERROR
-from wheel_force_estimator.ros.diagnostics import OK
-from wheel_force_estimator.ros.diagnostics import WARN
+from wheel_force_estimator.ros.aligner import OutOfTolerance
+from wheel_force_estimator.ros.health import DROP_REASONS
+from wheel_force_estimator.ros.health import LATENCY_WINDOW
+from wheel_force_estimator.ros.health import NodeHealth
+from wheel_force_estimator.ros.health import WARN_THROTTLE_S
 from wheel_force_estimator.ros.pacing import OutputPacer
 from wheel_force_estimator.ros.params import declare_node_parameters
+from wheel_force_estimator.ros.params import default as _default
+from wheel_force_estimator.ros.params import DEPRECATED_QOS_PARAMETERS
 from wheel_force_estimator.ros.params import model_layout
 from wheel_force_estimator.ros.params import unknown_parameters
 from wheel_force_estimator.ros.stream import ForceStream
@@ -88,22 +112,31 @@ from wheel_force_estimator.ros.stream import ForceStream
 NODE_NAME = 'wheel_force_node'
 #: The ROS-wide health topic (absolute: never moves with the namespace).
 DIAGNOSTICS_TOPIC = '/diagnostics'
-IMU_TYPE = 'sensor_msgs/msg/Imu'
 #: Steady-clock timer that processes buffered messages, paces idle output, detects stalls [s].
 HOUSEKEEPING_PERIOD_S = 0.02
 #: Steady-clock period of the /diagnostics health message [s].
 DIAGNOSTICS_PERIOD_S = 1.0
-#: Throttle of repeated fault warnings [s].
-WARN_THROTTLE_S = 5.0
-#: Pacing latencies kept for the percentiles.
-LATENCY_WINDOW = 4096
-#: How long a shutdown waits for reliable subscribers to acknowledge the last estimates [s].
+#: How long a shutdown waits, in all, for reliable subscribers to acknowledge the last
+#: messages (one deadline for every publisher) [s].
 SHUTDOWN_ACK_S = 2.0
-_DROP_REASONS = ('malformed', 'wrong_frame', 'nonfinite')
-_RCLError = rclpy_implementation.RCLError
+#: Longest a shutdown spends publishing the tail (paced at the model's sample rate, faster
+#: when more waits) [s].  With the acknowledgements, a stop stays well within the 5 s after
+#: which ``ros2 launch`` escalates to SIGTERM.
+SHUTDOWN_TAIL_S = 1.0
+#: Longest a shutdown spends taking the input messages DDS already delivered [s].
+SHUTDOWN_DRAIN_S = 0.5
+#: Step of the paced shutdown tail [s].
+_TAIL_STEP_S = 0.002
+#: Longest single acknowledgement wait at shutdown (signals are handled between them) [s].
+_ACK_SLICE_S = 0.05
+#: Exit status after a second SIGINT/SIGTERM (128 + SIGINT, as a shell reports Ctrl-C).
+EXIT_INTERRUPTED = 130
+#: QoS policies settable through ``qos_overrides.<topic>.<publisher|subscription>.<policy>``.
+QOS_OVERRIDE_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH,
+                         QoSPolicyKind.RELIABILITY, QoSPolicyKind.DURABILITY)
 
 
-class WheelForceNode(Node):
+class WheelForceNode(NodeHealth, LifecycleNode):
     """
     Virtual wheel force transducer node (see the module notes).
 
@@ -120,28 +153,136 @@ class WheelForceNode(Node):
     """
 
     def __init__(self, **node_options):
-        super().__init__(NODE_NAME, **node_options)
+        # Every override is declared at once, so that the node can tell which names it was
+        # given (public API); its own parameters are then declared again with descriptors.
+        super().__init__(NODE_NAME, automatically_declare_parameters_from_overrides=True,
+                         **node_options)
+        given = tuple(self.list_parameters([], 0).names)
         try:
             self._params = params = declare_node_parameters(self)
-            model = load_model(params.model_path)
-            self._layout = layout = model_layout(model, params)
-            self._stream = _make_stream(model, layout, params)
-            if self._stream.fallback:
-                # Once, at start: the model predates the live estimator (issue 16).
-                self.get_logger().warning(f'{params.model_path}: {self._stream.fallback}')
         except WheelForceError:
             self.destroy_node()
             raise
-        _warm_up(model, layout, params)
-        for name in unknown_parameters(self):
+        if params.flush_timeout_s != _default('flush_timeout_s'):
+            self.get_logger().warning(
+                'parameter flush_timeout_s is deprecated and ignored: a pause of the input '
+                'keeps the filter (the look-ahead is completed at a gap in the stamps, a stamp '
+                'jump, deactivate or shutdown); stale input is stale_timeout_samples')
+        for name in DEPRECATED_QOS_PARAMETERS:
+            if getattr(params, name) != _default(name):
+                self.get_logger().warning(
+                    f'parameter {name} is deprecated: use the standard '
+                    f'qos_overrides.<topic>.<publisher|subscription>.<policy> parameters '
+                    f'(they win where both are given)')
+        entities = ([(self.resolve_topic_name(t), 'subscription')
+                     for t in params.imu_topics + (params.event_topic,)]
+                    + [(self.resolve_topic_name(t), 'publisher')
+                       for t in params.output_topics + (params.damage_topic,
+                                                        DIAGNOSTICS_TOPIC)])
+        #: Names the node was given that mean nothing to it (typos), warned at start.
+        self.unknown_parameters = unknown_parameters(given, entities)
+        for name in self.unknown_parameters:
             self.get_logger().warning(
                 f'parameter {name!r} (params file or -p) is not a parameter of this node: '
                 f'ignored (typo?)')
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        #: Why the last configure failed (``None`` after a success).
+        self.configure_error = None
+        #: Imu messages taken from DDS (all corners).
+        self.messages_taken = 0
+        self._active = False
+        self._starting = False
+        self._model = None
+        self._subs = []
+        self._own_timers = []
+        self._trigger_services = [
+            self.create_service(Trigger, '~/reset_damage', self._on_reset_damage),
+            self.create_service(Trigger, '~/reload_model', self._on_reload_model)]
+
+    # -- life cycle --------------------------------------------------------------------------
+
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Load and check the model, make the estimation chain and the publishers."""
+        try:
+            model, layout, stream = self._load(self._params.model_path)
+        except WheelForceError as err:
+            self.configure_error = err
+            if not self._starting:          # at start, main() says it in one line
+                self.get_logger().error(f'configure failed: {err}')
+            return TransitionCallbackReturn.FAILURE
+        self.configure_error = None
+        self._setup(model, layout, stream)
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Subscribe the inputs and start the timers."""
+        self._subscribe()
+        self._active = True
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Complete the estimates in flight, publish them and the damage, unsubscribe."""
+        self._stop()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Release the model and the publishers."""
+        self._release()
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Finish as a deactivate would, then release."""
+        if self._active:
+            self._stop()
+        if self._model is not None:
+            self._release()
+        return TransitionCallbackReturn.SUCCESS
+
+    @property
+    def active(self) -> bool:
+        """Return whether the node is in the active state (subscribed and publishing)."""
+        return self._active
+
+    def start(self) -> bool:
+        """
+        Configure and activate (``autostart``).
+
+        Returns
+        -------
+        bool
+            False when configure failed (:attr:`configure_error` says why).
+
+        """
+        self._starting = True
+        try:
+            configured = self.trigger_configure() == TransitionCallbackReturn.SUCCESS
+        finally:
+            self._starting = False
+        if configured:
+            self.trigger_activate()
+        return configured
+
+    def _load(self, model_path: str):
+        """Return (model, layout, stream) for ``model_path``, checked; raise WheelForceError."""
+        params = dataclasses.replace(self._params, model_path=model_path)
+        model = load_model(model_path)
+        layout = model_layout(model, params)
+        stream = _make_stream(model, layout, params)
+        if stream.fallback:
+            # Once per load: the model predates the live estimator (issue 16).
+            self.get_logger().warning(f'{model_path}: {stream.fallback}')
+        _warm_up(model, layout, params)
+        return model, layout, stream
+
+    def _setup(self, model, layout, stream):
+        params = self._params
+        self._layout = layout
+        self._stream = stream
         self._fs_hz = model.fs_hz
         self._model = model
-        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._aligner = CornerAligner(len(CORNERS), 3, max(
-            params.input_qos_depth, params.stale_timeout_samples, 64))
+        self._aligner = CornerAligner(
+            len(CORNERS), 3, max(params.input_qos_depth, params.stale_timeout_samples, 64),
+            tolerance_ns=layout.sync_tolerance_ns, period_ns=1e9 / model.fs_hz)
         self._stale_s = params.stale_timeout_samples / model.fs_hz
         self._check_frames = any(params.imu_frame_ids)
         n = len(CORNERS)
@@ -153,53 +294,144 @@ class WheelForceNode(Node):
         self._published = 0
         self._latency_s = collections.deque(maxlen=LATENCY_WINDOW)
         self._received = np.zeros(n, dtype=np.int64)
-        self._dropped = {reason: np.zeros(n, dtype=np.int64) for reason in _DROP_REASONS}
+        self._dropped = {reason: np.zeros(n, dtype=np.int64) for reason in DROP_REASONS}
         self._last_rx_s = [None] * n
         self._last_input_s = None
         self._input_since_tick = False
         self._final_sent_for = None       # samples_out at the last end-of-stream report
+        self._paused_at = None            # samples_out when the input was last seen stopping
+        self._sync_offset_ns = np.zeros(n, dtype=np.int64)   # worst out-of-tolerance offset
+        self._off_reported = np.zeros(n, dtype=np.int64)     # out-of-tolerance at last health
         self._damage_messages = 0
         self._wrong_types = [''] * n
         self._event = ''
         # Without moments in the model the torque is unknown: 0 (default) or NaN.
         self._nan_torque = layout.torque_rows is None and params.unknown_torque == 'nan'
+        out_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=params.output_qos_depth,
+                             reliability=ReliabilityPolicy.RELIABLE)
+        # Every publisher and subscription takes the standard qos_overrides.* parameters.
+        qos_opts = QoSOverridingOptions(policy_kinds=QOS_OVERRIDE_POLICIES)
+        self._pubs = [self.create_publisher(WrenchStamped, topic, out_qos,
+                                            qos_overriding_options=qos_opts)
+                      for topic in params.output_topics]
+        self._publish_fns = [pub.publish for pub in self._pubs]
+        self._damage_pub = self.create_publisher(DiagnosticArray, params.damage_topic, 10,
+                                                 qos_overriding_options=qos_opts)
+        self._health_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10,
+                                                 qos_overriding_options=qos_opts)
+        self._imu_names = [self.resolve_topic_name(t) for t in params.imu_topics]
+        delay = stream.delay_samples
+        self.get_logger().info(
+            f'{self.get_fully_qualified_name()}: model {params.model_path}: '
+            f'{model.fs_hz:g} Hz, block {params.block_size} samples '
+            f'({params.block_size / model.fs_hz * 1e3:.0f} ms), look-ahead {delay} samples '
+            f'({delay / model.fs_hz * 1e3:.0f} ms), sync tolerance '
+            f'{layout.sync_tolerance_ns * 1e-6:.3f} ms; inputs {", ".join(self._imu_names)} '
+            f'({params.input_reliability} unless qos_overrides); outputs '
+            f'{", ".join(pub.topic_name for pub in self._pubs)} (frames '
+            f'{", ".join(params.frame_ids)}); damage {self._damage_pub.topic_name}; '
+            f'events {self.resolve_topic_name(params.event_topic)}; '
+            f'health {self._health_pub.topic_name}')
 
+    def _subscribe(self):
+        params = self._params
         in_qos = QoSProfile(
             history=HistoryPolicy.KEEP_LAST, depth=params.input_qos_depth,
             reliability=(ReliabilityPolicy.RELIABLE if params.input_reliability == 'reliable'
                          else ReliabilityPolicy.BEST_EFFORT))
-        out_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=params.output_qos_depth,
-                             reliability=ReliabilityPolicy.RELIABLE)
+        qos_opts = QoSOverridingOptions(policy_kinds=QOS_OVERRIDE_POLICIES)
         self._subs = [self.create_subscription(Imu, topic, self._imu_callback(c), in_qos,
-                                               raw=True)
+                                               raw=True, qos_overriding_options=qos_opts)
                       for c, topic in enumerate(params.imu_topics)]
-        self._pubs = [self.create_publisher(WrenchStamped, topic, out_qos)
-                      for topic in params.output_topics]
-        self._publish_fns = [pub.publish for pub in self._pubs]
-        self._damage_pub = self.create_publisher(DiagnosticArray, params.damage_topic, 10)
-        self._health_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
         # Best effort matches reliable and best-effort event publishers alike.
-        self._event_sub = self.create_subscription(
+        self._subs.append(self.create_subscription(
             String, params.event_topic, self._on_event,
-            QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+            QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT),
+            qos_overriding_options=qos_opts))
         self._housekeeping = self.create_timer(HOUSEKEEPING_PERIOD_S, self._on_housekeeping,
                                                clock=self._steady)
         self._health_timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self._publish_health,
                                                clock=self._steady)
         # Paces what waits when no input arrives (a tail): one sample per sample period.
-        self._idle_timer = self.create_timer(1.0 / model.fs_hz, self._on_idle_tick,
+        self._idle_timer = self.create_timer(1.0 / self._fs_hz, self._on_idle_tick,
                                              clock=self._steady, autostart=False)
-        self._imu_names = [sub.topic_name for sub in self._subs]
-        delay = self._stream.delay_samples
-        self.get_logger().info(
-            f'{self.get_fully_qualified_name()}: model {params.model_path}: '
-            f'{model.fs_hz:g} Hz, block {params.block_size} samples '
-            f'({params.block_size / model.fs_hz * 1e3:.0f} ms), look-ahead {delay} samples '
-            f'({delay / model.fs_hz * 1e3:.0f} ms); inputs {", ".join(self._imu_names)} '
-            f'({params.input_reliability}); outputs '
-            f'{", ".join(pub.topic_name for pub in self._pubs)} (frames '
-            f'{", ".join(params.frame_ids)}); damage {self._damage_pub.topic_name}; '
-            f'events {self._event_sub.topic_name}; health {self._health_pub.topic_name}')
+        self._own_timers = [self._housekeeping, self._health_timer, self._idle_timer]
+        self.get_logger().info('active: inputs subscribed')
+
+    def _stop(self):
+        """Deactivate: take what is buffered, complete and publish everything, unsubscribe."""
+        for sub in self._subs:
+            self.destroy_subscription(sub)
+        for timer in self._own_timers:
+            self.destroy_timer(timer)
+        self._subs, self._own_timers = [], []
+        if any(self._raw):
+            self._process(time.monotonic())
+        self._end_of_stream('deactivated', always=True)
+        self._publish_tail()
+        self._publish_health()
+        self._active = False
+
+    def _release(self):
+        for pub in self._pubs + [self._damage_pub, self._health_pub]:
+            self.destroy_publisher(pub)
+        self._pubs, self._publish_fns = [], []
+        self._model = self._stream = None
+        self.get_logger().info('cleaned up: model released')
+
+    # -- services ----------------------------------------------------------------------------
+
+    def _on_reset_damage(self, request, response):
+        """``~/reset_damage``: publish the final damage of the run, then count from zero."""
+        if not self._active:
+            response.success = False
+            response.message = 'not active: nothing changed'
+            return response
+        if any(self._raw):
+            self._process(time.monotonic())
+        final = self._stream.reset_damage()
+        if final is not None:
+            self._publish_damage(final)
+        self._final_sent_for = None
+        response.success = True
+        response.message = ('damage run ended at ' + (
+            f'{final.stamp_ns} ns after {final.n_samples} estimate(s) (published on '
+            f'{self._damage_pub.topic_name})' if final is not None else 'no estimate yet')
+            + '; counting from zero')
+        self.get_logger().info(f'reset_damage: {response.message}')
+        return response
+
+    def _on_reload_model(self, request, response):
+        """``~/reload_model``: read ``model_path`` again; keep the old model on failure."""
+        if self._model is None:
+            response.success = False
+            response.message = 'not configured: configure loads the model'
+            return response
+        path = str(self.get_parameter('model_path').value)
+        try:
+            model, layout, stream = self._load(path)
+            if model.fs_hz != self._fs_hz:
+                raise ModelFileError(f'{path}: sample rate {model.fs_hz:g} Hz differs from '
+                                     f'that of the running model, {self._fs_hz:g} Hz: '
+                                     f'reconfigure')
+        except WheelForceError as err:
+            response.success = False
+            response.message = f'{err}; the old model keeps running'
+            self.get_logger().error(f'reload_model: {response.message}')
+            return response
+        if any(self._raw):
+            self._process(time.monotonic())
+        # The old model completes what it has in flight; the new one starts afresh.
+        self._end_of_stream(f'reload_model {path}', always=True)
+        self._params = dataclasses.replace(self._params, model_path=path)
+        self._model, self._layout, self._stream = model, layout, stream
+        self._nan_torque = (layout.torque_rows is None
+                            and self._params.unknown_torque == 'nan')
+        self._final_sent_for = None
+        response.success = True
+        response.message = f'model {path} loaded; estimates in flight completed by the old one'
+        self.get_logger().info(f'reload_model: {response.message}')
+        return response
 
     # -- callbacks ---------------------------------------------------------------------------
 
@@ -210,6 +442,7 @@ class WheelForceNode(Node):
 
         def on_imu(raw: bytes):
             buf.append(raw)
+            self.messages_taken += 1
             self._input_since_tick = True
             # A block can only complete once every corner has delivered enough messages.
             if self._queued + min(map(len, raws)) >= block:
@@ -220,6 +453,17 @@ class WheelForceNode(Node):
 
     def _on_event(self, msg: String):
         self._event = msg.data
+        if not self._params.damage_per_event:
+            return
+        # The event carries no stamp: the new run starts after the newest sample received.
+        if any(self._raw):
+            self._process(time.monotonic())
+        lasts = [self._aligner.last_stamp_ns(c) for c in range(len(CORNERS))]
+        newest = max((t for t in lasts if t is not None), default=None)
+        if newest is None:
+            self._stream.split_damage(-1, msg.data)     # before any data: the first run
+        else:
+            self._stream.split_damage(newest + self._layout.sync_tolerance_ns, msg.data)
 
     def _on_housekeeping(self):
         now = time.monotonic()
@@ -227,10 +471,9 @@ class WheelForceNode(Node):
         if any(self._raw):
             self._process(now)
         self._pacer.measure(now, int(self._received.sum()))
-        if (self._stream.in_flight and self._last_input_s is not None
-                and now - self._last_input_s > self._params.flush_timeout_s):
-            self._end_of_stream('no input for '
-                                f'{now - self._last_input_s:.2f} s (flush_timeout_s)')
+        if (self._last_input_s is not None and now - self._last_input_s > self._stale_s
+                and self._paused_at != self._stream.counts['samples_in']):
+            self._on_pause(now - self._last_input_s)
         if self._n_unpublished and not had_input and self._idle_timer.is_canceled():
             # No input to pace by (end of a replay, a stall): the model's sample rate.
             self._idle_timer.reset()
@@ -275,6 +518,8 @@ class WheelForceNode(Node):
             if isinstance(event, AlignedSamples):
                 self._stream.feed(event.stamp_ns, event.accel_mps2)
                 self._last_input_s = now
+            elif isinstance(event, OutOfTolerance):
+                self._on_out_of_tolerance(event)
             else:
                 self.get_logger().warning(
                     f'stamps went back to {event.stamp_ns} ns (recording restarted?): '
@@ -293,6 +538,37 @@ class WheelForceNode(Node):
         for report in self._stream.take_damage_reports():
             self._publish_damage(report)
 
+    def _on_out_of_tolerance(self, event: OutOfTolerance):
+        c = event.corner
+        self._sync_offset_ns[c] = max(self._sync_offset_ns[c], event.offset_ns)
+        total = int(self._aligner.counters()['out_of_tolerance'][c])
+        self.get_logger().warning(
+            f'{self._imu_names[c]}: dropped {event.n_messages} message(s) whose stamps no '
+            f'other corner matched within sync_tolerance_s '
+            f'({self._layout.sync_tolerance_ns * 1e-9:g} s), first stamped '
+            f'{event.first_stamp_ns} ns, offset {event.offset_ns * 1e-6:.3f} ms from the '
+            f'nearest sample of the others (total {total}): are the loggers clocks '
+            f'synchronised?', throttle_duration_sec=WARN_THROTTLE_S)
+
+    def _on_pause(self, silent_s: float):
+        """
+        No input for ``stale_timeout_samples``: report the damage so far, keep the filter.
+
+        The look-ahead stays in the filter: the data may resume without a gap in the stamps
+        (a paused replay, a DAQ hiccup), and then every estimate is exactly the offline one.
+        """
+        self._paused_at = self._stream.counts['samples_in']
+        samples_out = self._stream.counts['samples_out']
+        if self._final_sent_for != samples_out:
+            self._final_sent_for = samples_out
+            final = self._stream.final_damage_report()
+            if final is not None:
+                self._publish_damage(final)
+        self.get_logger().info(
+            f'no input for {silent_s:.2f} s: {self._stream.in_flight} estimate(s) held for '
+            f'the look-ahead until the data resumes (a gap in the stamps, a stamp jump, '
+            f'deactivate or shutdown completes them); {self.summary()}')
+
     def _end_of_stream(self, why: str = '', always: bool = False):
         """Input stopped (or shutdown): flush the look-ahead, report damage, log counters."""
         self._stream.flush()
@@ -310,7 +586,7 @@ class WheelForceNode(Node):
 
     def _count_drops(self, corner: int, decoded):
         topic = self._imu_names[corner]
-        for reason in _DROP_REASONS:
+        for reason in DROP_REASONS:
             mask = getattr(decoded, reason)
             n = int(mask.sum())
             if n:
@@ -372,158 +648,49 @@ class WheelForceNode(Node):
         self._n_unpublished -= done
         return done
 
-    # -- diagnostics -------------------------------------------------------------------------
-
-    def stale_reasons(self, now: float):
-        """Return, per corner, why its input is stale (``''`` when it is not)."""
-        reasons = []
-        lasts = [self._aligner.last_stamp_ns(c) for c in range(len(CORNERS))]
-        newest = max((s for s in lasts if s is not None), default=None)
-        limit_ns = self._params.stale_timeout_samples * 1e9 / self._fs_hz
-        for c in range(len(CORNERS)):
-            rx = self._last_rx_s[c]
-            wrong = (f' (publisher of type {self._wrong_types[c]} on the topic)'
-                     if self._wrong_types[c] else '')
-            if rx is None:
-                reasons.append('no message received yet' + wrong)
-            elif now - rx > self._stale_s:
-                reasons.append(f'no message for {now - rx:.2f} s' + wrong)
-            elif (newest is not None and lasts[c] is not None and not self._aligner.in_transition
-                  and newest - lasts[c] > limit_ns):
-                reasons.append(f'stamps {(newest - lasts[c]) * 1e-9:.2f} s behind the others')
-            else:
-                reasons.append('')
-        return reasons
-
-    def counters(self):
-        """Return the per-corner counters shown in the diagnostics (dict of name -> list)."""
-        align = self._aligner.counters()
-        stream = self._stream.counts
-        n = len(CORNERS)
-        dropped = {f'dropped_{reason}': self._dropped[reason] for reason in _DROP_REASONS}
-        dropped['dropped_duplicate'] = align['duplicate']
-        dropped['dropped_late'] = align['late']
-        dropped['dropped_incomplete'] = align['incomplete']
-        total = sum(dropped.values())
-        out = {'received': self._received, 'published': [self._published] * n,
-               'dropped': total, 'gaps': [stream['gaps']] * n,
-               'missing_samples': [stream['missing_samples']] * n,
-               'short_steps': [stream['short_steps']] * n, 'resets': [stream['jumps']] * n}
-        out.update(dropped)
-        out.update({'aligned': align['aligned'], 'pending': align['pending'],
-                    'in_flight': [self._stream.in_flight + self._n_unpublished] * n,
-                    'flushes': [stream['flushes']] * n})
-        return {key: [int(v) for v in value] for key, value in out.items()}
-
-    def pacing_latency_ms(self):
-        """
-        Return (p50, p99, max) of the time estimates waited to be published [ms].
-
-        Per published sample, over the last :data:`LATENCY_WINDOW` publications, from the
-        moment the estimate was computed; end-of-stream tails are not included.
-        """
-        if not self._latency_s:
-            return (0.0, 0.0, 0.0)
-        pairs = np.asarray(self._latency_s)
-        order = np.argsort(pairs[:, 0])
-        lat, weight = pairs[order, 0] * 1e3, np.cumsum(pairs[order, 1])
-        p50, p99 = (lat[np.searchsorted(weight, q * weight[-1])] for q in (0.5, 0.99))
-        return float(p50), float(p99), float(lat[-1])
-
-    def _publish_damage(self, report):
-        stale = self.stale_reasons(time.monotonic())
-        names = self._model.output_channels
-        reports = []
-        for c, corner in enumerate(CORNERS):
-            rows = list(self._layout.force_rows[c])
-            if self._layout.torque_rows is not None:
-                rows += list(self._layout.torque_rows[c])
-            pairs = tuple((names[r].split('_', 1)[1], float(report.damage[r])) for r in rows)
-            reports.append(CornerReport(corner, pairs,
-                                        float(max(report.rate_per_s[rows].max(), 0.0)),
-                                        stale[c], (('samples', report.n_samples),)))
-        budget = float(self.get_parameter('damage_budget').value)
-        self._damage_pub.publish(build_damage_array(
-            reports, self.get_fully_qualified_name(), report.stamp_ns, budget))
-        self._damage_messages += 1
-
-    def _check_input_types(self):
-        """Log once per topic and type when a publisher of another type uses an input topic."""
-        for c, topic in enumerate(self._imu_names):
-            try:
-                infos = self.get_publishers_info_by_topic(topic)
-            except _RCLError:
-                continue
-            types = sorted({i.topic_type for i in infos} - {IMU_TYPE})
-            found = ', '.join(types)
-            if found and found != self._wrong_types[c]:
-                self.get_logger().error(
-                    f'{topic}: publisher(s) of type {found} found; this node subscribes '
-                    f'{IMU_TYPE} there, so corner {CORNERS[c]} gets no data (reported stale; '
-                    f'the other corners keep running). Remap the topic to the Imu one.')
-            self._wrong_types[c] = found
-
-    def _publish_health(self):
-        self._check_input_types()
-        now = time.monotonic()
-        stale = self.stale_reasons(now)
-        counters = self.counters()
-        corners = []
-        for c, corner in enumerate(CORNERS):
-            level, text = (WARN, f'stale input: {stale[c]}') if stale[c] else (OK, 'ok')
-            values = [('topic', self._imu_names[c]), ('stale', 'true' if stale[c] else 'false')]
-            values += [(key, value[c]) for key, value in counters.items()]
-            corners.append((corner, level, text, values))
-        p50, p99, worst = self.pacing_latency_ms()
-        stream = self._stream.counts
-        if all(stale):
-            node_level, node_text = WARN, 'no input'
-        elif any(stale):
-            node_level, node_text = WARN, 'input stale on ' + ', '.join(
-                corner for corner, why in zip(CORNERS, stale) if why)
-        else:
-            node_level, node_text = OK, 'running'
-        if any(self._wrong_types):
-            node_level = ERROR
-            node_text = 'input topic with the wrong message type'
-        values = [('model', self._params.model_path), ('sample_rate_hz', f'{self._fs_hz:g}'),
-                  ('block_size', self._params.block_size),
-                  ('look_ahead_samples', self._stream.delay_samples),
-                  ('samples_in', stream['samples_in']), ('samples_out', stream['samples_out']),
-                  ('published', self._published), ('waiting', self._n_unpublished),
-                  ('gaps', stream['gaps']), ('missing_samples', stream['missing_samples']),
-                  ('flushes', stream['flushes']), ('resets', stream['jumps']),
-                  ('damage_messages', self._damage_messages),
-                  ('pacing_latency_p50_ms', f'{p50:.2f}'),
-                  ('pacing_latency_p99_ms', f'{p99:.2f}'),
-                  ('pacing_latency_max_ms', f'{worst:.2f}'), ('event', self._event)]
-        self._health_pub.publish(build_health_array(
-            self.get_name(), self.get_fully_qualified_name(),
-            self.get_clock().now().nanoseconds, corners, (node_level, node_text, values)))
-        if any(stale):
-            self.get_logger().warning(
-                'stale input: ' + '; '.join(f'{self._imu_names[c]} {why}'
-                                            for c, why in enumerate(stale) if why),
-                throttle_duration_sec=WARN_THROTTLE_S)
-
     def finish(self):
-        """Shutdown: take what is buffered, flush, publish everything, wait for the acks."""
-        if any(self._raw):
-            self._process(time.monotonic())
-        self._end_of_stream(always=True)   # main() logs the summary
-        if self._n_unpublished:
-            self._pump(self._n_unpublished)
-        self._publish_health()
-        for pub in self._pubs + [self._damage_pub]:
-            pub.wait_for_all_acked(Duration(seconds=SHUTDOWN_ACK_S))
+        """
+        Shutdown: take what is buffered, flush, publish everything, wait for the acks.
 
-    def summary(self) -> str:
-        """Return the counters and the pacing latency as one line."""
-        counters = self.counters()
-        text = ', '.join(f'{key}={value}' for key, value in counters.items())
-        p50, p99, worst = self.pacing_latency_ms()
-        return (f'counters per corner (lf, rf, lr, rr): {text}; pacing latency p50 '
-                f'{p50:.1f} ms, p99 {p99:.1f} ms, max {worst:.1f} ms')
+        The tail leaves paced, at the model's sample rate or faster so that it takes at most
+        :data:`SHUTDOWN_TAIL_S`; then every publisher's acknowledgements are awaited against
+        one deadline, :data:`SHUTDOWN_ACK_S` in all.
+        """
+        if self._active:
+            self._stop()
+        if self._model is None:
+            return
+        deadline = time.monotonic() + SHUTDOWN_ACK_S
+        pending = self._pubs + [self._damage_pub, self._health_pub]
+        while pending and time.monotonic() < deadline:
+            # Short slices: a second SIGINT is handled between them, not after the wait.
+            pending = [pub for pub in pending
+                       if not pub.wait_for_all_acked(Duration(seconds=_ACK_SLICE_S))]
+        if pending:
+            self.get_logger().warning(
+                f'{", ".join(pub.topic_name for pub in pending)}: not every subscriber '
+                f'acknowledged the last messages within {SHUTDOWN_ACK_S:g} s (a stalled '
+                f'reliable subscriber?)')
+
+    def _publish_tail(self):
+        """Publish what waits, paced (see :meth:`finish`)."""
+        n = self._n_unpublished
+        if not n:
+            return
+        rate = max(self._fs_hz, n / SHUTDOWN_TAIL_S)
+        start = time.monotonic()
+        while self._n_unpublished:
+            due = min(n, int(rate * (time.monotonic() - start)) + 1) - (n - self._n_unpublished)
+            if due > 0:
+                self._pump(due)
+            time.sleep(_TAIL_STEP_S)
+
+    @property
+    def waiting(self) -> int:
+        """Return the estimates not published yet: held for the look-ahead or paced [samples]."""
+        if self._model is None:
+            return 0
+        return self._stream.in_flight + self._n_unpublished
 
 
 def _make_stream(model, layout, params) -> ForceStream:
@@ -565,12 +732,23 @@ def _slice(decoded, lo: int, hi: int):
 
 
 def spin(node: Node, timeout_s: float = 0.1, stop: threading.Event = None):
-    """Spin ``node`` with an EventsExecutor until the context shuts down or ``stop`` is set."""
+    """
+    Spin ``node`` with an EventsExecutor until the context shuts down or ``stop`` is set.
+
+    At ``stop`` the messages DDS already delivered are still taken (up to
+    :data:`SHUTDOWN_DRAIN_S`): a Ctrl-C just after a replay must not lose its last samples.
+    """
     executor = EventsExecutor(context=node.context)
     executor.add_node(node)
     try:
         while node.context.ok() and not (stop is not None and stop.is_set()):
             executor.spin_once(timeout_sec=timeout_s)
+        deadline = time.monotonic() + SHUTDOWN_DRAIN_S
+        idle = 0
+        while node.context.ok() and idle < 3 and time.monotonic() < deadline:
+            before = node.messages_taken
+            executor.spin_once(timeout_sec=0.01)
+            idle = idle + 1 if node.messages_taken == before else 0
     finally:
         executor.remove_node(node)
         executor.shutdown()
@@ -584,7 +762,7 @@ def main(args=None) -> int:
     stop = threading.Event()
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    except _RCLError as err:
+    except RuntimeError as err:         # rclpy's RCLError
         # e.g. an unreadable --params-file: rcl refuses before any node exists.
         rclpy.logging.get_logger(NODE_NAME).fatal(f'refusing to start: {err}')
         return 1
@@ -594,12 +772,31 @@ def main(args=None) -> int:
         rclpy.logging.get_logger(NODE_NAME).fatal(f'refusing to start: {err}')
         rclpy.try_shutdown()
         return 1
+    if node.get_parameter('autostart').value:
+        # Plain use stays one command: configure and activate now (autostart:=false waits
+        # unconfigured for `ros2 lifecycle set`).
+        if not node.start():
+            rclpy.logging.get_logger(NODE_NAME).fatal(
+                f'refusing to start: {node.configure_error}')
+            node.destroy_node()
+            rclpy.try_shutdown()
+            return 1
     # Everything allocated so far (rclpy, numpy, scipy, numba, the model) lives for the whole
     # run: keep it out of the cyclic collector, whose full passes otherwise stall the executor
     # for ~80 ms (measured), long enough to overflow the input queues at a fast replay.
     gc.freeze()
+
+    def on_signal(signum, _frame):
+        if not stop.is_set():
+            stop.set()
+            return
+        # Asked twice: leave now, saying what is lost.
+        rclpy.logging.get_logger(NODE_NAME).warning(
+            f'{signal.Signals(signum).name} again: exiting at once, {node.waiting} estimate(s) '
+            f'per corner not published')
+        os._exit(EXIT_INTERRUPTED)
     for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+        signal.signal(sig, on_signal)
     try:
         spin(node, stop=stop)
     except (KeyboardInterrupt, ExternalShutdownException):
@@ -610,6 +807,10 @@ def main(args=None) -> int:
         summary = node.summary()
         node.destroy_node()
         rclpy.try_shutdown()
+        # rclpy restores the handlers it found at init: keep ours, a second signal must still
+        # exit at once, never kill the process half-way through its summary.
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, on_signal)
         # After destroy_node: the context may be gone, so no /rosout publication.
         rclpy.logging.get_logger(NODE_NAME).info(summary)
     return 0

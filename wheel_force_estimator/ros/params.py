@@ -5,10 +5,11 @@ Parameters of ``wheel_force_node``: declarations, validation and the model check
 
 Every key of the ``/**`` section of ``config/wheel_force.yaml`` is declared with a
 ``ParameterDescriptor`` whose description states the unit, with a numeric range where one
-exists, read-only unless a live change makes sense (only ``damage_budget`` may change while
-running: it affects the diagnostics level, nothing else).  All values are then checked together
-in :class:`NodeParams`; any problem raises :class:`ConfigError` naming the parameter, and the
-node refuses to start with that one message.
+exists, read-only unless a live change makes sense: ``damage_budget`` (it affects the
+diagnostics level, nothing else) and ``model_path`` (read again by ``~/reload_model``).
+All values are then checked together in :class:`NodeParams`; any problem raises
+:class:`ConfigError` naming the parameter, and the node refuses to start with that one
+message.
 
 Defaults have one home each: topic names and frame ids are :mod:`..bagio.topics`'s (shared
 with the offline commands), everything else is in :data:`PARAMETERS`; the shipped params file is
@@ -16,7 +17,7 @@ checked against both by a test.  Topic names are relative (DESIGN.md), so the no
 with its namespace.
 """
 from dataclasses import dataclass
-from typing import Any, Optional, Tuple
+from typing import Any, Iterable, Optional, Tuple
 
 from rcl_interfaces.msg import FloatingPointRange
 from rcl_interfaces.msg import IntegerRange
@@ -63,7 +64,8 @@ class _Spec:
 
 _FOUR = 'list of 4, corners lf, rf, lr, rr'
 PARAMETERS = (
-    _Spec('model_path', '', 'model file (.npz) written by `wheel-force fit` [path]',
+    _Spec('model_path', '', 'model file (.npz) written by `wheel-force fit`; read at '
+          'configure and by ~/reload_model [path]', read_only=False,
           constraints='required; channels and sample rate must match the node'),
     _Spec('imu_topics', list(topic_defaults.DEFAULT_IMU_TOPICS),
           'sensor_msgs/Imu input topics, relative to the node namespace [topic names]',
@@ -111,18 +113,43 @@ PARAMETERS = (
           'history depth of the reliable wrench publishers [messages]',
           int_range=(1, 1_000_000), constraints='>= 4 * block_size'),
     _Spec('flush_timeout_s', 0.5,
-          'no input for this long (steady clock): estimates in flight are completed and '
-          'published, with a damage message (end of stream) [s]',
+          'deprecated, ignored: a pause of the input no longer flushes the look-ahead (only '
+          'a gap in the stamps, a stamp jump, deactivate and shutdown do); staleness is '
+          'stale_timeout_samples [s]',
           float_range=(0.001, 3600.0)),
+    _Spec('sync_tolerance_s', 0.0,
+          'corner stamps at most this far apart are one sample, stamped by their median; '
+          '0 = half a sample period of the model [s]',
+          float_range=(0.0, 1.0),
+          constraints='at most half a sample period of the model'),
     _Spec('sample_rate_hz', 0.0,
           "expected input sample rate; 0 = the model's; else must equal the model's [Hz]",
           float_range=(0.0, 1.0e6)),
+    _Spec('autostart', True,
+          'configure and activate at start (false: wait unconfigured for a lifecycle '
+          'transition) [-]'),
+    _Spec('damage_per_event', False,
+          'each proving_ground/event message ends the damage run and starts a new one '
+          'named after the event [-]'),
     _Spec('unknown_torque', 'zero',
           'wrench torque when the model estimates no moments: zero or NaN [-]',
           constraints='zero | nan'),
 )
+
+
+def default(name: str):
+    """Return the default value of parameter ``name`` (its one home: :data:`PARAMETERS`)."""
+    return next(spec.default for spec in PARAMETERS if spec.name == name)
+
+
 #: Names of the declared parameters (and ``use_sim_time``, which rclpy declares).
 PARAMETER_NAMES = frozenset(spec.name for spec in PARAMETERS) | {'use_sim_time'}
+#: Parameters every rclpy node declares itself.
+RCLPY_PARAMETER_NAMES = frozenset({'use_sim_time', 'start_type_description_service'})
+#: Prefix of the standard QoS override parameters (``QoSOverridingOptions``).
+QOS_OVERRIDES = 'qos_overrides'
+#: Deprecated QoS parameters: they set the base profile, ``qos_overrides.*`` wins.
+DEPRECATED_QOS_PARAMETERS = ('input_qos_depth', 'input_reliability', 'output_qos_depth')
 
 
 @dataclass(frozen=True)
@@ -156,7 +183,10 @@ class NodeParams:
     input_reliability: str
     output_qos_depth: int
     flush_timeout_s: float
+    sync_tolerance_s: float
     sample_rate_hz: float
+    autostart: bool
+    damage_per_event: bool
     unknown_torque: str
 
     def __post_init__(self):
@@ -195,7 +225,8 @@ class NodeParams:
         for name in ('damage_publish_period_s', 'flush_timeout_s', 'sn_slope'):
             if not getattr(self, name) > 0.0:
                 raise ConfigError(f'parameter {name} must be > 0, got {getattr(self, name)}')
-        for name in ('live_look_ahead_s', 'damage_budget', 'sample_rate_hz'):
+        for name in ('live_look_ahead_s', 'damage_budget', 'sample_rate_hz',
+                     'sync_tolerance_s'):
             if not getattr(self, name) >= 0.0:
                 raise ConfigError(f'parameter {name} must be >= 0, got {getattr(self, name)}')
 
@@ -229,6 +260,10 @@ def declare_node_parameters(node) -> NodeParams:
     """
     values = {}
     for spec in PARAMETERS:
+        if node.has_parameter(spec.name):
+            # Declared from its override (automatically_declare_parameters_from_overrides,
+            # so that the node can list what it was given): declare it again, properly.
+            node.undeclare_parameter(spec.name)
         try:
             param = node.declare_parameter(spec.name, spec.default, spec.descriptor())
         except ParameterException as err:
@@ -255,12 +290,16 @@ class ModelLayout:
         ``unknown_torque`` says).
     causal_delay_samples : int
         Look-ahead of the live estimator, ``round(live_look_ahead_s * fs)`` [samples].
+    sync_tolerance_ns : int
+        Corner stamps at most this far apart are one sample [ns] (``sync_tolerance_s``, or
+        half a sample period when it is 0).
 
     """
 
     force_rows: Tuple[Tuple[int, int, int], ...]
     torque_rows: Optional[Tuple[Tuple[int, int, int], ...]]
     causal_delay_samples: int
+    sync_tolerance_ns: int = 0
 
 
 def model_layout(model, params: NodeParams) -> ModelLayout:
@@ -274,8 +313,8 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
     ------
     ModelFileError
         The model does not map the 12 spindle accelerations [m/s^2] to the wheel loads [N],
-        its sample rate differs from ``sample_rate_hz``, or its look-ahead is shorter than
-        ``live_look_ahead_s``.
+        its sample rate differs from ``sample_rate_hz``, its look-ahead is shorter than
+        ``live_look_ahead_s``, or ``sync_tolerance_s`` exceeds half its sample period.
 
     """
     where = f'model {params.model_path}'
@@ -290,16 +329,39 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
     except ConfigError as err:
         raise ModelFileError(f'{where}: live_look_ahead_s = {params.live_look_ahead_s:g} s '
                              f'({delay} samples): {err}') from err
+    half_period_ns = 0.5e9 / fs
+    tolerance_ns = (int(half_period_ns) if params.sync_tolerance_s == 0.0
+                    else int(round(params.sync_tolerance_s * 1e9)))
+    if tolerance_ns > half_period_ns:
+        raise ModelFileError(f'{where}: sync_tolerance_s = {params.sync_tolerance_s:g} s is '
+                             f'more than half its sample period ({half_period_ns * 1e-9:g} s '
+                             f'at {fs:g} Hz): two samples of one corner could be taken for one')
     return ModelLayout(force_rows=layout.force_rows, torque_rows=layout.torque_rows,
-                       causal_delay_samples=delay)
+                       causal_delay_samples=delay, sync_tolerance_ns=tolerance_ns)
 
 
-def unknown_parameters(node) -> Tuple[str, ...]:
+def unknown_parameters(given: Iterable[str],
+                       entities: Iterable[Tuple[str, str]]) -> Tuple[str, ...]:
     """
-    Return the names given to ``node`` (params file, ``-p``) that it does not declare.
+    Return the names given to the node (params file, ``-p``) that mean nothing to it.
 
     rclpy ignores them silently; a typo in a params file would otherwise go unnoticed.
+
+    Parameters
+    ----------
+    given : iterable of str
+        Names of the parameter overrides the node was started with.
+    entities : iterable of (str, str)
+        ``(resolved topic, 'publisher' | 'subscription')`` of the node's publishers and
+        subscriptions: ``qos_overrides.<topic>.<kind>.<policy>`` is known for these.
+
+    Returns
+    -------
+    tuple of str
+        Sorted unknown names.
+
     """
-    overrides = getattr(node, '_parameter_overrides', None) or {}
-    return tuple(sorted(name for name in overrides if name not in PARAMETER_NAMES
-                        and not node.has_parameter(name)))
+    known = PARAMETER_NAMES | RCLPY_PARAMETER_NAMES
+    prefixes = tuple(f'{QOS_OVERRIDES}.{topic}.{kind}.' for topic, kind in entities)
+    return tuple(sorted(name for name in given if name not in known
+                        and not (name.startswith(prefixes) and name.count('.') >= 3)))

@@ -16,7 +16,7 @@ and can be written to a rosbag2 next to the inputs.
 from dataclasses import dataclass
 import threading
 import time
-from typing import Optional, Sequence, Tuple
+from typing import Callable, Optional, Sequence, Tuple
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
@@ -180,7 +180,8 @@ def _check_samples(stamp_ns, accel_mps2) -> Tuple[np.ndarray, np.ndarray]:
 
 
 def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
-                   events: Sequence[Tuple[int, str]] = (), ros_args=None) -> ReplayResult:
+                   events: Sequence[Tuple[int, str]] = (), ros_args=None,
+                   after_play: Optional[Callable[[], None]] = None) -> ReplayResult:
     """
     Publish samples as the four Imu topics in (scaled) real time; collect the outputs.
 
@@ -196,6 +197,10 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
         ``(stamp_ns, name)`` published on the event topic when reached.
     ros_args : list of str, optional
         Arguments for ``rclpy.init`` (e.g. ``['--ros-args', ...]``).
+    after_play : callable, optional
+        Called once everything is published, before the outputs are awaited.  The node
+        holds the estimates of its look-ahead until more data, a gap, deactivate or shutdown
+        (a pause is not the end of the data): e.g. stop the node here to collect them.
 
     Returns
     -------
@@ -236,6 +241,8 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
             _wait_for_publishers(node, topics.output_topics, settings.wait_subscribers_s)
         time.sleep(settings.match_delay_s)
         wall_s, behind_s = _play(pubs, event_pub, stamps, accel, settings, events)
+        if after_play is not None:
+            after_play()
         if settings.record:
             _wait_for_outputs(collector, stamps.size, settings.settle_s)
         out_stamps, out_force = collector.outputs()
@@ -338,7 +345,7 @@ def _covered(damage: DiagnosticArray) -> int:
 
 
 def replay_bag(path, settings: ReplaySettings, record_path=None, storage: str = 'mcap',
-               ros_args=None):
+               ros_args=None, after_play: Optional[Callable[[], None]] = None):
     """
     Replay a recording (all its segments, in order); optionally write what came back.
 
@@ -354,6 +361,8 @@ def replay_bag(path, settings: ReplaySettings, record_path=None, storage: str = 
         Storage of ``record_path``.
     ros_args : list of str, optional
         Arguments for ``rclpy.init``.
+    after_play : callable, optional
+        As in :func:`replay_samples`.
 
     Returns
     -------
@@ -379,7 +388,7 @@ def replay_bag(path, settings: ReplaySettings, record_path=None, storage: str = 
     accel = np.concatenate([s.accel_mps2 for s in recording.segments], axis=1)
     if record_path is not None and not settings.record:
         settings = dataclasses.replace(settings, record=True)
-    result = replay_samples(stamps, accel, settings, recording.events, ros_args)
+    result = replay_samples(stamps, accel, settings, recording.events, ros_args, after_play)
     if record_path is not None:
         if result.output_stamp_ns.size == 0:
             raise BagError(f'{record_path}: nothing to record: no output on '

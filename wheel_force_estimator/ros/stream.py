@@ -26,6 +26,11 @@ Discontinuities (each is counted):
 * **jump** — the stamps went back (:meth:`ForceStream.restart`): flush, then the pseudo damage
   starts again from zero as well.
 
+A damage **run** can be ended without touching the filter: :meth:`ForceStream.reset_damage`
+(now: the final report of the run so far, then zero) and :meth:`ForceStream.split_damage`
+(in data time: estimates stamped after the given stamp count in a new, named run; a proving
+ground event).
+
 The running pseudo damage is reported in **data time**: every ``damage_period_s`` of sample
 stamps (counted from the first estimate after a start or jump) a :class:`DamageReport` is
 made of the damage of the estimates stamped before that boundary, so a replay at any rate,
@@ -96,7 +101,11 @@ class DamageReport:
     n_samples : int
         Number of estimates the damage covers.
     final : bool
-        Made at an end of stream (stall, shutdown, jump), not at a period boundary.
+        Made at an end of stream (stall, shutdown, jump) or of a run, not at a period
+        boundary.
+    run : str
+        Name of the damage run (the proving-ground event it belongs to; ``''`` before the
+        first).
 
     """
 
@@ -105,6 +114,7 @@ class DamageReport:
     rate_per_s: np.ndarray
     n_samples: int
     final: bool = False
+    run: str = ''
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,6 +181,8 @@ class ForceStream:
         self._out: List[StampedForces] = []
         self._breaks: List[StreamBreak] = []
         self._reports: List[DamageReport] = []
+        self._splits: List[Tuple[int, str]] = []        # (after_ns, name) of runs to come
+        self._run_name = ''
         self._reset_reports()
 
     @property
@@ -299,7 +311,32 @@ class ForceStream:
         rate = (damage - before) / span_s if span_s > 0 else np.zeros_like(damage)
         if not final:
             self._last_report = (stamp_ns, damage)
-        return DamageReport(int(stamp_ns), damage, rate, self._n_damaged, final)
+        return DamageReport(int(stamp_ns), damage, rate, self._n_damaged, final, self._run_name)
+
+    def reset_damage(self) -> Optional[DamageReport]:
+        """
+        End the damage run now: return its final report (``None`` if empty), restart at zero.
+
+        The filter and the estimates in flight are untouched; they count in the new run.
+        """
+        final = self.final_damage_report()
+        self._damage.reset()
+        self._reset_reports()
+        return final
+
+    def split_damage(self, after_ns: int, name: str) -> None:
+        """
+        Start a new damage run, named ``name``, with the estimates stamped after ``after_ns``.
+
+        The run before ends with a final :class:`DamageReport` when the first estimate of the
+        new run is emitted (data time: the filter's lag does not move the split).
+        """
+        self._splits.append((int(after_ns), str(name)))
+
+    @property
+    def run(self) -> str:
+        """Return the name of the current damage run."""
+        return self._run_name
 
     def flush(self) -> None:
         """Complete the estimates in flight (stall / end of stream); the filter restarts."""
@@ -367,12 +404,31 @@ class ForceStream:
         if n == 0:
             return
         stamps, self._fifo = self._fifo[:n], self._fifo[n:]
-        if self._report_ns is None:
-            self._damage.update(force)
-        else:
-            self._update_reporting(stamps, force)
+        lo = 0
+        while self._splits and stamps[-1] > self._splits[0][0]:
+            after_ns, name = self._splits.pop(0)
+            cut = int(np.searchsorted(stamps, after_ns, side='right'))
+            self._account(stamps[lo:max(cut, lo)], force[:, lo:max(cut, lo)])
+            lo = max(cut, lo)
+            final = self.reset_damage()
+            if final is not None:
+                self._reports.append(final)
+            self._run_name = name
+        self._account(stamps[lo:], force[:, lo:])
         self.counts['samples_out'] += n
         self._out.append(StampedForces(stamps, force))
+
+    def _account(self, stamps: np.ndarray, force: np.ndarray):
+        if not stamps.size:
+            return
+        if self._report_ns is None:
+            self._damage.update(force)
+            self._n_damaged += stamps.size
+            if self._first_out_ns is None:
+                self._first_out_ns = int(stamps[0])
+            self._last_out_ns = int(stamps[-1])
+        else:
+            self._update_reporting(stamps, force)
 
     def _update_reporting(self, stamps: np.ndarray, force: np.ndarray):
         """Accumulate damage, reporting at every data-time boundary the stamps cross."""

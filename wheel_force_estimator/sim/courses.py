@@ -16,7 +16,7 @@ Deterministic for a seed: every event draws from its own child of ``SeedSequence
 """
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Callable, Optional, Sequence, Tuple
+from typing import Callable, Optional, Tuple
 
 import numpy as np
 
@@ -459,9 +459,3 @@ def build_course(course='proving_ground', seed: int = 0, duration_scale: float =
     return CoursePlan(fs_int_hz=float(fs_int_hz), duration_s=duration, speed_mps=v,
                       accel_x_mps2=ax, accel_y_mps2=ay, x_m=x, road_x0_m=float(x0),
                       road_dx_m=ROAD_DX_M, road_raw=road_raw, events=events)
-
-
-def summarize(specs: Sequence[EventSpec]) -> str:
-    """Return a one-line-per-event description (name, duration, speed)."""
-    return '\n'.join(f'{s.name:16s} {s.duration_s:6.1f} s  {s.speed_mps * 3.6:5.1f} km/h'
-                     for s in specs)

@@ -81,22 +81,6 @@ def road_input_matrix(packed: Packed, speed_mps: float, corner: int, eps: float 
     return np.stack(cols, axis=1)
 
 
-def corner_accel_response(packed: Packed, speed_mps: float, corner: int,
-                          f_hz: np.ndarray) -> np.ndarray:
-    """Return the linear FRF road height -> vertical spindle acceleration of one corner."""
-    a = linearise(packed, speed_mps)
-    b = road_input_matrix(packed, speed_mps, corner)
-    idx = dynamics.S_CORNER + 9 * corner + dynamics.C_ZD
-    eye = np.eye(N_STATE)
-    h = np.empty(len(f_hz), dtype=complex)
-    for k, f in enumerate(f_hz):
-        s = 2j * np.pi * f
-        u = b[:, 0] + b[:, 1] * s / speed_mps
-        x = np.linalg.solve(s * eye - a, u)
-        h[k] = a[idx] @ x + u[idx]
-    return h
-
-
 @dataclass(frozen=True)
 class Mode:
     """One oscillating mode of the linearised model."""

@@ -3,9 +3,13 @@
 """
 Helpers for tests and benchmarks of the ROS side: synthetic models, isolated DDS runs.
 
-Nothing here is used by the node itself.  DDS isolation follows DESIGN.md: participants stay on
-this machine (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) and on a domain drawn at random per
-run, so parallel runs never talk to each other.
+Not installed with the package: tests import it as ``support.ros_testing`` (``test/`` is on
+``sys.path`` under pytest), benchmarks through ``bench/benchutil.ros_testing``, and the message
+counter runs as a script (``python test/support/ros_testing.py ...``).
+
+DDS isolation follows DESIGN.md: participants stay on this machine
+(``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) and on a domain drawn at random per run, so
+parallel runs never talk to each other.
 """
 import os
 from pathlib import Path
@@ -212,7 +216,7 @@ def count_messages_main(argv: Sequence[str]) -> int:
     """
     Count raw messages on topics in a process of its own, like ``ros2 topic echo``.
 
-    ``python -m wheel_force_estimator.ros.testing [--type imu|wrench] [--source-stamps]
+    ``python test/support/ros_testing.py [--type imu|wrench] [--source-stamps]
     RELIABILITY DEPTH EXPECTED TIMEOUT_S TOPIC...`` subscribes every TOPIC (KEEP_LAST
     ``DEPTH``), prints ``ready`` once each has a publisher, then one JSON line when every topic
     reached ``EXPECTED`` messages or ``TIMEOUT_S`` passed after the first message:
@@ -231,7 +235,7 @@ def count_messages_main(argv: Sequence[str]) -> int:
     from rclpy.task import Future
     from sensor_msgs.msg import Imu
 
-    parser = argparse.ArgumentParser(prog='wheel_force_estimator.ros.testing')
+    parser = argparse.ArgumentParser(prog='ros_testing.py')
     parser.add_argument('--type', choices=('wrench', 'imu'), default='wrench')
     parser.add_argument('--source-stamps', action='store_true')
     parser.add_argument('reliability', choices=('reliable', 'best_effort'))

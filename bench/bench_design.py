@@ -1,0 +1,168 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+Accuracy of ``wheel-force fit``'s cross-validated design against the paper and the live node.
+
+Per simulated vehicle (the compact car, the SUV and the van of ``config/vehicles/``), in one
+run: training = the proving-ground course at seed 1 (``--minutes`` of it), held-out = the
+course at seed 2 (half length).  Printed per direction (mean over the four corners), RMSE %
+unfiltered and 1 Hz high-passed, as ``evaluate`` computes them:
+
+- ``paper``: the paper's plain H1 (``FitConfig()``: one resolution, Tikhonov 1e-4);
+- ``offline``: ``wheel-force fit``'s shipped defaults (design chosen by blocked CV);
+- ``live50``: the live estimator of the same model at 50 ms (26 samples at 512 Hz);
+- ``ls2s``: a plain causal least-squares MIMO FIR, 2 s of full-rate history, 51 ms
+  look-ahead, ridge 1e-4, no tuning (the baseline of issue 29), solved by conjugate
+  gradients (``bench_live.ls_fir_cg``).
+
+Then the real MR damper (``../shared/data/mr_damper``, labcontrol-data/mr-damper, MIT): fitted
+on runs 4.1-4.3 (velocity -> force), judged on run 4.4.  Checks printed: offline <= 0.8x paper,
+live <= 1.25x offline (x, y) / 2x (z), live better than ls2s, offline <= live.
+
+Run: ``python bench/bench_design.py [--minutes 10] [--cars compact,suv,van]``
+"""
+import argparse
+import dataclasses
+from pathlib import Path
+import sys
+import time
+
+import numpy as np
+
+from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.cli.common import load_fit_config
+from wheel_force_estimator.core.design import fit_design
+from wheel_force_estimator.core.filtering import FirFilter
+from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
+from wheel_force_estimator.core.live_estimator import LiveDesign
+from wheel_force_estimator.core.live_estimator import SWEEP_LOOK_AHEADS_S
+from wheel_force_estimator.core.metrics import rmse_hp_pct
+from wheel_force_estimator.core.metrics import rmse_pct
+from wheel_force_estimator.core.overlap_add import apply_fir
+from wheel_force_estimator.core.pipeline import fit_model
+from wheel_force_estimator.core.pipeline import FitConfig
+from wheel_force_estimator.core.pipeline import TrainingSegment
+from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.sim import simulate
+from wheel_force_estimator.sim.vehicle import load_vehicle
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_live import ls_fir_cg  # noqa: E402,I100
+
+ROOT = Path(__file__).resolve().parents[1]
+CARS = {'compact': None, 'suv': ROOT / 'config/vehicles/suv_awd_2180kg.yaml',
+        'van': ROOT / 'config/vehicles/van_rwd_2650kg.yaml'}
+MR_DAMPER = ROOT.parent / 'shared' / 'data' / 'mr_damper'
+LIVE_S = 0.05
+BASELINE_HISTORY_S = 2.0
+LIMITS = {'x': 1.25, 'y': 1.25, 'z': 2.0}
+
+
+def product_config():
+    """Return ``wheel-force fit``'s defaults with the live estimators it stores."""
+    return dataclasses.replace(load_fit_config(), live=LiveDesign(
+        look_aheads_s=(LIVE_S,) + SWEEP_LOOK_AHEADS_S))
+
+
+def by_direction(pct, n_dirs=3):
+    """Return the mean per direction (x, y, z) of per-channel figures."""
+    return [float(np.mean(pct[k::n_dirs])) for k in range(n_dirs)]
+
+
+def baseline(x, y, xv, static_x, static_y, fs):
+    """Predict with the plain causal LS FIR (2 s full-rate history, 51 ms look-ahead)."""
+    d = int(round(LIVE_S * fs))
+    history = int(round(BASELINE_HISTORY_S * fs))
+    acc = CorrelationAccumulator(x.shape[0], y.shape[0], d + history + 2)
+    acc.add(x, y)
+    corr = acc.result(fs)
+    g, _ = ls_fir_cg(corr.rxx, corr.rxy, d + history + 2, d, history, 1e-4)
+    return apply_fir(FirFilter(g, d, fs), xv - static_x[:, None]) + static_y[:, None]
+
+
+def car_rows(name, minutes):
+    """Fit and judge one vehicle; return {estimator: (unfiltered, hp) per direction}."""
+    vehicle = load_vehicle(CARS[name]) if CARS[name] else None
+    train = simulate(seed=1, vehicle=vehicle)
+    val = simulate(seed=2, vehicle=vehicle, duration_scale=0.5)
+    fs = train.fs_hz
+    n = min(train.accel_mps2.shape[1], int(minutes * 60 * fs))
+    x, y = train.accel_mps2[:, :n], train.force_n[:, :n]
+    seg = [TrainingSegment(x, y, f'{name}_seed1')]
+    paper = fit_model(seg, fs, FitConfig(), INPUT_CHANNELS, OUTPUT_CHANNELS)
+    t0 = time.perf_counter()
+    fitted = fit_design(seg, fs, product_config(), INPUT_CHANNELS, OUTPUT_CHANNELS,
+                        long_window_fallback=True)
+    t_fit = time.perf_counter() - t0
+    model = fitted.model
+    xv, yv = val.accel_mps2, val.force_n
+    preds = {'paper': predict_forces(paper, xv), 'offline': predict_forces(model, xv),
+             'live50': predict_forces(model, xv, int(round(LIVE_S * fs))),
+             'ls2s': baseline(x, y, xv, model.static_accel_mps2, model.static_force_n, fs)}
+    rows = {k: (by_direction(rmse_pct(yv, p)), by_direction(rmse_hp_pct(yv, p, fs)))
+            for k, p in preds.items()}
+    return rows, model, fitted, t_fit, n / fs
+
+
+def mr_damper_rows():
+    """Fit runs 4.1-4.3 of the MR damper, judge run 4.4 (velocity -> force)."""
+    import scipy.io
+    runs = [scipy.io.loadmat(MR_DAMPER / f'data_simulation_4.{k}_MRdamper.mat')['x_F']
+            for k in (1, 2, 3, 4)]
+    fs = 100.0
+    segs = [TrainingSegment(r[:, 1:2].T * 1e-3, r[:, 2:3].T, f'4.{k + 1}')
+            for k, r in enumerate(runs[:3])]
+    cfg = dataclasses.replace(FitConfig(), live=LiveDesign(look_aheads_s=(LIVE_S,)))
+    paper = fit_model(segs, fs, FitConfig(), ('v',), ('f',), input_quantity='velocity')
+    fitted = fit_design(segs, fs, cfg, ('v',), ('f',), 'velocity',
+                        short_record_fallback=True, segment_fallback=True)
+    xv, yv = runs[3][:, 1:2].T * 1e-3, runs[3][:, 2:3].T
+    out = {}
+    for name, p in (('paper', predict_forces(paper, xv)),
+                    ('offline', predict_forces(fitted.model, xv)),
+                    ('live50', predict_forces(fitted.model, xv, int(round(LIVE_S * fs))))):
+        out[name] = (float(rmse_pct(yv, p)[0]), float(rmse_hp_pct(yv, p, fs)[0]))
+    return out, fitted
+
+
+def main():
+    """Run and print the tables."""
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--minutes', type=float, default=10.0,
+                        help='training minutes of the proving-ground course (<= 10)')
+    parser.add_argument('--cars', default='compact,suv,van')
+    parser.add_argument('--no-mr-damper', action='store_true')
+    args = parser.parse_args()
+    for name in args.cars.split(','):
+        rows, model, fitted, t_fit, train_s = car_rows(name, args.minutes)
+        print(f'\n== {name}: {train_s:.0f} s training, fit {t_fit:.1f} s '
+              f'(cross-validation included); RMSE % unfiltered | 1 Hz high-passed, x y z')
+        for k, (u, h) in rows.items():
+            print(f'  {k:8s} ' + ' '.join(f'{v:5.1f}' for v in u) + '  | '
+                  + ' '.join(f'{v:5.1f}' for v in h))
+        off, pap, live, base = (rows[k][0] for k in ('offline', 'paper', 'live50', 'ls2s'))
+        for a, axis in enumerate('xyz'):
+            print(f'  {axis}: offline/paper {off[a] / pap[a]:.2f} (<= 0.8: '
+                  f'{"ok" if off[a] <= 0.8 * pap[a] else "NO"}), live/offline '
+                  f'{live[a] / off[a]:.2f} (<= {LIMITS[axis]}: '
+                  f'{"ok" if live[a] <= LIMITS[axis] * off[a] else "NO"}), live < ls2s: '
+                  f'{"ok" if live[a] < base[a] else "NO"}, offline <= live: '
+                  f'{"ok" if off[a] <= live[a] else "NO"}')
+        design = model.fit.get('design', {})
+        if fitted.warning:
+            print('  ' + fitted.warning)
+        for name_o, row in design.get('rows', {}).items():
+            detail = {k: v for k, v in row.items() if not k.startswith('cv_')}
+            print(f'    {name_o}: {detail}')
+    if not args.no_mr_damper and MR_DAMPER.is_dir():
+        rows, fitted = mr_damper_rows()
+        print('\n== MR damper (real): runs 4.1-4.3 -> 4.4, RMSE % unfiltered | 1 Hz HP')
+        for k, (u, h) in rows.items():
+            print(f'  {k:8s} {u:6.1f} | {h:6.1f}')
+        rows = fitted.model.fit.get('design', {}).get('rows')
+        print(f'  design: {rows or fitted.warning}')
+
+
+if __name__ == '__main__':
+    main()

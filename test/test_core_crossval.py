@@ -1,0 +1,196 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""Blocked cross-validation: blocks, the held-out scorer, one factorisation, the search."""
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from wheel_force_estimator.core.candidates import block_stats
+from wheel_force_estimator.core.candidates import Candidate
+from wheel_force_estimator.core.candidates import candidates
+from wheel_force_estimator.core.candidates import combine_correlations
+from wheel_force_estimator.core.crossval import blend_weight
+from wheel_force_estimator.core.crossval import block_pieces
+from wheel_force_estimator.core.crossval import held_out_power
+from wheel_force_estimator.core.crossval import hp_power_weight
+from wheel_force_estimator.core.crossval import Piece
+from wheel_force_estimator.core.crossval import response_on_grid
+from wheel_force_estimator.core.design import fit_design
+from wheel_force_estimator.core.filtering import FirFilter
+from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
+from wheel_force_estimator.core.live_estimator import design_causal
+from wheel_force_estimator.core.live_estimator import LagOrderedFactor
+from wheel_force_estimator.core.live_estimator import LiveDesign
+from wheel_force_estimator.core.live_estimator import NormalEquations
+from wheel_force_estimator.core.metrics import rmse_hp_pct
+from wheel_force_estimator.core.metrics import rmse_pct
+from wheel_force_estimator.core.overlap_add import apply_fir
+from wheel_force_estimator.core.pipeline import FitConfig
+from wheel_force_estimator.core.pipeline import TrainingSegment
+from wheel_force_estimator.core.spectra import cross_spectra
+from wheel_force_estimator.core.spectra import WelchConfig
+
+FS_HZ = 256.0
+
+
+def coloured(n_ch, n, seed, cutoff_hz=30.0):
+    rng = np.random.default_rng(seed)
+    b, a = signal.butter(2, cutoff_hz, fs=FS_HZ)
+    return signal.lfilter(b, a, rng.normal(size=(n_ch, n)), axis=1)
+
+
+def test_blocks_deal_contiguous_chunks_in_turn_and_never_straddle_a_gap():
+    # two segments of 1000 and 600 samples, 2 blocks, 4 chunks per block -> chunk 200
+    blocks = block_pieces([1000, 600], 2, 150)
+    flat = [p for b in blocks for p in b]
+    assert sorted((p.segment, p.start, p.stop) for p in flat) == (
+        [(0, 0, 200), (0, 200, 400), (0, 400, 600), (0, 600, 800), (0, 800, 1000),
+         (1, 0, 200), (1, 200, 400), (1, 400, 600)])
+    # chunk j goes to block j mod 2: every block samples the whole recording
+    assert [(p.segment, p.start) for p in blocks[0]] == [(0, 0), (0, 400), (0, 800), (1, 200)]
+    assert [(p.segment, p.start) for p in blocks[1]] == [(0, 200), (0, 600), (1, 0), (1, 400)]
+
+
+def test_blocks_refuse_data_too_short_for_the_blocks():
+    assert block_pieces([500], 4, 150) is None            # 3 chunks of 150 for 4 blocks
+    assert block_pieces([100, 100, 100, 100], 4, 150) is None   # no segment holds a chunk
+    assert block_pieces([600], 4, 150) is not None
+
+
+def test_held_out_power_equals_the_time_domain_error_of_the_filter():
+    """Frequency-domain score == time-domain MSE of the FIR's prediction (bug: conj/sign)."""
+    n = 1 << 16
+    x = coloured(2, n, 1)
+    rng = np.random.default_rng(2)
+    taps = rng.normal(size=(3, 2, 9)) * np.exp(-np.arange(9) / 3.0)
+    true = FirFilter(taps, 4, FS_HZ)
+    y = apply_fir(true, x) + 0.3 * coloured(3, n, 3, 60.0)
+    guess = FirFilter(taps * 0.8 + 0.05, 4, FS_HZ)          # a wrong filter: error to score
+    pred = apply_fir(guess, x)
+    cut = slice(64, n - 64)                                  # the batch filter's edges
+    welch = WelchConfig(fs_hz=FS_HZ, segment_length=1024)
+    sp = cross_spectra(x[:, cut], y[:, cut], welch)
+    h = response_on_grid(guess.taps, guess.delay_samples, 1024)
+    power = held_out_power(h, sp, hp_power_weight(sp.f_hz, FS_HZ))
+    np.testing.assert_allclose(power.rmse_pct()[0], rmse_pct(y[:, cut], pred[:, cut]),
+                               rtol=0.03)
+    np.testing.assert_allclose(power.rmse_pct()[1],
+                               rmse_hp_pct(y[:, cut], pred[:, cut], FS_HZ), rtol=0.03)
+    # the true filter leaves the noise only: a lower score on every output
+    hpw = hp_power_weight(sp.f_hz, FS_HZ)
+    exact = held_out_power(response_on_grid(taps, 4, 1024), sp, hpw)
+    assert np.all(exact.error < 0.6 * power.error)
+
+
+def test_response_on_grid_of_an_impulse_at_lag_one_is_a_pure_delay():
+    taps = np.zeros((1, 1, 5))
+    taps[0, 0, 3] = 1.0                                       # delay 2: lag 1
+    h = response_on_grid(taps, 2, 8)[:, 0, 0]
+    k = np.arange(5)
+    np.testing.assert_allclose(h, np.exp(-2j * np.pi * k / 8), atol=1e-12)
+
+
+def test_blend_weight_ends():
+    f = np.array([0.0, 1.0, 1.25, 1.5, 3.0])
+    np.testing.assert_allclose(blend_weight(f, 1.0), [1.0, 1.0, 0.5, 0.0, 0.0], atol=1e-12)
+    assert np.all(blend_weight(f, 0.0) == 0.0) and np.all(blend_weight(f, math.inf) == 1.0)
+
+
+def test_one_factorisation_serves_every_look_ahead():
+    """Leading blocks of the lag-ordered factor == a design of that look-ahead alone."""
+    x = coloured(2, 20000, 4)
+    y = np.vstack([np.roll(x[0], -3) + 0.5 * x[1], x[1] - np.roll(x[0], 2)])
+    design = LiveDesign(look_aheads_s=(8 / FS_HZ,), history_s=0.25, fine_s=0.05,
+                        blocks_per_octave=4, regularisation=1e-3)
+    acc = CorrelationAccumulator(2, 2, design.max_lag(FS_HZ))
+    acc.add(x, y)
+    corr = acc.result(FS_HZ)
+    factor = LagOrderedFactor(NormalEquations(corr, 8, design))
+    for d in (0, 3, 8):
+        alone = design_causal(corr, d, design)
+        shared = factor.estimator(d)
+        np.testing.assert_allclose(shared.fine_taps, alone.fine_taps, rtol=1e-7, atol=1e-9)
+        np.testing.assert_allclose(shared.coarse_taps, alone.coarse_taps, rtol=1e-7,
+                                   atol=1e-9)
+    # another ridge from the same equations == the equations built with that ridge
+    other = LagOrderedFactor(NormalEquations(corr, 8, design), 1e-1).estimator(3)
+    rebuilt = design_causal(corr, 3, dataclasses.replace(design, regularisation=1e-1))
+    np.testing.assert_allclose(other.fine_taps, rebuilt.fine_taps, rtol=1e-7, atol=1e-9)
+
+
+def test_block_sums_equal_the_statistics_of_the_whole():
+    """A fold is a sum of blocks: chunked correlations == direct sums over the chunks."""
+    x, y = coloured(2, 4000, 5), coloured(1, 4000, 6)
+    seg = [TrainingSegment(x, y, 's')]
+    pieces = [Piece(0, 0, 1500), Piece(0, 1500, 4000)]
+    stats = [block_stats(seg, [p], {}, FS_HZ, 20) for p in pieces]
+    both = combine_correlations([s.corr for s in stats])
+    acc = CorrelationAccumulator(2, 1, 20)
+    acc.add(x[:, :1500], y[:, :1500])
+    acc.add(x[:, 1500:], y[:, 1500:])
+    ref = acc.result(FS_HZ)
+    np.testing.assert_allclose(both.rxx, ref.rxx, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(both.rxy, ref.rxy, rtol=1e-10, atol=1e-12)
+    assert both.n_samples == 4000
+
+
+def test_candidates_drop_settings_a_family_does_not_use():
+    cands = candidates((1024, 2048), (0.01, 0.05), (1e-4, 1e-3), (0.0, 2.0, math.inf), 0.05)
+    fams = [c.family for c in cands]
+    assert fams.count('h1') == 4 and fams.count('spliced') == 8
+    assert fams.count('ls') == 4                    # 2 ridges x (two-sided, live look-ahead)
+    assert Candidate(1024, 0.01, 1e-4, 0.0).as_dict() == {
+        'family': 'h1', 'segment_length': 1024, 'long_regularisation': 0.01}
+
+
+def _known_system(n, seed):
+    """Two inputs -> two outputs through known 2nd-order filters, plus output noise."""
+    x = coloured(2, n, seed)
+    b1, a1 = signal.butter(2, 12.0, fs=FS_HZ)
+    b2, a2 = signal.cheby1(2, 1.0, 20.0, fs=FS_HZ)
+    y = np.vstack([signal.lfilter(b1, a1, x[0]) + 0.5 * x[1],
+                   signal.lfilter(b2, a2, x[1]) - 0.3 * np.roll(x[0], 4)])
+    rng = np.random.default_rng(seed + 100)
+    return x, y + 0.05 * rng.normal(size=y.shape)
+
+
+def test_the_search_writes_its_choice_and_beats_no_candidate_on_new_data():
+    """The chosen rows score within noise of the best candidate, on a fresh record."""
+    x, y = _known_system(60000, 7)
+    cfg = FitConfig(segment_length=512, long_segment_length=0,
+                    live=LiveDesign(look_aheads_s=(0.05,), history_s=0.5))
+    fitted = fit_design([TrainingSegment(x, y, 'train')], FS_HZ, cfg, ('a', 'b'), ('f', 'g'))
+    design = fitted.model.fit['design']
+    assert design['method'] == 'blocked_cross_validation' and design['n_blocks'] == 4
+    assert set(design['rows']) == {'f', 'g'}
+    for row in design['rows'].values():
+        assert row['family'] in {c['family'] for c in design['candidates']}
+        # the recorded row score is the lowest criterion among the candidates
+        assert row['cv_rmse_pct'] < 100.0
+    from wheel_force_estimator.core.predict import predict_forces
+    xv, yv = _known_system(30000, 8)
+    offline = rmse_pct(yv, predict_forces(fitted.model, xv))
+    live = rmse_pct(yv, predict_forces(fitted.model, xv, 13))
+    assert np.all(offline < 30.0)                  # noise is ~10 % of the output RMS here
+    assert np.all(offline <= live * 1.02)          # offline never worse than live (noise)
+
+
+def test_too_short_to_cross_validate_falls_back_and_says_why():
+    x, y = _known_system(3000, 9)
+    fitted = fit_design([TrainingSegment(x, y, 'short.csv')], FS_HZ,
+                        FitConfig(segment_length=256), ('a', 'b'), ('f', 'g'))
+    assert 'short.csv' in fitted.warning and 'too short to cross-validate' in fitted.warning
+    assert fitted.model.fit['design']['method'] == 'defaults'
+
+
+@pytest.mark.parametrize('explicit', [frozenset({'estimator'})])
+def test_an_imposed_estimator_keeps_the_h1_family(explicit):
+    x, y = _known_system(60000, 10)
+    fitted = fit_design([TrainingSegment(x, y, 'train')], FS_HZ,
+                        FitConfig(segment_length=512), ('a', 'b'), ('f', 'g'), imposed=explicit)
+    design = fitted.model.fit['design']
+    assert design['imposed'] == ['estimator']
+    assert {c['family'] for c in design['candidates']} == {'h1'}

@@ -1,0 +1,253 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The candidate designs of ``wheel-force fit`` and their held-out scores (blocked CV).
+
+Candidates (each output row chooses its own: the rows of both estimators are independent
+least-squares problems, so a row's choice does not change another row):
+
+- ``h1``: the dual-resolution H1 FRF with Tikhonov regularisation (the paper's method plus
+  the low-frequency estimate of :mod:`.pipeline`), over a grid of short segment lengths and
+  long-segment regularisations;
+- ``ls``: the two-sided least-squares MIMO FIR solved from the Wiener-Hopf normal equations
+  (:mod:`.live_estimator`'s multi-rate basis, look-ahead :data:`LS_LOOK_AHEAD_S`), over a
+  grid of ridges.  Its factorisation also gives every live estimator (a shorter look-ahead is
+  a leading block of the same Cholesky factor), so the live estimator's ridge is chosen on
+  the same folds at no extra factorisation;
+- ``spliced``: the ``ls`` response below a crossover and the ``h1`` response above it
+  (raised cosine from ``c`` to ``1.5 c``).  Measured on held-out simulated cars the LS FIR
+  carries the quasi-static band far better than a 16 s Welch segment can (it sees the
+  whole-record mean, not a per-window one), the H1 the resonant band above a few Hz.
+
+Scores: :mod:`.crossval` (frequency-domain held-out error of the realised FIR response, both
+figures).  The defaults below only bound the search.
+"""
+import dataclasses
+import math
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from wheel_force_estimator.core.crossval import blend_weight
+from wheel_force_estimator.core.crossval import held_out_power
+from wheel_force_estimator.core.crossval import HeldOutPower
+from wheel_force_estimator.core.crossval import hp_power_weight
+from wheel_force_estimator.core.crossval import Piece
+from wheel_force_estimator.core.crossval import response_on_grid
+from wheel_force_estimator.core.crossval import splice
+from wheel_force_estimator.core.live_estimator import CausalEstimator
+from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
+from wheel_force_estimator.core.live_estimator import Correlations
+from wheel_force_estimator.core.live_estimator import LagOrderedFactor
+from wheel_force_estimator.core.live_estimator import LiveDesign
+from wheel_force_estimator.core.live_estimator import look_ahead_samples
+from wheel_force_estimator.core.live_estimator import NormalEquations
+from wheel_force_estimator.core.spectra import combine_spectra
+from wheel_force_estimator.core.spectra import cross_spectra
+from wheel_force_estimator.core.spectra import CrossSpectra
+
+#: Short Welch segments tried, as multiples of the configured one.
+SEGMENT_FACTORS = (1, 2)
+#: Long-segment regularisations tried [-].
+LONG_REGULARISATIONS = (1e-2, 5e-2)
+#: Ridges of the least-squares FIRs (offline and live) tried [-].
+LS_REGULARISATIONS = (1e-4, 1e-3)
+#: Crossovers of the spliced candidate [Hz]; 0 = H1 alone, inf = LS alone.
+SPLICE_CROSSOVERS_HZ = (0.0, 1.0, 2.0, 4.0, 8.0, math.inf)
+#: Key of the scorer's spectra in :func:`block_stats`.
+SCORING = 'scoring'
+#: Look-ahead of the two-sided least-squares FIR [s] (the longest stored live look-ahead).
+LS_LOOK_AHEAD_S = 0.25
+
+
+@dataclasses.dataclass(frozen=True)
+class Candidate:
+    """One offline design for a row: an H1 variant, an LS ridge and a splice crossover."""
+
+    segment_length: int
+    long_regularisation: float
+    ls_regularisation: float
+    crossover_hz: float
+    ls_look_ahead_s: float = LS_LOOK_AHEAD_S
+
+    @property
+    def family(self) -> str:
+        """Return ``'h1'``, ``'ls'`` or ``'spliced'``."""
+        if self.crossover_hz <= 0.0:
+            return 'h1'
+        return 'ls' if math.isinf(self.crossover_hz) else 'spliced'
+
+    def as_dict(self) -> dict:
+        """Return the JSON form (only the settings the family uses)."""
+        out = {'family': self.family}
+        if self.family != 'ls':
+            out.update(segment_length=self.segment_length,
+                       long_regularisation=self.long_regularisation)
+        if self.family != 'h1':
+            out.update(ls_regularisation=self.ls_regularisation,
+                       ls_look_ahead_s=self.ls_look_ahead_s)
+        if self.family == 'spliced':
+            out.update(crossover_hz=self.crossover_hz)
+        return out
+
+
+def candidates(segment_lengths: Sequence[int], long_regs: Sequence[float],
+               ls_regs: Sequence[float], crossovers: Sequence[float],
+               live_look_ahead_s: Optional[float] = None) -> List[Candidate]:
+    """
+    Return the distinct candidates of the grids (families ignore settings they lack).
+
+    ``live_look_ahead_s`` adds the live estimator itself as an offline candidate (the ``ls``
+    family at that look-ahead), so the offline choice can never score worse than the live
+    estimator on the held-out blocks.
+    """
+    seen, out = set(), []
+    for c in crossovers:
+        for seg in segment_lengths:
+            for lr in long_regs:
+                for r in ls_regs:
+                    cand = Candidate(seg, lr, r, c)
+                    key = tuple(sorted(cand.as_dict().items()))
+                    if key not in seen:
+                        seen.add(key)
+                        out.append(cand)
+    if live_look_ahead_s is not None and math.inf in crossovers:
+        out.extend(Candidate(segment_lengths[0], long_regs[0], r, math.inf,
+                             float(live_look_ahead_s))
+                   for r in ls_regs if live_look_ahead_s != LS_LOOK_AHEAD_S)
+    return out
+
+
+@dataclasses.dataclass
+class BlockStats:
+    """What one block contributes: spectra per resolution, correlations and sums."""
+
+    spectra: Dict[int, CrossSpectra]
+    corr: Optional[Correlations]
+    sum_x: np.ndarray
+    sum_y: np.ndarray
+    n: int
+
+
+def block_stats(segments, pieces: Sequence[Piece], welch: Dict[int, object],
+                fs_hz: float, max_lag: int) -> BlockStats:
+    """
+    Accumulate one block's statistics from its pieces (each statistic once per block).
+
+    Parameters
+    ----------
+    segments : sequence of TrainingSegment
+        Validated segments.
+    pieces : sequence of Piece
+        The block's pieces.
+    welch : dict
+        ``{segment_length: WelchConfig}`` of every resolution needed, and the scorer's
+        under the key :data:`SCORING`.
+    fs_hz : float
+        Sample rate [Hz].
+    max_lag : int
+        Correlation lags needed [samples] (0 = none).
+
+    """
+    first = segments[0]
+    n_in, n_out = first.accel_mps2.shape[0], first.force_n.shape[0]
+    parts: Dict[int, list] = {k: [] for k in welch}
+    acc = CorrelationAccumulator(n_in, n_out, max_lag) if max_lag else None
+    sum_x, sum_y, n = np.zeros(n_in), np.zeros(n_out), 0
+    for p in pieces:
+        seg = segments[p.segment]
+        x = seg.accel_mps2[:, p.start:p.stop]
+        y = seg.force_n[:, p.start:p.stop]
+        for key, cfg in welch.items():
+            if x.shape[1] < cfg.segment_length:
+                continue
+            if key == SCORING:
+                # the scorer's spectra: piece mean removed, windows not detrended, so the
+                # quasi-static band counts as in the unfiltered RMSE (whole-record mean)
+                parts[key].append(cross_spectra(x - x.mean(axis=1, keepdims=True),
+                                                y - y.mean(axis=1, keepdims=True), cfg,
+                                                name=seg.source))
+            else:
+                parts[key].append(cross_spectra(x, y, cfg, name=seg.source))
+        if acc is not None:
+            acc.add(x, y)
+        sum_x += x.sum(axis=1)
+        sum_y += y.sum(axis=1)
+        n += x.shape[1]
+    spectra = {k: combine_spectra(v) for k, v in parts.items() if v}
+    return BlockStats(spectra, acc.result(fs_hz) if acc is not None else None, sum_x, sum_y,
+                      n)
+
+
+def combine_correlations(items: Sequence[Correlations]) -> Correlations:
+    """Return the sample-weighted average of correlations of disjoint data."""
+    total = sum(c.n_samples for c in items)
+    rxx = sum(c.rxx * (c.n_samples / total) for c in items)
+    rxy = sum(c.rxy * (c.n_samples / total) for c in items)
+    return Correlations(rxx, rxy, items[0].fs_hz, int(total))
+
+
+class LsSolutions:
+    """The least-squares FIRs of one training set: one factorisation per ridge."""
+
+    def __init__(self, corr: Correlations, design: LiveDesign, ridges: Sequence[float]):
+        self.fs_hz = corr.fs_hz
+        self.d_max = look_ahead_samples(LS_LOOK_AHEAD_S, corr.fs_hz)
+        eq = NormalEquations(corr, self.d_max, dataclasses.replace(
+            design, look_aheads_s=(LS_LOOK_AHEAD_S,), regularisation=float(ridges[0])))
+        self.factors = {r: LagOrderedFactor(eq, r) for r in ridges}
+        self._estimators: Dict[Tuple[float, int], CausalEstimator] = {}
+
+    def estimator(self, ridge: float, look_ahead: int) -> CausalEstimator:
+        """Return the estimator of ``ridge`` at ``look_ahead`` samples (solved once)."""
+        key = (ridge, int(look_ahead))
+        if key not in self._estimators:
+            self._estimators[key] = self.factors[ridge].estimator(look_ahead)
+        return self._estimators[key]
+
+    def response(self, ridge: float, look_ahead: int, n_fft: int) -> np.ndarray:
+        """Return the realised response on the ``n_fft`` grid, shape (nf, n_out, n_in)."""
+        fir = self.estimator(ridge, look_ahead).fir(self.fs_hz)
+        return response_on_grid(fir.taps, fir.delay_samples, n_fft)
+
+
+def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
+               ls: Dict[Tuple[float, float], np.ndarray],
+               live: Dict[float, np.ndarray], cands: Sequence[Candidate],
+               held_out: CrossSpectra) -> Tuple[List[HeldOutPower], List[HeldOutPower]]:
+    """
+    Score every candidate (and every live ridge) of one fold on its held-out block.
+
+    Parameters
+    ----------
+    h1 : dict
+        ``{(segment_length, long_regularisation): response}`` on the scoring grid.
+    ls : dict
+        ``{(ridge, look_ahead_s): response}`` of the LS FIRs on the scoring grid.
+    live : dict
+        ``{ridge: response}`` of the live LS FIR on the scoring grid.
+    cands : sequence of Candidate
+        Offline candidates.
+    held_out : CrossSpectra
+        Welch spectra of the held-out block (scoring grid).
+
+    Returns
+    -------
+    (list of HeldOutPower, list of HeldOutPower)
+        Per candidate, per live ridge (in ``live`` order).
+
+    """
+    f = held_out.f_hz
+    hpw = hp_power_weight(f, held_out.config.fs_hz)
+    offline = []
+    for c in cands:
+        w = blend_weight(f, c.crossover_hz)
+        if c.family == 'h1':
+            h = h1[(c.segment_length, c.long_regularisation)]
+        elif c.family == 'ls':
+            h = ls[(c.ls_regularisation, c.ls_look_ahead_s)]
+        else:
+            h = splice(ls[(c.ls_regularisation, c.ls_look_ahead_s)],
+                       h1[(c.segment_length, c.long_regularisation)], w)
+        offline.append(held_out_power(h, held_out, hpw))
+    return offline, [held_out_power(h, held_out, hpw) for h in live.values()]
