@@ -12,7 +12,6 @@ from wheel_force_estimator.diagnosis.corner import sharper_lowpass_hz
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 
-from support import diagnosis_synthetic as sy  # noqa: I100  (the tests' shared fixtures)
 
 FS_HZ = 256.0
 

@@ -12,7 +12,6 @@ from wheel_force_estimator.diagnosis.features import paired_by_coherence
 from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 
-from support import diagnosis_synthetic as sy  # noqa: I100  (the tests' shared fixtures)
 
 FS_HZ = 256.0
 
