@@ -98,11 +98,6 @@ def test_hardening_rig_is_named_and_evaluate_reproduces_every_reported_figure(tm
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 30: the diagnosis's real-data linear model keeps the single design while "
-    '`wheel-force fit` chooses its design by cross-validation (issue 29); measured 64.29 % '
-    '(diagnosis) vs 64.42 % (fit) on the report half. Aligning them moves the noise floor '
-    'the concealed effect sizes were measured against.'))
 def test_fit_and_evaluate_reproduce_the_diagnosis_real_linear_figure(tmp_path):
     # Bug caught: `real_linear` fitted with a design other than `wheel-force fit`'s.
     real1, real2, _, report = _hardening_files(tmp_path, ('r1', 'r2', 'g', 'h'))

@@ -29,7 +29,7 @@ from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis.crossval import cut
 from wheel_force_estimator.diagnosis.crossval import FIGURES
 from wheel_force_estimator.diagnosis.crossval import fixed_figures
-from wheel_force_estimator.diagnosis.crossval import held_out_figures
+from wheel_force_estimator.diagnosis.crossval import held_out_scores
 from wheel_force_estimator.diagnosis.crossval import pick_rows
 from wheel_force_estimator.diagnosis.crossval import training_folds
 from wheel_force_estimator.diagnosis.features import settle_samples
@@ -231,7 +231,7 @@ def _cross_validated(findings, real, reference, ref_model, mode, channels, real_
     def fold_build(recordings, fold):
         return build(recordings, reference=_fold_reference(sim, sim_fit, fold))
     try:
-        scores = held_out_figures(fold_build, real, folds)
+        scores, blocks = held_out_scores(fold_build, real, folds)
     except DiagnosisError as err:
         notes.append(f'training recordings too short to hold out blocks ({err}); the plain '
                      f'fit on the real data is written, the findings are named only')
@@ -239,7 +239,8 @@ def _cross_validated(findings, real, reference, ref_model, mode, channels, real_
                                      model='real_linear', notes=tuple(notes)), lin_model
     final = build(real, lin_model)
     pick = pick_rows(scores, linked_channels(final, channels), touched_channels(final),
-                     'real_linear', metric, plain_names(final), bases=_bases(final))
+                     'real_linear', metric, plain_names(final), bases=_bases(final),
+                     blocks=blocks)
     model, choice, note = combine(final, pick, channels)
     if note:
         notes.append(note)

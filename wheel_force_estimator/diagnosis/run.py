@@ -178,10 +178,34 @@ def _fit_linear(recordings, config, name, rec0):
 
 
 def _real_linear(recordings, config, name='real'):
-    """Fit the best linear dynamic model on real recordings: ``wheel-force fit``'s design."""
+    """
+    Fit the best linear dynamic model on real recordings: ``wheel-force fit``'s design.
+
+    Each output's design chosen by blocked cross-validation as ``fit`` chooses it, so
+    ``fit.real_linear`` is what ``evaluate`` gives for the model ``fit`` writes; the held-out
+    blocks and the joint fits with terms refit that design (:meth:`FrfReference.refit`).
+    """
     return FrfReference.fit(recordings, name, config.fit, config.fit_fallback,
                             config.segment_fallback, config.choose_resolution,
-                            config.long_window_fallback)
+                            config.long_window_fallback, cross_validate=True)
+
+
+def _coupling(real, reference, channels, config, hp):
+    """
+    Return the left-right coupling finding (anti-roll bar), or None.
+
+    The comparison is like with like: the real records fitted with the simulation FRF's own
+    design (not the design ``fit``'s search chooses for the real car), so the two FRFs
+    differ by the data alone.  Real records too short for that design: no coupling test.
+    """
+    try:
+        real_frf = FrfReference(reference.refit(real), 'real (simulation design)')
+    except DiagnosisError:
+        return None
+    rec0 = real[0]
+    return left_right_coupling(real, reference, real_frf, channels,
+                               settle_samples(rec0.fs_hz, rec0.input_quantity,
+                                              config.features), hp, config.coupling)
 
 
 def _reference(real, sim_or_model, config):
@@ -547,12 +571,7 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
         except DiagnosisError as err:
             notes.append(f'no real-data linear model: {err}')
     if mode == 'sim' and reference.kind == 'frf':
-        coupling = None
-        if real_linear is not None:
-            coupling = left_right_coupling(
-                real, reference, real_linear, channels,
-                settle_samples(fs_hz, rec0.input_quantity, config.features), hp,
-                config.coupling)
+        coupling = _coupling(real, reference, channels, config, hp)
         added = [coupling] if coupling is not None else []
         findings, omitted = add_omissions(findings, real, sim, reference, channels, sources,
                                           config, pooled)
@@ -568,14 +587,14 @@ def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
     motion = motion_findings(real, sim, sources, config.motion)
     findings, fit, model = compare(findings, real, reference, mode, holdout, channels,
                                    sources, partners, config,
-                                   lambda recs: _real_linear(recs, config).model,
+                                   (real_linear.refit if real_linear is not None
+                                    else lambda recs: _real_linear(recs, config).model),
                                    real_linear.model if real_linear is not None else None,
                                    motion_channels=sorted({c for m in motion
                                                            for c in m.channels}),
                                    notes=notes, sim=sim,
-                                   sim_fit=(lambda recs: _fit_linear(recs, config, 'sim',
-                                                                     rec0).model)
-                                   if reference.kind == 'frf' else None)
+                                   sim_fit=reference.refit if mode == 'sim' and
+                                   reference.kind == 'frf' else None)
     findings = merge_motion(findings, motion)
     named = {(c, f.physics) for f in findings for c in f.channels}
     rejected = tuple(text.rejection(ch, outcomes[ch].rejected) for ch in channels

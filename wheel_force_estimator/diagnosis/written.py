@@ -42,18 +42,36 @@ def _units(model, groups, recordings, base) -> List[List[np.ndarray]]:
                                    base)] for g in groups]
 
 
-def _channel_weights(y: np.ndarray, fs_hz: float, hp: float, skip: int) -> np.ndarray:
-    """Return (n_out, 1) weights 1 / RMS of each force after ``skip``, high-passed when hp > 0."""
-    t = highpass(y, fs_hz, hp, 'refit target') if hp > 0.0 else y
-    return 1.0 / np.maximum(np.sqrt(np.mean(t[:, skip:] ** 2, axis=1, keepdims=True)), 1e-300)
+def _figure_views(x: np.ndarray, fs_hz: float, hp: float, skip: int,
+                  what: str) -> List[np.ndarray]:
+    """
+    Return ``x`` (n_out, n) after ``skip`` as each figure of ``evaluate`` sees it.
+
+    Unfiltered (``rmse_pct``): mean-removed; when ``hp`` > 0 also high-passed at ``hp``
+    (``rmse_hp1_pct``).  A term's strength is fitted on both: on the high-passed figure
+    alone a term that fixes the dynamics could spoil the quasi-static band it also carries
+    (an asymmetric damper's slow jacking force), which the unfiltered figure scores.
+    """
+    tail = x[:, skip:]
+    views = [tail - tail.mean(axis=1, keepdims=True)]
+    if hp > 0.0:
+        views.append(highpass(x, fs_hz, hp, what)[:, skip:] if np.any(x) else tail)
+    return views
+
+
+def _figure_weights(y: np.ndarray, fs_hz: float, hp: float, skip: int) -> List[np.ndarray]:
+    """Per figure of :func:`_figure_views`: (n_out, 1) weights 1 / RMS of each force there."""
+    return [1.0 / np.maximum(np.sqrt(np.mean(v ** 2, axis=1, keepdims=True)), 1e-300)
+            for v in _figure_views(y, fs_hz, hp, skip, 'refit target')]
 
 
 def _strengths(units, free, recordings, base, hp: float, skip: int) -> np.ndarray:
     """
     Non-negative least-squares strength per group (fixed groups at 1) on the residual.
 
-    Channels weighted by their force RMS (like the RMSE %), the first ``skip`` samples of
-    each record (filter settling) left out, everything high-passed at ``hp`` when > 0.
+    The criterion is the sum over both figures of ``evaluate`` (:func:`_figure_views`) of
+    the squared relative error: channels weighted by their force RMS in that figure (like
+    the RMSE %), the first ``skip`` samples of each record (filter settling) left out.
     """
     beta = np.ones(len(units))
     idx = [i for i, f in enumerate(free) if f]
@@ -66,14 +84,12 @@ def _strengths(units, free, recordings, base, hp: float, skip: int) -> np.ndarra
         y = np.asarray(rec.outputs, dtype=np.float64)
         r = y - pred - sum((units[i][k] for i, f in enumerate(free) if not f),
                            np.zeros_like(pred))
-        cols = [units[i][k] for i in idx]
-        if hp > 0.0:
-            fs = rec.fs_hz
-            cols = [highpass(c, fs, hp, 'term contribution') if np.any(c) else c for c in cols]
-            r = highpass(r, fs, hp, 'refit residual')
-        w = _channel_weights(y, rec.fs_hz, hp, skip)
-        a_rows.append(np.stack([(c[:, skip:] * w).ravel() for c in cols], axis=1))
-        b_rows.append((r[:, skip:] * w).ravel())
+        fs = rec.fs_hz
+        cols = [_figure_views(units[i][k], fs, hp, skip, 'term contribution') for i in idx]
+        for v, (rv, w) in enumerate(zip(_figure_views(r, fs, hp, skip, 'refit residual'),
+                                        _figure_weights(y, fs, hp, skip))):
+            a_rows.append(np.stack([(c[v] * w).ravel() for c in cols], axis=1))
+            b_rows.append((rv * w).ravel())
     q, rr = np.linalg.qr(np.concatenate(a_rows))
     sol, _ = scipy.optimize.nnls(rr, q.T @ np.concatenate(b_rows))
     beta[idx] = sol
@@ -81,16 +97,16 @@ def _strengths(units, free, recordings, base, hp: float, skip: int) -> np.ndarra
 
 
 def _weighted_sse(units, beta, recordings, base, hp: float, skip: int) -> float:
-    """Residual sum of squares the strength fit minimises (same weights, high-pass, skip)."""
+    """Residual sum of squares the strength fit minimises (both figures, weights, skip)."""
     total = 0.0
     for k, (rec, pred) in enumerate(zip(recordings, base)):
         if rec.n_samples <= skip:
             continue
         y = np.asarray(rec.outputs, dtype=np.float64)
         r = y - pred - sum((b * u[k] for b, u in zip(beta, units)), np.zeros_like(pred))
-        if hp > 0.0:
-            r = highpass(r, rec.fs_hz, hp, 'refit residual')
-        total += float(np.sum((r[:, skip:] * _channel_weights(y, rec.fs_hz, hp, skip)) ** 2))
+        for rv, w in zip(_figure_views(r, rec.fs_hz, hp, skip, 'refit residual'),
+                         _figure_weights(y, rec.fs_hz, hp, skip)):
+            total += float(np.sum((rv * w) ** 2))
     return total
 
 
@@ -223,7 +239,8 @@ def backfitted_model(findings, real: Sequence, linear_model,
     refit : callable
         ``refit(recordings) -> FrfModel`` with the design of ``wheel-force fit``.
     hp : float
-        High-pass of the strength fit [Hz] (0 = none).
+        High-pass of the second figure the strengths are fitted on [Hz] (0 = the
+        unfiltered figure alone; :func:`_figure_views`).
     skip : int
         Samples left out at the start of each record (feature filter settling).
     iterations : int
