@@ -381,7 +381,7 @@ def test_backfitting_never_ends_worse_on_its_own_data_than_it_started():
     # 18 -> 349 -> 6908, training RMSE 183 % -> 47956 %).  The alternation now keeps its best
     # pair on the objective it minimises.
     from wheel_force_estimator.diagnosis.features import settle_samples
-    from wheel_force_estimator.diagnosis.run import _real_linear
+    from wheel_force_estimator.diagnosis.run import real_linear_fit
     from wheel_force_estimator.diagnosis.run import DiagnosisConfig
     from wheel_force_estimator.diagnosis.written import backfitted_model
     n = int(60 * FS_HZ)
@@ -403,7 +403,7 @@ def test_backfitting_never_ends_worse_on_its_own_data_than_it_started():
         return total
     findings = [f for f in result.findings if f.terms]
     assert any(t.state == 'load' for f in findings for t in f.terms)
-    refit = lambda recs: _real_linear(recs, config).model    # noqa: E731
+    refit = lambda recs: real_linear_fit(recs, config).model    # noqa: E731
     start, _ = backfitted_model(findings, real, result.baseline.model, refit, hp, skip, 0)
     joint, _ = backfitted_model(findings, real, result.baseline.model, refit, hp, skip, 2)
     assert objective(joint) <= objective(start) * (1 + 1e-9)
@@ -440,7 +440,7 @@ def test_backfit_strength_is_the_joint_fixed_point_in_one_step(start_fraction):
     from wheel_force_estimator.diagnosis import written
     from wheel_force_estimator.diagnosis.features import settle_samples
     from wheel_force_estimator.diagnosis.result import Finding
-    from wheel_force_estimator.diagnosis.run import _real_linear
+    from wheel_force_estimator.diagnosis.run import real_linear_fit
     from wheel_force_estimator.diagnosis.run import DiagnosisConfig
     rng = np.random.default_rng(11)
     real = []
@@ -449,7 +449,7 @@ def test_backfit_strength_is_the_joint_fixed_point_in_one_step(start_fraction):
         real.append(MotionRecording(f'hard{k}', FS_HZ, x[None], _rig_force(x, rng)[None],
                                     ('x',), ('f',), input_quantity='displacement'))
     config = DiagnosisConfig()
-    refit = lambda recs: _real_linear(recs, config).model    # noqa: E731
+    refit = lambda recs: real_linear_fit(recs, config).model    # noqa: E731
     term = PhysicsTerm('cubic_stiffness', ('f',), {'stiffness_n_per_m3': start_fraction * K3},
                        sources=('x',), input_quantity='displacement', highpass_hz=0.0,
                        lowpass_hz=FS_HZ / 8)

@@ -116,7 +116,7 @@ def command(args: argparse.Namespace) -> int:
     from wheel_force_estimator.core.model import load_model
     from wheel_force_estimator.core.model import save_model
     from wheel_force_estimator.diagnosis.features import FeatureConfig
-    from wheel_force_estimator.diagnosis.run import diagnose
+    from wheel_force_estimator.diagnosis.pipeline import diagnose
     from wheel_force_estimator.diagnosis.run import DiagnosisConfig
 
     reference = None

@@ -17,10 +17,12 @@ every other sample would see the neighbours of each scored one.
 
 The rule (:func:`pick_rows`), per group of linked channels
 (:func:`choice.linked_channels`): a candidate is eligible when it is no worse than the
-real-data linear model (a plain ``fit``) in *either* figure, mean over the group; the
-eligible one with the lowest figure of the diagnosis' metric is written.  So the written
-model is never worse than the plain fit on held-out data; where the terms do not pay, the
-plain fit is written and the finding stays named with its description.
+real-data linear model (a plain ``fit``) in *either* figure, mean over the group, over all
+held-out blocks together and in every block on its own (:func:`held_out_scores`), and no
+worse than the model it adds terms to over all blocks; the eligible one with the lowest
+figure of the diagnosis' metric is written.  So the written model is never worse than the
+plain fit on held-out data; where the terms do not pay, the plain fit is written and the
+finding stays named with its description.
 """
 from dataclasses import replace
 from types import MappingProxyType
