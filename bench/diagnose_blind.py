@@ -303,7 +303,8 @@ def _unseen_figures(result, real, ref, holdout, chans, config):
     import numpy as np
     from wheel_force_estimator.core.evaluation import rmse_figures
     from wheel_force_estimator.core.predict import predict_forces
-    plain = FrfReference.fit(real, 'real', config.fit).model
+    from wheel_force_estimator.diagnosis.run import real_linear_fit
+    plain = real_linear_fit(real, config).model  # fit's design: the search included
     out = []
     for model in (ref.model, result.model, plain):
         preds = [predict_forces(model, r.inputs) for r in holdout]

@@ -194,3 +194,23 @@ def test_an_imposed_estimator_keeps_the_h1_family(explicit):
     design = fitted.model.fit['design']
     assert design['imposed'] == ['estimator']
     assert {c['family'] for c in design['candidates']} == {'h1'}
+
+
+def test_refit_with_the_chosen_design_reproduces_the_fit_and_keeps_its_rows():
+    # Bugs caught: a refit that searches again or falls back to the default design (the
+    # diagnosis's held-out blocks would judge another FIR than the one `fit` writes), or
+    # that drops the chosen rows.  Known answer: the same segments give the same model.
+    x, y = _known_system(60000, 11)
+    cfg = FitConfig(segment_length=512, long_segment_length=0,
+                    live=LiveDesign(look_aheads_s=(0.05,), history_s=0.5))
+    segments = [TrainingSegment(x, y, 'train')]
+    fitted = fit_design(segments, FS_HZ, cfg, ('a', 'b'), ('f', 'g'))
+    assert fitted.chosen is not None
+    again = fitted.refit(segments)
+    np.testing.assert_allclose(again.fir_taps, fitted.model.fir_taps, rtol=0, atol=1e-12)
+    assert again.fit['design']['rows'] == fitted.model.fit['design']['rows']
+    # on other data it keeps the chosen rows (no new search) and fits that data
+    x2, y2 = _known_system(40000, 12)
+    other = fitted.refit([TrainingSegment(x2, y2, 'other')])
+    assert other.fit['design']['rows'] == fitted.model.fit['design']['rows']
+    assert not np.allclose(other.fir_taps, fitted.model.fir_taps)

@@ -99,3 +99,22 @@ def test_the_holdout_gate_strips_harmful_terms_and_keeps_the_names():
     assert [f.physics for f in kept] == ['coulomb_friction', 'coulomb_friction']
     assert kept[0].terms == () and kept[1].terms == harmless.terms
     assert len(gated) == 1 and 'named, its term not written' in gated[0]
+
+
+def test_a_candidate_worse_than_the_plain_fit_in_one_block_keeps_the_plain_fit():
+    # Bug caught: pooled squares alone let the one block of an unseen road event decide (the
+    # plain fit extrapolating badly there) and wrote rows that lose on every other block.
+    from wheel_force_estimator.diagnosis.crossval import pick_rows
+
+    def both(value):
+        return {figure: {'out0': value} for figure in FIGURES}
+    pooled = {'sim_frf': both(60.0), 'real_linear': both(130.0)}
+    blocks = {'sim_frf': [both(20.0), both(20.0), both(21.0), both(100.0)],
+              'real_linear': [both(12.0), both(11.0), both(15.0), both(250.0)]}
+    args = (pooled, [['out0']], set(), 'real_linear', 'rmse_hp1_pct',
+            ['sim_frf', 'real_linear'])
+    assert pick_rows(*args) == {'out0': 'sim_frf'}
+    assert pick_rows(*args, blocks=blocks) == {'out0': 'real_linear'}
+    # better in every block as well: the candidate is written
+    better = {'sim_frf': [both(10.0)] * 4, 'real_linear': blocks['real_linear']}
+    assert pick_rows(*args, blocks=better) == {'out0': 'sim_frf'}

@@ -465,3 +465,29 @@ def test_backfit_strength_is_the_joint_fixed_point_in_one_step(start_fraction):
     # The fixed point itself sits 13 % below the true k3: the H1 design (Hann windows, the
     # two-resolution splice, coherence fade) is not exactly least squares in time.
     assert 0.8 < beta * start_fraction < 1.05
+
+
+def test_term_strengths_are_fitted_on_both_figures():
+    # Bug caught: strengths fitted on the 1 Hz high-passed residual alone.  Known answer: a
+    # term whose shape carries a slow part (0.2 Hz) and a fast part (5 Hz) where the data
+    # hold the slow part at strength 1 and the fast part at strength 2.  The high-passed
+    # figure alone wants 2 (doubling the slow error the unfiltered figure scores); both
+    # figures together settle between, and the unfiltered error there is smaller.
+    from wheel_force_estimator.diagnosis import written
+    fs = 64.0
+    t = np.arange(int(120 * fs)) / fs
+    slow, fast = np.sin(2 * np.pi * 0.2 * t)[None], np.sin(2 * np.pi * 5.0 * t)[None]
+    rec = MotionRecording('r', fs, np.zeros((1, t.size)), slow + 2.0 * fast, ('a',), ('f',))
+    units = [[slow + fast]]
+    base = [np.zeros((1, t.size))]
+    both = written._strengths(units, [True], [rec], base, 1.0, 0)[0]
+    # equal-power sines: the unfiltered figure alone wants (1 + 2 * 2) / 2 = 1.5 ...
+    unfiltered_only = written._strengths(units, [True], [rec], base, 0.0, 0)[0]
+    assert abs(unfiltered_only - 1.5) < 0.01
+    # ... the high-passed one 2 (0.2 Hz is >20 dB down at a 1 Hz high-pass); the analytic
+    # optimum of the two weighted by each figure's force RMS is 2.2 / 1.3 = 1.69
+    assert abs(both - 2.2 / 1.3) < 0.05
+
+    def unfiltered_error(beta):
+        return np.sqrt(np.mean((rec.outputs - beta * units[0][0]) ** 2))
+    assert unfiltered_error(both) < unfiltered_error(2.0)
