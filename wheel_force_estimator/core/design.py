@@ -102,7 +102,8 @@ class DesignedFit:
         given, as :func:`fit_design` fits them on the whole data.  For a caller that fits
         pieces of the same recordings many times (the diagnosis's held-out blocks and its
         joint fits of the FIR with physics terms), so every piece gets the design ``fit``
-        writes without a search per piece.
+        writes without a search per piece.  The refitted model carries no live estimators
+        (a caller that writes it designs them, as the diagnosis does).
 
         Raises
         ------
@@ -128,7 +129,7 @@ class DesignedFit:
                             input_quantity=self.input_quantity)
         else:
             out = self.chosen.fit(used, model.fs_hz, config, model.input_channels,
-                                  model.output_channels, info)
+                                  model.output_channels, info, live_estimators=False)
         return dataclasses.replace(out, units=model.units)
 
     @property
@@ -162,11 +163,11 @@ class ChosenDesign:
     order: int
 
     def fit(self, used, fs_hz: float, config: FitConfig, input_channels, output_channels,
-            fit_info) -> FrfModel:
+            fit_info, live_estimators: bool = True) -> FrfModel:
         """Fit the chosen rows on ``used`` (:func:`core.search.fit_chosen`)."""
         est, h, fir, live, extra, static_x, static_y = fit_chosen(
             used, self.choice, self.welch, self.lags, fs_hz, config, self.order,
-            input_channels)
+            input_channels, live_estimators)
         extra = dict(extra, design=self.choice.record(output_channels))
         return build_model(used, fs_hz, config, input_channels, output_channels,
                            (est, h, fir, live, extra, static_x, static_y), fit_info)
