@@ -218,11 +218,11 @@ def test_named_linear_omissions_get_within_3_pct_of_the_plain_fit():
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason=(
-    'issue 30, open: since the written model must be no worse than the plain fit in both '
-    'figures, the terms (strengths fitted on the 1 Hz high-passed residual) lose on the '
-    'unfiltered figure of the gate half and are not written: 0/10 named nonlinear cases on '
-    'seeds 5-6 beat the plain fit (high-passed), 2/2 on seed 5 before; the terms must carry '
-    'their low-frequency physics first'))
+    'issue 30, open: with the strengths fitted on both figures the terms are written again '
+    'where they pay on the gate half, but per channel: on seed 5 (measured before the '
+    "diagnosis's linear model took fit's searched design) 0/5 named nonlinear cases had "
+    'every named channel from a +physics row (rebound_stop: terms on some Fz, 20.54/10.20 % '
+    'vs 20.98/11.43 % for the plain fit; seeds 5-6 with the old strengths: 0/10)'))
 def test_named_nonlinear_physics_beat_best_linear_fit_on_real_data():
     # The model --out-model writes (`evaluate` of it on the report half) beats a plain
     # `wheel-force fit` on the real recordings on the named channels: the effect is not
