@@ -293,7 +293,8 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
                choose_resolution: bool = False,
                long_window_fallback: Optional[bool] = None,
                cross_validate: bool = True,
-               imposed: Iterable[str] = ()) -> DesignedFit:
+               imposed: Iterable[str] = (),
+               show_progress: bool = True) -> DesignedFit:
     """
     Fit a model as ``wheel-force fit`` does.
 
@@ -332,6 +333,9 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
         alone, and ``note`` says so naming them.
     imposed : iterable of str
         Fit settings the user chose (params file or command line): the search keeps them.
+    show_progress : bool
+        The search's progress bars on a terminal (:func:`progress`); False for a library
+        caller that prints nothing by default (the diagnosis).
 
     Returns
     -------
@@ -380,7 +384,7 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
     if cross_validate:
         model, chosen = _cross_validated_model(used, fs_hz, config, input_channels,
                                                output_channels, input_quantity, fit_info,
-                                               frozenset(imposed))
+                                               frozenset(imposed), show_progress)
         if model is None:
             warning = _too_short_note(used, fs_hz, config)
     note = '\n'.join(n for n in notes if n)
@@ -408,17 +412,22 @@ def _too_short_note(used, fs_hz: float, config: FitConfig) -> str:
 
 
 def _cross_validated_model(used, fs_hz, config, input_channels, output_channels,
-                           input_quantity, fit_info, imposed):
+                           input_quantity, fit_info, imposed, show_progress=True):
     """Return the cross-validated model and its design (``None``: records too short)."""
     for seg in used:
         as_signals(seg.accel_mps2, f'accelerations of {seg.source}', input_channels)
         as_signals(seg.force_n, f'forces of {seg.source}', output_channels)
     order = QUANTITIES.index(input_quantity)
-    searched = search(used, fs_hz, config, input_channels, order, imposed, progress)
+    searched = search(used, fs_hz, config, input_channels, order, imposed,
+                      progress if show_progress else _silent)
     if searched is None:
         return None, None
     chosen = ChosenDesign(*searched, order)
     return chosen.fit(used, fs_hz, config, input_channels, output_channels, fit_info), chosen
+
+
+def _silent(iterable, desc: str):
+    return iterable
 
 
 def progress(iterable, desc: str):

@@ -41,7 +41,7 @@ class FrfReference:
     def fit(cls, recordings: Sequence[MotionRecording], name: str, fit_config=None,
             short_record_fallback: bool = False, segment_fallback: bool = False,
             choose_resolution: bool = False, long_window_fallback: Optional[bool] = None,
-            cross_validate: bool = False):
+            cross_validate: bool = False, progress: bool = False):
         """
         Fit the FRF on recordings with the product's design (``wheel-force fit``).
 
@@ -66,6 +66,8 @@ class FrfReference:
             Each output's design chosen by blocked cross-validation, as ``wheel-force fit``
             chooses it (the real-data linear model); a simulation's FRF keeps the single
             design the concealed sizes were measured with (:mod:`sim.concealment`).
+        progress : bool
+            The search's progress bars on a terminal (the library prints nothing by default).
 
         Raises
         ------
@@ -84,7 +86,7 @@ class FrfReference:
                                 rec0.output_channels, rec0.input_quantity,
                                 {'diagnosis': name}, short_record_fallback, segment_fallback,
                                 choose_resolution, long_window_fallback,
-                                cross_validate=cross_validate)
+                                cross_validate=cross_validate, show_progress=progress)
         except WheelForceError as err:
             raise DiagnosisError(f'cannot fit the linear FRF on the {name} recordings: '
                                  f'{err}') from err

@@ -154,7 +154,8 @@ def real_linear_fit(recordings, config, name='real'):
     """
     return FrfReference.fit(recordings, name, config.fit, config.fit_fallback,
                             config.segment_fallback, config.choose_resolution,
-                            config.long_window_fallback, cross_validate=True)
+                            config.long_window_fallback, cross_validate=True,
+                            progress=config.progress)
 
 
 def coupling_finding(real, reference, channels, config, hp):
