@@ -64,6 +64,12 @@ IMU = Layout(IMU_TYPE, 37 * 8, 25 * 8, ('linear_acceleration',))
 # WrenchStamped tail: force(3) + torque(3) float64.
 WRENCH = Layout(WRENCH_TYPE, 6 * 8, 0, ('wrench', 'force'))
 LAYOUTS = {IMU_TYPE: IMU, WRENCH_TYPE: WRENCH}
+# The other vectors of the same messages (six components, issue 33): the Imu's
+# angular_velocity (after orientation(4) + cov(9)), the first three elements of its
+# covariance (element 0 = -1: not provided, REP-145), and the wrench torque.
+IMU_RATE = Layout(IMU_TYPE, 37 * 8, 13 * 8, ('angular_velocity',))
+IMU_RATE_COVARIANCE = Layout(IMU_TYPE, 37 * 8, 16 * 8, ('angular_velocity_covariance',))
+WRENCH_TORQUE = Layout(WRENCH_TYPE, 6 * 8, 3 * 8, ('wrench', 'torque'))
 
 
 def body_offset(strlen: int) -> int:
