@@ -140,6 +140,7 @@ def _process(ref: BagRef, settings: FleetSettings) -> BagResult:
     from wheel_force_estimator.bagio import read_recording
     from wheel_force_estimator.core.evaluation import damage_figures
     from wheel_force_estimator.core.fatigue import damage_bands_hz
+    from wheel_force_estimator.offline import bag_extras
     from wheel_force_estimator.offline import evaluate_recordings
     from wheel_force_estimator.offline import predict_recording
 
@@ -147,7 +148,8 @@ def _process(ref: BagRef, settings: FleetSettings) -> BagResult:
     topics = _topics(settings.config_path)
     with_wft = has_topics(ref.path, topics.wft_topics)
     recording = read_recording(ref.path, topics, require_wft=with_wft,
-                               expected_fs_hz=model.fs_hz)
+                               expected_fs_hz=model.fs_hz,
+                               extras=bag_extras(model, str(ref.path), with_wft))
     channels = tuple(model.output_channels)
     rmse = rmse_hp1 = None
     if with_wft:
@@ -187,14 +189,16 @@ def _write_forces(ref: BagRef, forces_dir: str, topics, stamps, forces) -> Path:
     """
     from wheel_force_estimator.bagio import write_recording
     from wheel_force_estimator.offline import input_storage
+    from wheel_force_estimator.offline import split_loads
 
     final = Path(forces_dir) / ref.bag_id
     scratch = Path(forces_dir) / _PARTIAL_DIR / uuid.uuid4().hex
     scratch.mkdir(parents=True)
     try:
-        write_recording(scratch / final.name, np.concatenate(stamps),
-                        force_n=np.concatenate(forces, axis=1), topics=topics,
-                        storage=input_storage(ref.path), output=True, compression='zstd')
+        force, torque = split_loads(np.concatenate(forces, axis=1))
+        write_recording(scratch / final.name, np.concatenate(stamps), force_n=force,
+                        topics=topics, storage=input_storage(ref.path), output=True,
+                        compression='zstd', torque_nm=torque)
         final.parent.mkdir(parents=True, exist_ok=True)
         if final.exists():
             shutil.rmtree(final)

@@ -319,6 +319,14 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
     """
     where = f'model {params.model_path}'
     layout = spindle_layout(model, where)
+    if layout.rates or layout.spin:
+        # the node subscribes to the linear accelerations only (issue 33: models with
+        # moments from accelerations run; rate / spin inputs are offline-only so far)
+        raise ModelFileError(
+            f'{where}: its inputs include the spindle angular rates or wheel spin rates '
+            f'({", ".join(e for e in layout.extras if e != "moments")}); the node feeds '
+            'models from the Imu linear accelerations only, so fit the live model with '
+            "wheel_force_fit inputs: [] (moments are still fitted and published)")
     fs = model.fs_hz
     if params.sample_rate_hz and abs(params.sample_rate_hz - fs) > 1e-6 * fs:
         raise ModelFileError(f'{where}: sample rate {fs:g} Hz differs from parameter '

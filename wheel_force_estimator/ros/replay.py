@@ -121,6 +121,9 @@ class ReplayResult:
         Output messages received per corner.
     damage : DiagnosticArray or None
         The last damage message received.
+    output_torque_nm : numpy.ndarray, shape (12, m)
+        Their torques in ``MOMENT_CHANNELS`` order [N m] (what a model without moments
+        leaves zero or NaN, ``unknown_torque``).
 
     """
 
@@ -131,6 +134,7 @@ class ReplayResult:
     output_force_n: np.ndarray
     output_counts: Tuple[int, ...]
     damage: Optional[DiagnosticArray]
+    output_torque_nm: Optional[np.ndarray] = None
 
 
 class _Collector:
@@ -152,19 +156,22 @@ class _Collector:
     def on_damage(self, raw: bytes):
         self.damage = deserialize_message(raw, DiagnosticArray)
 
-    def outputs(self) -> Tuple[np.ndarray, np.ndarray]:
+    def outputs(self) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Complete output samples (stamp present on all four corners), by stamp."""
-        stamps, forces = [], []
+        stamps, wrenches = [], []
         for raws in self.raw:
             s, w, bad = decode_wrench(list(raws))
             s, idx = np.unique(s[~bad], return_index=True)
             stamps.append(s)
-            forces.append(w[:3, ~bad][:, idx])
+            wrenches.append(w[:, ~bad][:, idx])
         common = stamps[0]
         for s in stamps[1:]:
             common = np.intersect1d(common, s, assume_unique=True)
-        rows = [f[:, np.isin(s, common, assume_unique=True)] for s, f in zip(stamps, forces)]
-        return common, np.concatenate(rows, axis=0) if common.size else np.empty((12, 0))
+        rows = [f[:, np.isin(s, common, assume_unique=True)] for s, f in zip(stamps, wrenches)]
+        if not common.size:
+            return common, np.empty((12, 0)), np.empty((12, 0))
+        return (common, np.concatenate([r[:3] for r in rows], axis=0),
+                np.concatenate([r[3:] for r in rows], axis=0))
 
 
 def _check_samples(stamp_ns, accel_mps2) -> Tuple[np.ndarray, np.ndarray]:
@@ -245,11 +252,11 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
             after_play()
         if settings.record:
             _wait_for_outputs(collector, stamps.size, settings.settle_s)
-        out_stamps, out_force = collector.outputs()
+        out_stamps, out_force, out_torque = collector.outputs()
         counts = tuple(len(r) for r in collector.raw)
         del subs
         return ReplayResult(stamps.size, wall_s, behind_s, out_stamps, out_force, counts,
-                            collector.damage)
+                            collector.damage, out_torque)
     finally:
         stop.set()
         if spinner is not None:
