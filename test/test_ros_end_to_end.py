@@ -18,6 +18,7 @@ from support.ros_testing import stop_node
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator import RATE_CHANNELS
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import read_wrench_topics
 from wheel_force_estimator.bagio import TopicConfig
@@ -89,32 +90,41 @@ def test_bag_fit_predict_and_node_agree(ros_env, tmp_path):
 
 
 @pytest.mark.slow
-def test_six_component_node_equals_predict_causal(ros_env, tmp_path):
-    # Issue 33: a 24-output model (forces, then moments) from the accelerations; the node must
-    # publish the moments as wrench.torque, sample for sample what `predict --causal` writes.
+@pytest.mark.parametrize('rates', [False, True], ids=['accel', 'accel+rates'])
+def test_six_component_node_equals_predict_causal(ros_env, tmp_path, rates):
+    # Issue 33: a 24-output model (forces, then moments) from the accelerations (and the
+    # spindle angular rates); the node must publish the moments as wrench.torque, sample for
+    # sample what `predict --causal` writes.
     def write(path, seconds, seed):
         n = int(seconds * FS_HZ)
         x, y = known_system(n, seed)
+        rate = None
         moment = np.zeros((12, n))       # a known linear map: other rows, 0.3 m, one sample
         moment[:, 1:] = 0.3 * (y[::-1, :-1] - 3000.0)
+        if rates:
+            rng = np.random.default_rng(seed + 10)
+            rate = np.cumsum(rng.normal(size=(12, n)), axis=1) * 1e-3
+            rate -= rate.mean(axis=1, keepdims=True)
+            moment[:, 1:] += 4000.0 * np.diff(rate, axis=1)     # an inertia: N m per rad/s
         write_recording(path, T0_NS + PERIOD_NS * np.arange(n, dtype=np.int64), x, y,
-                        torque_nm=moment)
+                        torque_nm=moment, rate_radps=rate)
     write(tmp_path / 'train', 60, 1)
     write(tmp_path / 'val', 8, 2)
-    rec = read_recording(tmp_path / 'train', TopicConfig(), require_wft=True,
-                         extras=('moments',))
+    extras = ('moments', 'rates') if rates else ('moments',)
+    rec = read_recording(tmp_path / 'train', TopicConfig(), require_wft=True, extras=extras)
+    inputs = INPUT_CHANNELS + (RATE_CHANNELS if rates else ())
     outputs = OUTPUT_CHANNELS + MOMENT_CHANNELS
     config = FitConfig(live=LiveDesign(look_aheads_s=(0.05,), history_s=0.3, fine_s=0.03,
                                        blocks_per_octave=4))
-    model = fit_model([TrainingSegment(s.accel_mps2, s.signals(outputs), 'train')
-                       for s in rec.segments], FS_HZ, config, INPUT_CHANNELS, outputs)
+    model = fit_model([TrainingSegment(s.signals(inputs), s.signals(outputs), 'train')
+                       for s in rec.segments], FS_HZ, config, inputs, outputs)
     path = save_model(model, tmp_path / 'model.npz')
     assert main(['predict', str(path), str(tmp_path / 'val'), '-o', str(tmp_path / 'pred'),
                  '--causal']) == 0
     topics = TopicConfig()
     pred_stamps, pred_force = read_wrench_topics(tmp_path / 'pred', topics.output_topics)
     pred_torque = _read_torque(tmp_path / 'pred', topics.output_topics)
-    val = read_recording(tmp_path / 'val', topics, require_wft=True, extras=('moments',))
+    val = read_recording(tmp_path / 'val', topics, require_wft=True, extras=extras)
     # noise-free linear system: the moments are estimated as well as the forces (a wrong row
     # or a dropped torque is ~100 %)
     assert np.max(rmse_pct(val.segments[0].moment_nm, pred_torque)) < 5.0

@@ -137,6 +137,7 @@ class Segment:
         ------
         BagError
             A channel of no group, or of a group this segment was read without.
+
         """
         channels = tuple(channels)
         for group, attr in _GROUPS:

@@ -501,5 +501,5 @@ def read_string_topic(path, topic: str, *, bulk: bool = True) -> Tuple[Tuple[int
     return tuple((int(s), str(t)) for s, t in decoded.strings[topic])
 
 
-__all__ = ['EXTRAS', 'Recording', 'available_extras', 'jazzy_typestore', 'read_imu_topic', 'read_recording',
-           'read_string_topic', 'read_wrench_topics']
+__all__ = ['EXTRAS', 'Recording', 'available_extras', 'jazzy_typestore', 'read_imu_topic',
+           'read_recording', 'read_string_topic', 'read_wrench_topics']

@@ -32,10 +32,10 @@ from wheel_force_estimator import SPIN_CHANNELS
 from wheel_force_estimator.bagio.blocks import BlockWindow
 from wheel_force_estimator.bagio.blocks import RowSource
 from wheel_force_estimator.bagio.blocks import SignalBlocks
-from wheel_force_estimator.bagio.cdr import payload_length
-from wheel_force_estimator.bagio.fastcdr import body_offset
 from wheel_force_estimator.bagio.cdr import IMU_RATE
+from wheel_force_estimator.bagio.cdr import payload_length
 from wheel_force_estimator.bagio.cdr import WRENCH_TORQUE
+from wheel_force_estimator.bagio.fastcdr import body_offset
 from wheel_force_estimator.bagio.fastcdr import IMU
 from wheel_force_estimator.bagio.fastcdr import Layout
 from wheel_force_estimator.bagio.fastcdr import STRING_TYPE

@@ -210,6 +210,7 @@ def _print_summary(model, summary, fitted, data: _TrainingData) -> None:
         text = ', '.join(f'{a:.1f}-{b:.1f}' for a, b in bands[:6]) or '-'
         more = f' (+{len(bands) - 6} more)' if len(bands) > 6 else ''
         print(f'  {name:6s} {summary["mean_coherence"][name]:.3f}   low: {text}{more}')
+    _print_moment_inputs(model, summary)
     worst = ', '.join(f'{c:.3g} @ {f:.2f} Hz' for f, c in summary['worst_cond'][:3])
     print(f'worst condition numbers of Sxx: {worst}')
     if model.live:
@@ -220,6 +221,32 @@ def _print_summary(model, summary, fitted, data: _TrainingData) -> None:
               f'({1e3 * first.look_ahead_samples / model.fs_hz:.1f} ms), '
               f'{first.info["method"]}, history {first.history_samples / model.fs_hz:.2f} s; '
               f'also stored: {others or "-"} ms')
+
+
+#: Mean multiple coherence (0.5-50 Hz) below which a moment is reported as not identifiable
+#: from the inputs the recordings have: less than half its power is linearly explained.
+IDENTIFIABLE_COHERENCE = 0.5
+
+
+def _print_moment_inputs(model, summary) -> None:
+    """Say which inputs the moments were given and whether the coherence supports them."""
+    from wheel_force_estimator import MOMENT_CHANNELS
+    moments = [c for c in model.output_channels if c in MOMENT_CHANNELS]
+    if not moments:
+        return
+    groups = ['12 accelerations']
+    if any(c.endswith('_wx') for c in model.input_channels):
+        groups.append('12 angular rates')
+    if any(c.endswith('_spin') for c in model.input_channels):
+        groups.append('4 spin rates')
+    print(f'moments fitted from: {", ".join(groups)}')
+    for name in moments:
+        coh = summary['mean_coherence'][name]
+        if coh < IDENTIFIABLE_COHERENCE:
+            need = (' (My needs the wheel spin rate or drive/brake torque information)'
+                    if name.endswith('_my') else '')
+            print(f'  {name}: NOT identifiable from these inputs: mean multiple coherence '
+                  f'{coh:.2f} < {IDENTIFIABLE_COHERENCE}{need}')
 
 
 def _print_design(model) -> None:

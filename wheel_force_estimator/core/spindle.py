@@ -61,13 +61,24 @@ def channel_units(model) -> Tuple[Tuple[str, ...], Tuple[str, ...]]:
     """
     Return the declared unit of every input and output channel of ``model``.
 
-    Schema 3 files list them (``units.input_channels`` / ``units.output_channels``); older
-    files have one unit per side, which every channel of that side shares.
+    Schema 3 files list them (``units.input_channels`` / ``units.output_channels``).  A
+    file with one unit per side states the unit of its first group (accelerations, forces);
+    its other spindle groups (rates and spin, moments: schema 2 already allowed moments) are
+    read in the units of the messages when that first unit is the messages' own, since
+    nothing else could have been meant; any other channel shares its side's unit.
     """
     units = dict(model.units)
-    ins = units.get('input_channels') or [units.get('input')] * len(model.input_channels)
-    outs = units.get('output_channels') or [units.get('output')] * len(model.output_channels)
-    return tuple(ins), tuple(outs)
+
+    def side(names, key, first_group):
+        listed = units.get(f'{key}_channels')
+        if listed:
+            return tuple(listed)
+        unit = units.get(key)
+        primary = CHANNEL_UNITS.get(first_group[0])
+        return tuple(CHANNEL_UNITS[n] if unit == primary and n in CHANNEL_UNITS else unit
+                     for n in names)
+    return (side(model.input_channels, 'input', INPUT_CHANNELS),
+            side(model.output_channels, 'output', OUTPUT_CHANNELS))
 
 
 @dataclass(frozen=True)
@@ -150,7 +161,7 @@ def spindle_layout(model, where: str) -> SpindleLayout:
             if unit != CHANNEL_UNITS[name]:
                 source = _SOURCES.get(CHANNEL_UNITS[name], 'the recorded rate')
                 raise ModelFileError(
-                    f'{where}: model unit of {name} is {unit!r} but the bag\'s {source} is in '
+                    f"{where}: model unit of {name} is {unit!r} but the bag's {source} is in "
                     f'{CHANNEL_UNITS[name]!r}; nothing is converted')
     n = len(OUTPUT_CHANNELS)
     force_rows = tuple(tuple(range(3 * c, 3 * c + 3)) for c in range(len(CORNERS)))
