@@ -17,6 +17,7 @@ from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator import RATE_CHANNELS
+from wheel_force_estimator import SPIN_ACCEL_CHANNELS
 from wheel_force_estimator import SPIN_CHANNELS
 from wheel_force_estimator.bagio import available_extras
 from wheel_force_estimator.bagio import read_recording
@@ -93,6 +94,12 @@ def test_moments_rates_spin_round_trip_exactly(tmp_path, travel):
             assert np.array_equal(seg.travel_m, comp)
         inputs = INPUT_CHANNELS + RATE_CHANNELS + SPIN_CHANNELS
         assert np.array_equal(seg.signals(inputs), np.concatenate([accel, rate, spin]))
+        # the model input is the spin acceleration, derived on the segment's stamps
+        derived = seg.signals(SPIN_ACCEL_CHANNELS)
+        inner = (spin[:, 2:] - spin[:, :-2]) / (2 * PERIOD_NS * 1e-9)
+        np.testing.assert_allclose(derived[:, 1:-1], inner, rtol=1e-9)
+        np.testing.assert_allclose(derived[:, 0], (spin[:, 1] - spin[:, 0]) / (PERIOD_NS * 1e-9),
+                                   rtol=1e-9)
         assert np.array_equal(seg.signals(OUTPUT_CHANNELS + MOMENT_CHANNELS),
                               np.concatenate([force, torque]))
 

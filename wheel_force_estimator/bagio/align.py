@@ -18,7 +18,9 @@ from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator import RATE_CHANNELS
+from wheel_force_estimator import SPIN_ACCEL_CHANNELS
 from wheel_force_estimator import SPIN_CHANNELS
+from wheel_force_estimator.core.derived import spin_acceleration
 from wheel_force_estimator.core.errors import BagError
 from wheel_force_estimator.core.errors import NonFiniteError
 from wheel_force_estimator.core.errors import ShapeError
@@ -131,7 +133,9 @@ class Segment:
         Return the declared channels stacked, ``(len(channels), n)`` float64.
 
         Channels are looked up by name in the groups (accelerations, angular rates, spin,
-        forces, moments), so a model's declared inputs or outputs come out in its order.
+        forces, moments), so a model's declared inputs or outputs come out in its order; the
+        spin accelerations (``SPIN_ACCEL_CHANNELS``) are derived from the spin rates on this
+        segment (:func:`..core.derived.spin_acceleration`).
 
         Raises
         ------
@@ -145,6 +149,13 @@ class Segment:
                 return getattr(self, attr)  # a whole group: the array itself, no copy
         rows = []
         for name in channels:
+            if name in SPIN_ACCEL_CHANNELS:  # derived: d(spin)/dt on this segment
+                if self.spin_radps is None:
+                    raise BagError(f'{self.source}: channel {name} needs spin_radps, which '
+                                   'was not read from this recording')
+                k = SPIN_ACCEL_CHANNELS.index(name)
+                rows.append(spin_acceleration(self.spin_radps[k:k + 1], self.stamp_ns)[0])
+                continue
             for group, attr in _GROUPS:
                 if name in group:
                     arr = getattr(self, attr)

@@ -237,8 +237,8 @@ def _print_moment_inputs(model, summary) -> None:
     groups = ['12 accelerations']
     if any(c.endswith('_wx') for c in model.input_channels):
         groups.append('12 angular rates')
-    if any(c.endswith('_spin') for c in model.input_channels):
-        groups.append('4 spin rates')
+    if any(c.endswith('_spin_accel') for c in model.input_channels):
+        groups.append('4 spin accelerations (from the spin rates)')
     print(f'moments fitted from: {", ".join(groups)}')
     for name in moments:
         coh = summary['mean_coherence'][name]

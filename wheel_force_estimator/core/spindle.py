@@ -10,11 +10,13 @@ model fits when
 * its inputs are the 12 spindle accelerations in the package's order (``lf_ax`` ... ``rr_az``;
   ``wheel-force fit`` writes them so; a model in another order is refused rather than guessed
   at), optionally followed by all 12 spindle angular rates (``lf_wx`` ... ``rr_wz``) and then
-  by the four wheel spin rates (``lf_spin`` ... ``rr_spin``) (six components, issue 33),
+  by the four wheel spin accelerations (``lf_spin_accel`` ... ``rr_spin_accel``, derived
+  from the recorded spin rates: :mod:`.derived`) (six components, issue 33),
 * its outputs are the 12 wheel forces in that order, optionally followed by all 12 wheel
   moments (``lf_mx`` ... ``rr_mz``), never some of them,
 * its units are those the messages carry: ``m/s^2`` (Imu linear acceleration), ``rad/s``
-  (Imu angular velocity, JointState velocity), ``N`` (wrench force), ``N*m`` (wrench torque).
+  (Imu angular velocity), ``rad/s^2`` (JointState velocity, differentiated), ``N`` (wrench
+  force), ``N*m`` (wrench torque).
   Schema 1-2 files state one unit per side (``units.input``, ``units.output``); schema 3
   adds one per channel (``units.input_channels``, ``units.output_channels``).  A model
   fitted on displacement or velocity (a generic DAQ fit) would give forces off by orders of
@@ -30,7 +32,7 @@ from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator import RATE_CHANNELS
-from wheel_force_estimator import SPIN_CHANNELS
+from wheel_force_estimator import SPIN_ACCEL_CHANNELS
 from wheel_force_estimator.core.errors import ModelFileError
 
 __all__ = ['CHANNEL_UNITS', 'MOMENT_CHANNELS', 'SPINDLE_UNITS', 'SpindleLayout',
@@ -38,18 +40,21 @@ __all__ = ['CHANNEL_UNITS', 'MOMENT_CHANNELS', 'SPINDLE_UNITS', 'SpindleLayout',
 #: Units a spindle model must carry (the first channel group of each side).
 SPINDLE_UNITS = {'input': 'm/s^2', 'output': 'N'}
 #: The unit of every channel group, as the messages carry it (REP-103 SI).
-GROUP_UNITS = ((INPUT_CHANNELS, 'm/s^2'), (RATE_CHANNELS, 'rad/s'), (SPIN_CHANNELS, 'rad/s'),
+GROUP_UNITS = ((INPUT_CHANNELS, 'm/s^2'), (RATE_CHANNELS, 'rad/s'),
+               (SPIN_ACCEL_CHANNELS, 'rad/s^2'),
                (OUTPUT_CHANNELS, 'N'), (MOMENT_CHANNELS, 'N*m'))
 #: Channel name -> unit of the messages.
 CHANNEL_UNITS = {name: unit for group, unit in GROUP_UNITS for name in group}
 #: Where each group comes from, for messages.
 _SOURCES = {'m/s^2': 'Imu linear_acceleration', 'N': 'WrenchStamped force',
-            'N*m': 'WrenchStamped torque'}
+            'N*m': 'WrenchStamped torque', 'rad/s': 'Imu angular_velocity',
+            'rad/s^2': 'JointState wheel velocity (differentiated)'}
 
 
 def declared_inputs(rates: bool, spin: bool) -> Tuple[str, ...]:
     """Return the input channels of a spindle model with or without rates and spin."""
-    return INPUT_CHANNELS + (RATE_CHANNELS if rates else ()) + (SPIN_CHANNELS if spin else ())
+    return (INPUT_CHANNELS + (RATE_CHANNELS if rates else ())
+            + (SPIN_ACCEL_CHANNELS if spin else ()))
 
 
 def declared_outputs(moments: bool) -> Tuple[str, ...]:
@@ -139,7 +144,8 @@ def spindle_layout(model, where: str) -> SpindleLayout:
             f'{where}: model inputs {list(inputs)} are not the spindle accelerations '
             f'{INPUT_CHANNELS[0]} ... {INPUT_CHANNELS[-1]} (optionally followed by all of the '
             f'angular rates {RATE_CHANNELS[0]} ... {RATE_CHANNELS[-1]}, then the spin rates '
-            f'{SPIN_CHANNELS[0]} ... {SPIN_CHANNELS[-1]}) in that order; a model fitted on '
+            f'{SPIN_ACCEL_CHANNELS[0]} ... {SPIN_ACCEL_CHANNELS[-1]}) in that order; a model '
+            f'fitted on '
             f'generic recordings is applied to them with --input, --output and --fs')
     if outputs not in (OUTPUT_CHANNELS, OUTPUT_CHANNELS + MOMENT_CHANNELS):
         raise ModelFileError(
