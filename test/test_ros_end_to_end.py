@@ -101,11 +101,10 @@ def test_six_component_node_equals_predict_causal(ros_env, tmp_path, rates):
         rate = None
         moment = np.zeros((12, n))       # a known linear map: other rows, 0.3 m, one sample
         moment[:, 1:] = 0.3 * (y[::-1, :-1] - 3000.0)
-        if rates:
-            rng = np.random.default_rng(seed + 10)
-            rate = np.cumsum(rng.normal(size=(12, n)), axis=1) * 1e-3
-            rate -= rate.mean(axis=1, keepdims=True)
-            moment[:, 1:] += 4000.0 * np.diff(rate, axis=1)     # an inertia: N m per rad/s
+        if rates:  # coloured like the accelerations; the moments follow them too
+            rate = known_system(n, seed + 10)[0][:, :] * 0.01
+            rate[2::3] -= 0.0981
+            moment[:, 1:] += 3000.0 * rate[::-1, :-1]         # N m per rad/s, one sample
         write_recording(path, T0_NS + PERIOD_NS * np.arange(n, dtype=np.int64), x, y,
                         torque_nm=moment, rate_radps=rate)
     write(tmp_path / 'train', 60, 1)
@@ -158,3 +157,33 @@ def _read_torque(path, topics):
     got = read_topics(path, dict.fromkeys(topics, WRENCH_TYPE), {},
                       fields=dict.fromkeys(topics, WRENCH_TORQUE))
     return np.concatenate([got.values[t].T for t in topics])
+
+
+@pytest.mark.slow
+def test_rate_model_refuses_imu_without_angular_velocity(ros_env, tmp_path):
+    # Imu messages whose angular velocity is "not provided" (REP-145 covariance[0] = -1) feed
+    # a model that needs the rates: nothing is estimated from zeros, the node says which topic
+    # and keeps running (bug caught: rates silently read as 0).
+    from support.ros_testing import synthetic_model
+    from wheel_force_estimator.ros.replay import replay_samples
+    model = synthetic_model(input_channels=INPUT_CHANNELS + RATE_CHANNELS,
+                            output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS)
+    path = save_model(model, tmp_path / 'rates.npz')
+    n = 512
+    x, _ = known_system(n, 3)
+    stamps = T0_NS + PERIOD_NS * np.arange(n, dtype=np.int64)
+    log = tmp_path / 'node.log'
+    proc = start_node(path, ros_env, {'input_reliability': 'reliable', 'input_qos_depth': 5000},
+                      log_path=log)
+    try:
+        settings = ReplaySettings(rate=4.0, wait_subscribers_s=30.0, settle_s=2.0, record=True)
+        result = replay_samples(stamps, x, settings)         # no rates: covariance[0] = -1
+        assert result.output_counts == (0, 0, 0, 0)
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(20) == 0                            # never crashed
+    finally:
+        stop_node(proc)
+    text = log.read_text()
+    for topic in ('/spindle/lf/imu', '/spindle/rr/imu'):
+        assert f'{topic}: ' in text and 'without angular velocity' in text, text[-2000:]
+    assert 'dropped_no_angular_rate=[512, 512, 512, 512]' in text, text[-2000:]

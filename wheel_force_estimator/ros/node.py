@@ -282,6 +282,7 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         self._model = model
         # with angular-rate inputs each corner's sample is 6 values: acceleration, then rates
         self._rates = layout.rates
+        self._rate_error_s = {}           # corner -> when its missing rates were last logged
         self._aligner = CornerAligner(
             len(CORNERS), 6 if layout.rates else 3,
             max(params.input_qos_depth, params.stale_timeout_samples, 64),
@@ -607,13 +608,17 @@ class WheelForceNode(NodeHealth, LifecycleNode):
             n = 0 if mask is None else int(mask.sum())
             if n and reason == 'no_angular_rate':
                 self._dropped[reason][corner] += n
-                # the model needs the rates: an error, never zeros (REP-145 "not provided")
-                self.get_logger().error(
-                    f'{topic}: {n} message(s) without angular velocity (covariance[0] = -1, '
-                    f'first stamped {int(decoded.stamp_ns[int(np.argmax(mask))])} ns); the '
-                    'model needs the spindle angular rates: those samples are dropped '
-                    f'(total {int(self._dropped[reason][corner])})',
-                    throttle_duration_sec=WARN_THROTTLE_S)
+                # the model needs the rates: an error, never zeros (REP-145 "not provided");
+                # throttled per topic, so every corner at fault is named
+                now = time.monotonic()
+                last = self._rate_error_s.get(corner)
+                if last is None or now - last >= WARN_THROTTLE_S:
+                    self._rate_error_s[corner] = now
+                    self.get_logger().error(
+                        f'{topic}: {n} message(s) without angular velocity (covariance[0] = '
+                        f'-1, first stamped {int(decoded.stamp_ns[int(np.argmax(mask))])} ns);'
+                        ' the model needs the spindle angular rates: those samples are dropped'
+                        f' (total {int(self._dropped[reason][corner])})')
             elif n:
                 self._dropped[reason][corner] += n
                 first = int(np.argmax(mask))
