@@ -140,3 +140,21 @@ def test_moments_evaluated_with_their_own_sn_slope():
     np.testing.assert_allclose(ev.damage_target[12:], pseudo_damage(target[12:], 8.0),
                                rtol=1e-12)
     assert ev.to_json()['sn_slope_moment'] == 8.0
+
+
+def test_force_rows_of_a_six_component_model_predict_as_in_the_whole_model():
+    # what the diagnosis gets of a 24-output model: its forces, exactly (bug caught: rows of
+    # the FRF, FIR, static force or live estimators taken from another output)
+    import sys
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from support.ros_testing import synthetic_accel
+    from support.ros_testing import synthetic_model
+    from wheel_force_estimator.core.model import select_outputs
+    full = synthetic_model(output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS, seed=5)
+    forces = select_outputs(full, OUTPUT_CHANNELS)
+    x = synthetic_accel(700, seed=2)
+    np.testing.assert_array_equal(predict_forces(forces, x), predict_forces(full, x)[:12])
+    moments = select_outputs(full, MOMENT_CHANNELS[::-1])
+    np.testing.assert_array_equal(predict_forces(moments, x), predict_forces(full, x)[:11:-1])
+    with pytest.raises(ModelFileError, match='lf_fq'):
+        select_outputs(full, ('lf_fq',))

@@ -280,6 +280,37 @@ class FrfModel:
         }
 
 
+def select_outputs(model: FrfModel, channels) -> FrfModel:
+    """
+    Return ``model`` restricted to the output ``channels`` (in the order given).
+
+    Every output row is its own estimate (FRF, FIR, live estimators), so a subset is exact:
+    e.g. the forces of a six-component model, which the force diagnosis works on.
+
+    Raises
+    ------
+    ModelFileError
+        A channel the model does not have.
+
+    """
+    missing = [c for c in channels if c not in model.output_channels]
+    if missing:
+        raise ModelFileError(f'output channel(s) {missing} not in the model '
+                             f'{list(model.output_channels)}')
+    rows = [model.output_channels.index(c) for c in channels]
+    units = dict(model.units)
+    if 'output_channels' in units:
+        units['output_channels'] = [units['output_channels'][r] for r in rows]
+    live = tuple(dataclasses.replace(e, fine_taps=e.fine_taps[rows],
+                                     coarse_taps=e.coarse_taps[rows]) for e in model.live)
+    return dataclasses.replace(
+        model, output_channels=tuple(channels), h=model.h[:, rows],
+        coherence_ordinary=model.coherence_ordinary[:, rows],
+        coherence_multiple=model.coherence_multiple[:, rows], fir_taps=model.fir_taps[rows],
+        static_force_n=model.static_force_n[rows], units=units, live=live,
+        physics=tuple(p for p in model.physics if set(p.get('channels', ())) <= set(channels)))
+
+
 def save_model(model: FrfModel, path) -> Path:
     """
     Write ``model`` to ``path`` (``.npz``) atomically; an existing file is replaced.
