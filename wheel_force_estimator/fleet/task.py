@@ -55,6 +55,8 @@ class FleetSettings:
         Params file with the topic names.
     forces_dir : str or None
         Directory for the predicted-force bags (``--write-forces``), or None.
+    sn_slope_moment : float or None
+        Basquin exponent of the wheel moments (None: ``sn_slope``).
 
     """
 
@@ -63,17 +65,25 @@ class FleetSettings:
     sn_slope: float
     config_path: Optional[str] = None
     forces_dir: Optional[str] = None
+    sn_slope_moment: Optional[float] = None
 
     def __post_init__(self):
         """Check the Basquin exponent."""
         if not (np.isfinite(self.sn_slope) and self.sn_slope > 0):
             raise ValueError(f'sn_slope must be finite and > 0, got {self.sn_slope!r}')
+        if self.sn_slope_moment is not None and not (
+                np.isfinite(self.sn_slope_moment) and self.sn_slope_moment > 0):
+            raise ValueError(f'sn_slope_moment must be finite and > 0, got '
+                             f'{self.sn_slope_moment!r}')
 
     def key(self) -> dict:
         """Return what a stored result depends on besides the bag (JSON-able)."""
-        return {'model_sha256': self.model_sha256, 'sn_slope': self.sn_slope,
-                'config': _config_text(self.config_path),
-                'write_forces': self.forces_dir is not None}
+        key = {'model_sha256': self.model_sha256, 'sn_slope': self.sn_slope,
+               'config': _config_text(self.config_path),
+               'write_forces': self.forces_dir is not None}
+        if self.sn_slope_moment is not None:  # stores of earlier runs keep their keys
+            key['sn_slope_moment'] = self.sn_slope_moment
+        return key
 
 
 def _config_text(path: Optional[str]) -> Optional[str]:
@@ -138,6 +148,7 @@ def process_bag(ref: BagRef, settings: FleetSettings) -> BagResult:
 
 def _process(ref: BagRef, settings: FleetSettings) -> BagResult:
     from wheel_force_estimator.bagio import read_recording
+    from wheel_force_estimator.core.evaluation import channel_sn_slopes
     from wheel_force_estimator.core.evaluation import damage_figures
     from wheel_force_estimator.core.fatigue import damage_bands_hz
     from wheel_force_estimator.offline import bag_extras
@@ -153,7 +164,8 @@ def _process(ref: BagRef, settings: FleetSettings) -> BagResult:
     channels = tuple(model.output_channels)
     rmse = rmse_hp1 = None
     if with_wft:
-        evaluation, segments = evaluate_recordings(model, [recording], settings.sn_slope)
+        evaluation, segments = evaluate_recordings(model, [recording], settings.sn_slope,
+                                                   sn_slope_moment=settings.sn_slope_moment)
         stamps = [s.stamp_ns for s in segments]
         forces = [s.prediction_n for s in segments]
         damage, rds, bands = (evaluation.damage_prediction, evaluation.rds_prediction,
@@ -163,7 +175,8 @@ def _process(ref: BagRef, settings: FleetSettings) -> BagResult:
     else:
         stamps, forces = zip(*predict_recording(model, recording))
         bands = tuple(tuple(b) for b in damage_bands_hz(model.fs_hz))
-        damage, rds = damage_figures(forces, model.fs_hz, settings.sn_slope, bands)
+        damage, rds = damage_figures(forces, model.fs_hz, channel_sn_slopes(
+            channels, settings.sn_slope, settings.sn_slope_moment), bands)
     duration_s = recording.n_used / recording.fs_hz
     written = None
     if settings.forces_dir is not None:
