@@ -158,3 +158,20 @@ def test_force_rows_of_a_six_component_model_predict_as_in_the_whole_model():
     np.testing.assert_array_equal(predict_forces(moments, x), predict_forces(full, x)[:11:-1])
     with pytest.raises(ModelFileError, match='lf_fq'):
         select_outputs(full, ('lf_fq',))
+
+
+def test_fit_report_names_moments_the_inputs_cannot_explain():
+    # the coherence decides (bug caught: a moment without support reported as fitted)
+    import sys
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from support.ros_testing import synthetic_model
+    from wheel_force_estimator.report.builders import moment_input_lines
+    model = synthetic_model(output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS)
+    coherence = dict.fromkeys(model.output_channels, 0.9)
+    coherence['rf_my'] = 0.3
+    lines = moment_input_lines(model, {'mean_coherence': coherence})
+    assert lines[0] == 'moments fitted from: 12 accelerations'
+    assert len(lines) == 2 and 'rf_my: NOT identifiable' in lines[1] and 'spin' in lines[1]
+    coherence['rf_my'] = 0.9
+    assert 'every moment' in moment_input_lines(model, {'mean_coherence': coherence})[1]
+    assert moment_input_lines(synthetic_model(), {'mean_coherence': {}}) == []

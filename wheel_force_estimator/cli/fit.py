@@ -223,30 +223,11 @@ def _print_summary(model, summary, fitted, data: _TrainingData) -> None:
               f'also stored: {others or "-"} ms')
 
 
-#: Mean multiple coherence (0.5-50 Hz) below which a moment is reported as not identifiable
-#: from the inputs the recordings have: less than half its power is linearly explained.
-IDENTIFIABLE_COHERENCE = 0.5
-
-
 def _print_moment_inputs(model, summary) -> None:
     """Say which inputs the moments were given and whether the coherence supports them."""
-    from wheel_force_estimator import MOMENT_CHANNELS
-    moments = [c for c in model.output_channels if c in MOMENT_CHANNELS]
-    if not moments:
-        return
-    groups = ['12 accelerations']
-    if any(c.endswith('_wx') for c in model.input_channels):
-        groups.append('12 angular rates')
-    if any(c.endswith('_spin_accel') for c in model.input_channels):
-        groups.append('4 spin accelerations (from the spin rates)')
-    print(f'moments fitted from: {", ".join(groups)}')
-    for name in moments:
-        coh = summary['mean_coherence'][name]
-        if coh < IDENTIFIABLE_COHERENCE:
-            need = (' (My needs the wheel spin rate or drive/brake torque information)'
-                    if name.endswith('_my') else '')
-            print(f'  {name}: NOT identifiable from these inputs: mean multiple coherence '
-                  f'{coh:.2f} < {IDENTIFIABLE_COHERENCE}{need}')
+    from wheel_force_estimator.report.builders import moment_input_lines
+    for line in moment_input_lines(model, summary):
+        print(line)
 
 
 def _print_design(model) -> None:
