@@ -29,12 +29,11 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from wheel_force_estimator.core.crossval import blend_weight
-from wheel_force_estimator.core.crossval import held_out_power
+from wheel_force_estimator.core.crossval import BlendScorer
 from wheel_force_estimator.core.crossval import HeldOutPower
 from wheel_force_estimator.core.crossval import hp_power_weight
 from wheel_force_estimator.core.crossval import Piece
 from wheel_force_estimator.core.crossval import response_on_grid
-from wheel_force_estimator.core.crossval import splice
 from wheel_force_estimator.core.live_estimator import CausalEstimator
 from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import Correlations
@@ -58,6 +57,9 @@ SPLICE_CROSSOVERS_HZ = (0.0, 1.0, 2.0, 4.0, 8.0, math.inf)
 SCORING = 'scoring'
 #: Look-ahead of the two-sided least-squares FIR [s] (the longest stored live look-ahead).
 LS_LOOK_AHEAD_S = 0.25
+#: Live-estimator histories tried, as fractions of the configured one (``LiveDesign``'s
+#: ``history_s`` bounds the search; a shorter one reuses its factorisation).
+LIVE_HISTORY_FRACTIONS = (0.25, 0.5, 1.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -69,6 +71,12 @@ class Candidate:
     ls_regularisation: float
     crossover_hz: float
     ls_look_ahead_s: float = LS_LOOK_AHEAD_S
+    ls_history_s: Optional[float] = None
+
+    @property
+    def ls_key(self) -> Tuple[float, float, Optional[float]]:
+        """Return the key of this candidate's least-squares FIR (ridge, look-ahead, history)."""
+        return (self.ls_regularisation, self.ls_look_ahead_s, self.ls_history_s)
 
     @property
     def family(self) -> str:
@@ -86,6 +94,8 @@ class Candidate:
         if self.family != 'h1':
             out.update(ls_regularisation=self.ls_regularisation,
                        ls_look_ahead_s=self.ls_look_ahead_s)
+            if self.ls_history_s is not None:
+                out.update(ls_history_s=self.ls_history_s)
         if self.family == 'spliced':
             out.update(crossover_hz=self.crossover_hz)
         return out
@@ -93,13 +103,14 @@ class Candidate:
 
 def candidates(segment_lengths: Sequence[int], long_regs: Sequence[float],
                ls_regs: Sequence[float], crossovers: Sequence[float],
-               live_look_ahead_s: Optional[float] = None) -> List[Candidate]:
+               live_look_ahead_s: Optional[float] = None,
+               live_histories_s: Sequence[Optional[float]] = (None,)) -> List[Candidate]:
     """
     Return the distinct candidates of the grids (families ignore settings they lack).
 
-    ``live_look_ahead_s`` adds the live estimator itself as an offline candidate (the ``ls``
-    family at that look-ahead), so the offline choice can never score worse than the live
-    estimator on the held-out blocks.
+    ``live_look_ahead_s`` adds every live estimator (ridge x history, ``None`` = the full
+    history) as an offline candidate (the ``ls`` family at that look-ahead), so the offline
+    choice can never score worse than the live estimator on the held-out blocks.
     """
     seen, out = set(), []
     for c in crossovers:
@@ -113,8 +124,9 @@ def candidates(segment_lengths: Sequence[int], long_regs: Sequence[float],
                         out.append(cand)
     if live_look_ahead_s is not None and math.inf in crossovers:
         out.extend(Candidate(segment_lengths[0], long_regs[0], r, math.inf,
-                             float(live_look_ahead_s))
-                   for r in ls_regs if live_look_ahead_s != LS_LOOK_AHEAD_S)
+                             float(live_look_ahead_s), h)
+                   for h in live_histories_s for r in ls_regs
+                   if live_look_ahead_s != LS_LOOK_AHEAD_S or h is not None)
     return out
 
 
@@ -188,7 +200,12 @@ def combine_correlations(items: Sequence[Correlations]) -> Correlations:
 
 
 class LsSolutions:
-    """The least-squares FIRs of one training set: one factorisation per ridge."""
+    """
+    The least-squares FIRs of one training set: one factorisation per ridge.
+
+    Each factorisation serves every look-ahead up to :data:`LS_LOOK_AHEAD_S` and every
+    history up to ``design.history_s`` (:class:`.live_estimator.LagOrderedFactor`).
+    """
 
     def __init__(self, corr: Correlations, design: LiveDesign, ridges: Sequence[float]):
         self.fs_hz = corr.fs_hz
@@ -196,24 +213,28 @@ class LsSolutions:
         eq = NormalEquations(corr, self.d_max, dataclasses.replace(
             design, look_aheads_s=(LS_LOOK_AHEAD_S,), regularisation=float(ridges[0])))
         self.factors = {r: LagOrderedFactor(eq, r) for r in ridges}
-        self._estimators: Dict[Tuple[float, int], CausalEstimator] = {}
+        self._estimators: Dict[Tuple[float, int, Optional[float]], CausalEstimator] = {}
 
-    def estimator(self, ridge: float, look_ahead: int) -> CausalEstimator:
+    def estimator(self, ridge: float, look_ahead: int,
+                  history_s: Optional[float] = None) -> CausalEstimator:
         """Return the estimator of ``ridge`` at ``look_ahead`` samples (solved once)."""
-        key = (ridge, int(look_ahead))
+        key = (ridge, int(look_ahead), history_s)
         if key not in self._estimators:
-            self._estimators[key] = self.factors[ridge].estimator(look_ahead)
+            factor = self.factors[ridge]
+            drop = 0 if history_s is None else factor.history_blocks(history_s)
+            self._estimators[key] = factor.estimator(look_ahead, drop)
         return self._estimators[key]
 
-    def response(self, ridge: float, look_ahead: int, n_fft: int) -> np.ndarray:
+    def response(self, ridge: float, look_ahead: int, n_fft: int,
+                 history_s: Optional[float] = None) -> np.ndarray:
         """Return the realised response on the ``n_fft`` grid, shape (nf, n_out, n_in)."""
-        fir = self.estimator(ridge, look_ahead).fir(self.fs_hz)
+        fir = self.estimator(ridge, look_ahead, history_s).fir(self.fs_hz)
         return response_on_grid(fir.taps, fir.delay_samples, n_fft)
 
 
 def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
-               ls: Dict[Tuple[float, float], np.ndarray],
-               live: Dict[float, np.ndarray], cands: Sequence[Candidate],
+               ls: Dict[Tuple[float, float, Optional[float]], np.ndarray],
+               live: Dict[Tuple[float, Optional[float]], np.ndarray], cands: Sequence[Candidate],
                held_out: CrossSpectra) -> Tuple[List[HeldOutPower], List[HeldOutPower]]:
     """
     Score every candidate (and every live ridge) of one fold on its held-out block.
@@ -223,9 +244,9 @@ def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
     h1 : dict
         ``{(segment_length, long_regularisation): response}`` on the scoring grid.
     ls : dict
-        ``{(ridge, look_ahead_s): response}`` of the LS FIRs on the scoring grid.
+        ``{(ridge, look_ahead_s, history_s): response}`` of the LS FIRs on the scoring grid.
     live : dict
-        ``{ridge: response}`` of the live LS FIR on the scoring grid.
+        ``{(ridge, history_s): response}`` of the live LS FIRs on the scoring grid.
     cands : sequence of Candidate
         Offline candidates.
     held_out : CrossSpectra
@@ -234,20 +255,31 @@ def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
     Returns
     -------
     (list of HeldOutPower, list of HeldOutPower)
-        Per candidate, per live ridge (in ``live`` order).
+        Per candidate, per live design (in ``live`` order).
 
     """
     f = held_out.f_hz
-    hpw = hp_power_weight(f, held_out.config.fs_hz)
+    scorer = BlendScorer(held_out, hp_power_weight(f, held_out.config.fs_hz))
+    for key, h in h1.items():
+        scorer.add(('h1',) + key, h)
+    same = {}
+    for key, h in ls.items():
+        scorer.add(('ls',) + key, h)
+        same[id(h)] = ('ls',) + key
+    live_keys = []
+    for key, h in live.items():
+        if id(h) not in same:                 # the live FIR is often an LS candidate too
+            same[id(h)] = ('live',) + key
+            scorer.add(same[id(h)], h)
+        live_keys.append(same[id(h)])
     offline = []
     for c in cands:
-        w = blend_weight(f, c.crossover_hz)
+        h1_key = ('h1', c.segment_length, c.long_regularisation)
+        ls_key = ('ls',) + c.ls_key
         if c.family == 'h1':
-            h = h1[(c.segment_length, c.long_regularisation)]
+            offline.append(scorer.power(h1_key))
         elif c.family == 'ls':
-            h = ls[(c.ls_regularisation, c.ls_look_ahead_s)]
+            offline.append(scorer.power(ls_key))
         else:
-            h = splice(ls[(c.ls_regularisation, c.ls_look_ahead_s)],
-                       h1[(c.segment_length, c.long_regularisation)], w)
-        offline.append(held_out_power(h, held_out, hpw))
-    return offline, [held_out_power(h, held_out, hpw) for h in live.values()]
+            offline.append(scorer.power(ls_key, h1_key, blend_weight(f, c.crossover_hz)))
+    return offline, [scorer.power(key) for key in live_keys]

@@ -29,6 +29,7 @@ from typing import Iterable, Mapping, Optional, Sequence, Tuple
 
 from wheel_force_estimator.core.crossval import N_BLOCKS
 from wheel_force_estimator.core.errors import InsufficientDataError
+from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.model import FrfModel
 from wheel_force_estimator.core.physics_laws import QUANTITIES
 from wheel_force_estimator.core.pipeline import build_model
@@ -332,10 +333,11 @@ def _cross_validated_model(used, fs_hz, config, input_channels, output_channels,
     searched = search(used, fs_hz, config, input_channels, order, imposed, progress)
     if searched is None:
         return None
-    choice, welch, lags = searched
+    choice, stats, welch = searched
     est, h, fir, live, extra, static_x, static_y = fit_chosen(
-        used, choice, welch, lags, fs_hz, config, order, input_channels)
-    extra = dict(extra, design=choice.record(output_channels))
+        used, stats, choice, welch, fs_hz, config, order, input_channels)
+    extra = dict(extra, design=choice.record(output_channels,
+                                             (config.live or LiveDesign()).history_s))
     return build_model(used, fs_hz, config, input_channels, output_channels,
                        (est, h, fir, live, extra, static_x, static_y), fit_info)
 

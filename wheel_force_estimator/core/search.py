@@ -33,6 +33,7 @@ from wheel_force_estimator.core.candidates import BlockStats
 from wheel_force_estimator.core.candidates import Candidate
 from wheel_force_estimator.core.candidates import candidates
 from wheel_force_estimator.core.candidates import combine_correlations
+from wheel_force_estimator.core.candidates import LIVE_HISTORY_FRACTIONS
 from wheel_force_estimator.core.candidates import LONG_REGULARISATIONS
 from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
 from wheel_force_estimator.core.candidates import LS_REGULARISATIONS
@@ -73,6 +74,8 @@ class Space:
         H1 variants: (short segment length, long-segment regularisation).
     ridges : tuple of float
         LS ridges (offline and live).
+    live : tuple of (float, float or None)
+        Live designs: (ridge, history [s]; ``None`` = the configured history).
     offline : tuple of Candidate
         Offline candidates.
     imposed : tuple of str
@@ -82,6 +85,7 @@ class Space:
 
     h1: Tuple[Tuple[int, float], ...]
     ridges: Tuple[float, ...]
+    live: Tuple[Tuple[float, Optional[float]], ...]
     offline: Tuple[Candidate, ...]
     imposed: Tuple[str, ...]
 
@@ -100,10 +104,11 @@ class Choice:
     ----------
     rows : tuple of Candidate
         Offline design per output row.
-    live_ridges : tuple of float
-        Live-estimator ridge per output row.
+    live_rows : tuple of (float, float or None)
+        Live design per output row: (ridge, history [s], ``None`` = the configured one).
     scores, live_scores : tuple of HeldOutPower
-        Held-out power per offline candidate (``space.offline`` order) and per live ridge.
+        Held-out power per offline candidate (``space.offline`` order) and per live design
+        (``space.live`` order).
     space : Space
         What was searched.
     n_score : int
@@ -114,15 +119,15 @@ class Choice:
     """
 
     rows: Tuple[Candidate, ...]
-    live_ridges: Tuple[float, ...]
+    live_rows: Tuple[Tuple[float, Optional[float]], ...]
     scores: Tuple[HeldOutPower, ...]
     live_scores: Tuple[HeldOutPower, ...]
     space: Space
     n_score: int
     blocks_s: Tuple[float, ...]
 
-    def record(self, output_channels: Sequence[str]) -> dict:
-        """Return the model's ``fit.design`` entry (JSON)."""
+    def record(self, output_channels: Sequence[str], live_history_s: float) -> dict:
+        """Return the model's ``fit.design`` entry (JSON; ``live_history_s``: the full one)."""
         def figures(score: HeldOutPower) -> dict:
             pct = score.rmse_pct()
             return {'cv_rmse_pct': [round(float(v), 3) for v in pct[0]],
@@ -134,15 +139,23 @@ class Choice:
             pct = self.scores[index[cand]].rmse_pct()
             rows[name] = dict(cand.as_dict(), cv_rmse_pct=round(float(pct[0, o]), 3),
                               cv_rmse_hp1_pct=round(float(pct[1, o]), 3),
-                              live_regularisation=self.live_ridges[o])
+                              live_regularisation=self.live_rows[o][0],
+                              live_history_s=_history(self.live_rows[o][1], live_history_s))
         return {'method': 'blocked_cross_validation', 'n_blocks': len(self.blocks_s),
                 'blocks_s': [round(b, 3) for b in self.blocks_s],
                 'scoring_segment_length': self.n_score, 'imposed': list(self.space.imposed),
                 'rows': rows,
                 'candidates': [dict(c.as_dict(), **figures(s))
                                for c, s in zip(self.space.offline, self.scores)],
-                'live_candidates': [dict({'regularisation': r}, **figures(s))
-                                    for r, s in zip(self.space.ridges, self.live_scores)]}
+                'live_candidates': [dict({'regularisation': r,
+                                          'history_s': _history(h, live_history_s)},
+                                         **figures(s))
+                                    for (r, h), s in zip(self.space.live, self.live_scores)]}
+
+
+def _history(history_s: Optional[float], full_s: float) -> float:
+    """Return a live design's history [s] (``None`` = the full one)."""
+    return float(full_s if history_s is None else history_s)
 
 
 def scoring_blocks(lengths: Sequence[int], config: FitConfig
@@ -159,7 +172,7 @@ def scoring_blocks(lengths: Sequence[int], config: FitConfig
 
 
 def space(config: FitConfig, imposed: frozenset, n_score: int,
-          live_look_ahead_s: Optional[float]) -> Space:
+          live: Optional[LiveDesign]) -> Space:
     """Return the candidates: the grids of the defaults, imposed settings kept."""
     long = config.long_segment_length
     if 'segment_length' in imposed:
@@ -171,9 +184,12 @@ def space(config: FitConfig, imposed: frozenset, n_score: int,
     lregs = ((config.long_regularisation,) if 'long_regularisation' in imposed or not long
              else LONG_REGULARISATIONS)
     crossovers = (0.0,) if imposed & H1_ONLY_KEYS else SPLICE_CROSSOVERS_HZ
+    histories = tuple(None if k == 1.0 else k * live.history_s
+                      for k in LIVE_HISTORY_FRACTIONS) if live else (None,)
     return Space(tuple((s, lr) for s in segs for lr in lregs), LS_REGULARISATIONS,
+                 tuple((r, h) for h in histories for r in LS_REGULARISATIONS),
                  tuple(candidates(segs, lregs, LS_REGULARISATIONS, crossovers,
-                                  live_look_ahead_s)),
+                                  live.look_aheads_s[0] if live else None, histories)),
                  tuple(sorted(imposed)))
 
 
@@ -218,16 +234,16 @@ def max_lag(live: LiveDesign, fs_hz: float) -> int:
 
 def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
            imposed: frozenset = frozenset(), progress=lambda it, desc: it
-           ) -> Optional[Tuple[Choice, dict, int]]:
+           ) -> Optional[Tuple[Choice, List[BlockStats], dict]]:
     """
     Choose each output's design by blocked cross-validation (see the module notes).
 
     Returns
     -------
-    (Choice, dict, int) or None
-        The choice, the Welch configurations and correlation lags of the search (for the
-        final fit); ``None`` when the data is too short for :data:`.crossval.N_BLOCKS`
-        blocks.
+    (Choice, list of BlockStats, dict) or None
+        The choice, the statistics of every block (the final fit sums their correlations)
+        and the Welch configurations of the search; ``None`` when the data is too short for
+        :data:`.crossval.N_BLOCKS` blocks.
 
     """
     lengths = [s.accel_mps2.shape[1] for s in used]
@@ -235,7 +251,7 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     if n_score is None:
         return None
     live = config.live or LiveDesign()
-    sp = space(config, imposed, n_score, live.look_aheads_s[0])
+    sp = space(config, imposed, n_score, live)
     # the scorer's window: the longest power of two every chunk holds (the finest grid)
     n_score = 1 << int(np.log2(min(p.stop - p.start for b in blocks for p in b)))
     lags = max_lag(live, fs_hz) if (sp.needs_ls or config.live is not None) else 0
@@ -252,9 +268,11 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
         ls_resp, live_resp = {}, {}
         if lags:
             ls = LsSolutions(combine_correlations([s.corr for s in train]), live, sp.ridges)
-            live_resp = {r: ls.response(r, d_live, n_score) for r in sp.ridges}
-            ls_resp = {(r, LS_LOOK_AHEAD_S): ls.response(r, d_ls, n_score) for r in sp.ridges}
-            ls_resp.update({(r, live.look_aheads_s[0]): live_resp[r] for r in sp.ridges})
+            live_resp = {(r, h): ls.response(r, d_live, n_score, h) for r, h in sp.live}
+            ls_resp = {(r, LS_LOOK_AHEAD_S, None): ls.response(r, d_ls, n_score)
+                       for r in sp.ridges}
+            ls_resp.update({(r, live.look_aheads_s[0], h): live_resp[(r, h)]
+                            for r, h in sp.live})
         off, lv = score_fold(h1, ls_resp, live_resp, sp.offline, stats[k].spectra[SCORING])
         scores = off if scores is None else [a + b for a, b in zip(scores, off)]
         live_scores = lv if live_scores is None else [a + b for a, b in zip(live_scores, lv)]
@@ -262,15 +280,16 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     live_rows = (best_rows(np.stack([s.criterion() for s in live_scores]))[0] if lags
                  else np.zeros(n_out, dtype=int))
     rows = _offline_rows(scores, sp, live.look_aheads_s[0],
-                         [sp.ridges[i] for i in live_rows] if lags else None)
+                         [sp.live[i] for i in live_rows] if lags else None)
     choice = Choice(tuple(sp.offline[i] for i in rows),
-                    tuple(float(sp.ridges[i]) for i in live_rows), tuple(scores),
+                    tuple(sp.live[i] for i in live_rows), tuple(scores),
                     tuple(live_scores), sp, n_score, tuple(s.n / fs_hz for s in stats))
-    return choice, welch, lags
+    return choice, stats, welch
 
 
 def _offline_rows(scores: Sequence[HeldOutPower], sp: Space, live_look_ahead_s: float,
-                  live_ridges: Optional[Sequence[float]]) -> np.ndarray:
+                  live_rows: Optional[Sequence[Tuple[float, Optional[float]]]]
+                  ) -> np.ndarray:
     """
     Return the offline candidate per output, never worse than live on the held-out blocks.
 
@@ -284,12 +303,12 @@ def _offline_rows(scores: Sequence[HeldOutPower], sp: Space, live_look_ahead_s: 
     """
     rel = np.stack([s.error / np.maximum(s.target, np.finfo(float).tiny) for s in scores])
     criterion = rel.sum(axis=1)                                     # (n_cand, n_out)
-    if live_ridges is None:
+    if live_rows is None:
         return best_rows(criterion)[0]
     rows = best_rows(criterion)[0]
-    for o, ridge in enumerate(live_ridges):
+    for o, (ridge, history) in enumerate(live_rows):
         live = [k for k, c in enumerate(sp.offline) if c.family == 'ls'
-                and c.ls_regularisation == ridge and c.ls_look_ahead_s == live_look_ahead_s]
+                and c.ls_key == (ridge, live_look_ahead_s, history)]
         if not live:                      # no LS candidate (an imposed H1 estimator)
             continue
         ok = np.all(rel[:, :, o] <= rel[live[0], :, o] * (1 + 1e-12), axis=1)
@@ -297,7 +316,7 @@ def _offline_rows(scores: Sequence[HeldOutPower], sp: Space, live_look_ahead_s: 
     return rows
 
 
-def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
+def fit_chosen(used, stats: Sequence[BlockStats], choice: Choice, welch: dict, fs_hz: float,
                config: FitConfig, order: int, input_channels):
     """
     Fit the chosen design of every row on all the data and compose the rows.
@@ -311,23 +330,30 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
         inputs and outputs.
 
     """
-    # from the whole segments: no window or pair lost at a chunk edge
-    whole = block_stats(used, [Piece(i, 0, s.accel_mps2.shape[1]) for i, s in enumerate(used)],
-                        welch, fs_hz, lags)
     variants = {(c.segment_length, c.long_regularisation) for c in choice.rows
                 if c.family != 'ls'}
     # the indicators (coherence, conditioning) of the least-regularised H1 variant at the
     # configured segment: regularisation biases the multiple coherence low
     default = min((v for v in choice.space.h1 if v[0] == config.segment_length),
                   key=lambda v: v[1], default=choice.space.h1[0])
+    # The spectra of the H1 fits used, from the whole segments: a long window straddling two
+    # chunks would be lost (a chunk of a short record may hold no 8192-sample window at all).
+    # The correlations are the sum of the blocks' (a pair straddling two chunks is left out,
+    # as in the folds: lags of seconds against chunks of tens of seconds).
+    needed = {s for s, _ in variants | {default}} | {config.long_segment_length}
+    whole = dataclasses.replace(
+        block_stats(used, [Piece(i, 0, s.accel_mps2.shape[1]) for i, s in enumerate(used)],
+                    {k: welch[k] for k in needed if k in welch}, fs_hz, 0),
+        corr=combine_correlations([s.corr for s in stats]) if stats[0].corr is not None
+        else None)
     fits = h1_fits([whole], config, sorted(variants | {default}), fs_hz, order, input_channels)
     ref_est, _, ref_fir, extra = fits[default]
     live = config.live or LiveDesign()
     ls = None
     n_model = max(ref_fir.n_taps, config.long_segment_length)
-    if lags:
+    if whole.corr is not None:
         ridges = sorted({c.ls_regularisation for c in choice.rows if c.family != 'h1'}
-                        | set(choice.live_ridges))
+                        | {r for r, _ in choice.live_rows})
         ls = LsSolutions(whole.corr, live, ridges)
         span = ls.d_max + int(round(live.history_s * fs_hz)) + 1
         n_model = max(n_model, 2 * int(2 ** np.ceil(np.log2(span))))
@@ -337,7 +363,7 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
     estimators = ()
     if config.live is not None:
         looks = list(dict.fromkeys(look_ahead_samples(v, fs_hz) for v in live.look_aheads_s))
-        estimators = tuple(_rows_of([ls.estimator(r, d) for r in choice.live_ridges])
+        estimators = tuple(_rows_of([ls.estimator(r, d, h) for r, h in choice.live_rows])
                            for d in looks)
     return (_indicators_on(ref_est, f_hz), h, fir, estimators, extra, whole.sum_x / whole.n,
             whole.sum_y / whole.n)
@@ -372,7 +398,7 @@ def _compose(rows: Sequence[Candidate], fits, ls, f_hz: np.ndarray, n_model: int
                 responses[key] = response_on_grid(fir.taps, fir.delay_samples, n_model)
             else:
                 d = look_ahead_samples(key[2], ls.fs_hz)
-                responses[key] = ls.response(key[1], d, n_model)
+                responses[key] = ls.response(key[1], d, n_model, key[3])
         return responses[key]
 
     h = np.empty((f_hz.size,) + response_shape(fits), dtype=np.complex128)
@@ -381,10 +407,10 @@ def _compose(rows: Sequence[Candidate], fits, ls, f_hz: np.ndarray, n_model: int
         if c.family == 'h1':
             h[:, o] = response(h1)[:, o]
         elif c.family == 'ls':
-            h[:, o] = response(('ls', c.ls_regularisation, c.ls_look_ahead_s))[:, o]
+            h[:, o] = response(('ls',) + c.ls_key)[:, o]
         else:
             w = blend_weight(f_hz, c.crossover_hz)
-            ls_key = ('ls', c.ls_regularisation, c.ls_look_ahead_s)
+            ls_key = ('ls',) + c.ls_key
             h[:, o] = splice(response(ls_key), response(h1), w)[:, o]
     return h
 
@@ -412,6 +438,9 @@ def _rows_of(estimators):
     rows = np.arange(first.n_out)
     fine = np.stack([e.fine_taps for e in estimators])[rows, rows]
     coarse = np.stack([e.coarse_taps for e in estimators])[rows, rows]
-    ridges = [float(e.info['regularisation']) for e in estimators]
-    info = dict(first.info, regularisation=ridges[0] if len(set(ridges)) == 1 else ridges)
+    info = dict(first.info)
+    for key in ('regularisation', 'history_s'):
+        values = [float(e.info[key]) for e in estimators]
+        info[key] = values[0] if len(set(values)) == 1 else values
+    info.pop('history_blocks_dropped', None)
     return dataclasses.replace(first, fine_taps=fine, coarse_taps=coarse, info=info)
