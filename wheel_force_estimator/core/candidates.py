@@ -130,6 +130,33 @@ def candidates(segment_lengths: Sequence[int], long_regs: Sequence[float],
     return out
 
 
+@dataclasses.dataclass(frozen=True)
+class Centred:
+    """
+    A training segment about its own mean, as every statistic of the search takes it.
+
+    Each chunk of a segment is taken about the *segment's* mean, not its own: the
+    differences between the chunks' means are the quasi-static band (braking, cornering,
+    load transfer), which the unfiltered RMSE of a whole record counts (measured: half the
+    error power of the compact car's Fx below 0.05 Hz) and which a chunk's own mean would
+    hide from the least-squares FIRs and from the scorer.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    mean_x: np.ndarray
+    mean_y: np.ndarray
+    source: str
+
+    @classmethod
+    def of(cls, seg) -> 'Centred':
+        """Return ``seg`` (a validated TrainingSegment) about its own mean."""
+        mx = seg.accel_mps2.mean(axis=1)
+        my = seg.force_n.mean(axis=1)
+        return cls(seg.accel_mps2 - mx[:, None], seg.force_n - my[:, None], mx, my,
+                   seg.source)
+
+
 @dataclasses.dataclass
 class BlockStats:
     """What one block contributes: spectra per resolution, correlations and sums."""
@@ -141,50 +168,44 @@ class BlockStats:
     n: int
 
 
-def block_stats(segments, pieces: Sequence[Piece], welch: Dict[int, object],
+def block_stats(segments: Sequence[Centred], pieces: Sequence[Piece], welch: Dict[int, object],
                 fs_hz: float, max_lag: int) -> BlockStats:
     """
     Accumulate one block's statistics from its pieces (each statistic once per block).
 
     Parameters
     ----------
-    segments : sequence of TrainingSegment
-        Validated segments.
+    segments : sequence of Centred
+        The training segments about their means.
     pieces : sequence of Piece
         The block's pieces.
     welch : dict
         ``{segment_length: WelchConfig}`` of every resolution needed, and the scorer's
-        under the key :data:`SCORING`.
+        under the key :data:`SCORING` (its windows not detrended, so the quasi-static band
+        counts as in the unfiltered RMSE; the H1 resolutions detrend their own windows).
     fs_hz : float
         Sample rate [Hz].
     max_lag : int
-        Correlation lags needed [samples] (0 = none).
+        Correlation lags needed [samples] (0 = none).  A piece's correlations are those of
+        its fluctuation about its own mean plus its mean's departure from the segment's
+        (:meth:`.live_estimator.CorrelationAccumulator.add`).
 
     """
     first = segments[0]
-    n_in, n_out = first.accel_mps2.shape[0], first.force_n.shape[0]
+    n_in, n_out = first.x.shape[0], first.y.shape[0]
     parts: Dict[int, list] = {k: [] for k in welch}
     acc = CorrelationAccumulator(n_in, n_out, max_lag) if max_lag else None
     sum_x, sum_y, n = np.zeros(n_in), np.zeros(n_out), 0
     for p in pieces:
         seg = segments[p.segment]
-        x = seg.accel_mps2[:, p.start:p.stop]
-        y = seg.force_n[:, p.start:p.stop]
+        x, y = seg.x[:, p.start:p.stop], seg.y[:, p.start:p.stop]
         for key, cfg in welch.items():
-            if x.shape[1] < cfg.segment_length:
-                continue
-            if key == SCORING:
-                # the scorer's spectra: piece mean removed, windows not detrended, so the
-                # quasi-static band counts as in the unfiltered RMSE (whole-record mean)
-                parts[key].append(cross_spectra(x - x.mean(axis=1, keepdims=True),
-                                                y - y.mean(axis=1, keepdims=True), cfg,
-                                                name=seg.source))
-            else:
+            if x.shape[1] >= cfg.segment_length:
                 parts[key].append(cross_spectra(x, y, cfg, name=seg.source))
         if acc is not None:
-            acc.add(x, y)
-        sum_x += x.sum(axis=1)
-        sum_y += y.sum(axis=1)
+            acc.add(x, y, np.zeros(n_in + n_out))
+        sum_x += x.sum(axis=1) + seg.mean_x * x.shape[1]
+        sum_y += y.sum(axis=1) + seg.mean_y * y.shape[1]
         n += x.shape[1]
     spectra = {k: combine_spectra(v) for k, v in parts.items() if v}
     return BlockStats(spectra, acc.result(fs_hz) if acc is not None else None, sum_x, sum_y,
@@ -204,7 +225,10 @@ class LsSolutions:
     The least-squares FIRs of one training set: one factorisation per ridge.
 
     Each factorisation serves every look-ahead up to :data:`LS_LOOK_AHEAD_S` and every
-    history up to ``design.history_s`` (:class:`.live_estimator.LagOrderedFactor`).
+    history up to ``design.history_s`` (:class:`.live_estimator.LagOrderedFactor`).  Each
+    fold needs its own: one normal matrix of all the data with a fold's right-hand side was
+    measured 1.5-4x worse on a held-out course (a road course is not stationary: the
+    held-out events' inputs would weigh in the matrix without their outputs).
     """
 
     def __init__(self, corr: Correlations, design: LiveDesign, ridges: Sequence[float]):

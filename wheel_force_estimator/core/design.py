@@ -333,9 +333,9 @@ def _cross_validated_model(used, fs_hz, config, input_channels, output_channels,
     searched = search(used, fs_hz, config, input_channels, order, imposed, progress)
     if searched is None:
         return None
-    choice, stats, welch = searched
+    choice, welch, lags, centred = searched
     est, h, fir, live, extra, static_x, static_y = fit_chosen(
-        used, stats, choice, welch, fs_hz, config, order, input_channels)
+        centred, choice, welch, lags, fs_hz, config, order, input_channels)
     extra = dict(extra, design=choice.record(output_channels,
                                              (config.live or LiveDesign()).history_s))
     return build_model(used, fs_hz, config, input_channels, output_channels,

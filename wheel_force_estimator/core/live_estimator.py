@@ -317,12 +317,28 @@ class CorrelationAccumulator:
         self._block = self._n_fft - self._t
         nz = self._n_in + self._n_out
         self._acc = np.zeros((nz, nz, self._n_fft // 2 + 1), dtype=np.complex128)
+        self._dc = np.zeros((nz, nz))
         self._n = 0
 
-    def add(self, x: np.ndarray, y: np.ndarray) -> None:
-        """Add one segment: ``x`` (n_in, n) inputs, ``y`` (n_out, n) outputs (validated)."""
+    def add(self, x: np.ndarray, y: np.ndarray, offset: Optional[np.ndarray] = None) -> None:
+        """
+        Add one segment: ``x`` (n_in, n) inputs, ``y`` (n_out, n) outputs (validated).
+
+        ``offset`` (n_in + n_out,), optional: the segment is a chunk of a longer record
+        whose mean is ``offset``.  The chunk's fluctuation about its own mean is
+        correlated as a segment's, and its mean's departure ``d`` from ``offset`` adds
+        ``n d d^T`` at every lag (the quasi-static band between chunks, which a chunk's own
+        mean would remove).  Taking the chunk about ``offset`` instead would taper that
+        large, slow part by the pairs lost at the chunk's edges (``1 - lag / n``): measured,
+        it made the 4 s live estimator of Fz 50 % worse.  Both parts are positive
+        semi-definite, so the normal equations stay so.
+        """
         z = np.concatenate([x, y], axis=0)
-        z = z - z.mean(axis=1, keepdims=True)
+        mean = z.mean(axis=1)
+        z = z - mean[:, None]
+        if offset is not None:
+            d = mean - np.asarray(offset, dtype=np.float64)
+            self._dc += z.shape[1] * np.outer(d, d)
         n = z.shape[1]
         for s in range(0, n, self._block):
             u = scipy.fft.rfft(z[:, s:s + self._block], n=self._n_fft, axis=1)
@@ -343,7 +359,8 @@ class CorrelationAccumulator:
         if self._n == 0:
             raise InsufficientDataError('live estimator: no training samples')
         t = self._t
-        c = scipy.fft.irfft(self._acc, n=self._n_fft, axis=2)[:, :, :t + 1] / self._n
+        c = (scipy.fft.irfft(self._acc, n=self._n_fft, axis=2)[:, :, :t + 1]
+             + self._dc[:, :, None]) / self._n
         full = np.concatenate([c.transpose(1, 0, 2)[:, :, :0:-1], c], axis=2)   # -T .. T
         ni = self._n_in
         return Correlations(np.ascontiguousarray(full[:ni, :ni]),

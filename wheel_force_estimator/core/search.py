@@ -32,6 +32,7 @@ from wheel_force_estimator.core.candidates import block_stats
 from wheel_force_estimator.core.candidates import BlockStats
 from wheel_force_estimator.core.candidates import Candidate
 from wheel_force_estimator.core.candidates import candidates
+from wheel_force_estimator.core.candidates import Centred
 from wheel_force_estimator.core.candidates import combine_correlations
 from wheel_force_estimator.core.candidates import LIVE_HISTORY_FRACTIONS
 from wheel_force_estimator.core.candidates import LONG_REGULARISATIONS
@@ -214,10 +215,11 @@ def welch_configs(config: FitConfig, fs_hz: float, sp: Space, n_score: int) -> d
     Return ``{segment_length: WelchConfig}`` of every resolution the search needs.
 
     The scorer's (key :data:`.candidates.SCORING`): ``n_score``-sample windows without
-    per-window detrend (each chunk's mean is removed instead), so a window does not hide the
-    quasi-static error below its own resolution from the unfiltered figure; measured, per-window
-    detrend made the H1 rows of the van's Fz look 30 % better than the live estimator where
-    a held-out course found them 7 % worse.
+    per-window detrend (the chunks are taken about their segment's mean instead, see
+    :func:`.candidates.block_stats`), so neither a window nor a chunk hides the quasi-static
+    error below its own resolution from the unfiltered figure; measured, per-window detrend
+    made the H1 rows of the van's Fz look 30 % better than the live estimator where a
+    held-out course found them 7 % worse.
     """
     lengths = {s for s, _ in sp.h1} | {config.long_segment_length}
     out = {n: dataclasses.replace(config.welch(fs_hz), segment_length=n) for n in lengths if n}
@@ -234,16 +236,16 @@ def max_lag(live: LiveDesign, fs_hz: float) -> int:
 
 def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
            imposed: frozenset = frozenset(), progress=lambda it, desc: it
-           ) -> Optional[Tuple[Choice, List[BlockStats], dict]]:
+           ) -> Optional[Tuple[Choice, dict, int, List[Centred]]]:
     """
     Choose each output's design by blocked cross-validation (see the module notes).
 
     Returns
     -------
-    (Choice, list of BlockStats, dict) or None
-        The choice, the statistics of every block (the final fit sums their correlations)
-        and the Welch configurations of the search; ``None`` when the data is too short for
-        :data:`.crossval.N_BLOCKS` blocks.
+    (Choice, dict, int, list of Centred) or None
+        The choice, and for the final fit: the Welch configurations and correlation lags
+        of the search and the segments about their means; ``None`` when the data is too
+        short for :data:`.crossval.N_BLOCKS` blocks.
 
     """
     lengths = [s.accel_mps2.shape[1] for s in used]
@@ -256,7 +258,9 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     n_score = 1 << int(np.log2(min(p.stop - p.start for b in blocks for p in b)))
     lags = max_lag(live, fs_hz) if (sp.needs_ls or config.live is not None) else 0
     welch = welch_configs(config, fs_hz, sp, n_score)
-    stats = [block_stats(used, b, welch, fs_hz, lags) for b in progress(blocks, 'fit: blocks')]
+    centred = [Centred.of(s) for s in used]
+    stats = [block_stats(centred, b, welch, fs_hz, lags)
+             for b in progress(blocks, 'fit: blocks')]
     d_ls = look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
     d_live = look_ahead_samples(live.look_aheads_s[0], fs_hz)
     scores = live_scores = None
@@ -284,7 +288,7 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     choice = Choice(tuple(sp.offline[i] for i in rows),
                     tuple(sp.live[i] for i in live_rows), tuple(scores),
                     tuple(live_scores), sp, n_score, tuple(s.n / fs_hz for s in stats))
-    return choice, stats, welch
+    return choice, welch, lags, centred
 
 
 def _offline_rows(scores: Sequence[HeldOutPower], sp: Space, live_look_ahead_s: float,
@@ -316,8 +320,8 @@ def _offline_rows(scores: Sequence[HeldOutPower], sp: Space, live_look_ahead_s: 
     return rows
 
 
-def fit_chosen(used, stats: Sequence[BlockStats], choice: Choice, welch: dict, fs_hz: float,
-               config: FitConfig, order: int, input_channels):
+def fit_chosen(centred: Sequence[Centred], choice: Choice, welch: dict, lags: int,
+               fs_hz: float, config: FitConfig, order: int, input_channels):
     """
     Fit the chosen design of every row on all the data and compose the rows.
 
@@ -336,16 +340,12 @@ def fit_chosen(used, stats: Sequence[BlockStats], choice: Choice, welch: dict, f
     # configured segment: regularisation biases the multiple coherence low
     default = min((v for v in choice.space.h1 if v[0] == config.segment_length),
                   key=lambda v: v[1], default=choice.space.h1[0])
-    # The spectra of the H1 fits used, from the whole segments: a long window straddling two
-    # chunks would be lost (a chunk of a short record may hold no 8192-sample window at all).
-    # The correlations are the sum of the blocks' (a pair straddling two chunks is left out,
-    # as in the folds: lags of seconds against chunks of tens of seconds).
+    # From the whole segments, not the sum of the blocks: a long window or a correlation pair
+    # straddling two chunks would be lost (a chunk of a short record may hold no
+    # 8192-sample window at all).  Only the resolutions the chosen design uses.
     needed = {s for s, _ in variants | {default}} | {config.long_segment_length}
-    whole = dataclasses.replace(
-        block_stats(used, [Piece(i, 0, s.accel_mps2.shape[1]) for i, s in enumerate(used)],
-                    {k: welch[k] for k in needed if k in welch}, fs_hz, 0),
-        corr=combine_correlations([s.corr for s in stats]) if stats[0].corr is not None
-        else None)
+    whole = block_stats(centred, [Piece(i, 0, s.x.shape[1]) for i, s in enumerate(centred)],
+                        {k: welch[k] for k in needed if k in welch}, fs_hz, lags)
     fits = h1_fits([whole], config, sorted(variants | {default}), fs_hz, order, input_channels)
     ref_est, _, ref_fir, extra = fits[default]
     live = config.live or LiveDesign()
