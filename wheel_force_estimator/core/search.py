@@ -1,30 +1,38 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-The design search of ``wheel-force fit``: candidates, held-out scores, the chosen design.
+The fit of ``wheel-force fit``, read top to bottom: scores, design, estimate, FIR, live.
 
-Read top to bottom, :func:`search` is the whole search:
+Candidates, their held-out scores, the chosen design, the estimate, its FIR and the live
+estimators.
+:func:`fit_by_search` is the whole sequence (the bag path and the generic-recording path both
+reach it through :func:`.design.fit_design`, which only adds the fallbacks for records too
+short to search):
 
 1. **blocks** (:func:`scoring_blocks`): the longest scoring resolution (long Welch segment
    first) whose windows every block holds twice; the data cut into chunks dealt to
    :data:`.crossval.N_BLOCKS` blocks.  Too short: ``None`` (the caller fits the defaults and
    says so).
 2. **statistics per block, once** (:func:`.candidates.block_stats`): Welch cross-spectra at
-   every resolution of the grid and the correlations of the least-squares FIRs.
-3. **candidates** (:func:`space`): H1 variants x LS ridges x splice crossovers; a setting
-   the user imposed keeps its value.
+   every resolution of the grid and the correlations of the least-squares FIRs, every chunk
+   about its segment's mean.
+3. **candidates** (:func:`space`): H1 variants x LS ridges x splice crossovers, and the live
+   estimator's ridges x histories; a setting the user imposed keeps its value.
 4. **held-out scores**, fold by fold: each candidate is fitted from the sums of the other
    blocks' statistics and scored on the held-out block (:mod:`.crossval`), both figures.
-   The live estimator's ridge is scored on the same folds from the same factorisations.
+   The live estimators are scored on the same folds from the same factorisations.
 5. **the chosen design**: per output row, the candidate with the lowest held-out error
-   (relative MSE, unfiltered plus 1 Hz high-passed), and per row the live ridge.
-
-:func:`fit_chosen` then fits the chosen design on all the data: the H1 estimates it uses,
-the LS factorisations it uses (one per ridge, serving the offline FIR and every live
-look-ahead), the rows composed into one FRF and realised as one FIR.
+   (relative MSE, unfiltered plus 1 Hz high-passed) among those no worse than that row's
+   live estimator, and per row the live ridge and history.
+6. **the estimate** (:func:`fit_chosen`): the chosen H1 variants and LS factorisations on
+   all the data (one factorisation per ridge serves the offline FIR and every live
+   look-ahead and history).
+7. **the FIR**: the rows composed into one FRF and realised exactly (:func:`_realised`).
+8. **the live estimators**: every stored look-ahead, each row with its chosen ridge and
+   history, and the model (:func:`.pipeline.build_model`) with ``fit.design``.
 """
 import dataclasses
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -54,9 +62,12 @@ from wheel_force_estimator.core.crossval import splice
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import look_ahead_samples
+from wheel_force_estimator.core.physics_laws import QUANTITIES
+from wheel_force_estimator.core.pipeline import build_model
 from wheel_force_estimator.core.pipeline import estimate_h1
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.spectra import combine_spectra
+from wheel_force_estimator.core.validation import as_signals
 
 #: Shortest scoring resolution tried [samples]; each block must hold two of its windows.
 MIN_SCORING_SEGMENT = 1024
@@ -444,3 +455,37 @@ def _rows_of(estimators):
         info[key] = values[0] if len(set(values)) == 1 else values
     info.pop('history_blocks_dropped', None)
     return dataclasses.replace(first, fine_taps=fine, coarse_taps=coarse, info=info)
+
+
+def fit_by_search(used, fs_hz: float, config: FitConfig, input_channels: Sequence[str],
+                  output_channels: Sequence[str], input_quantity: str,
+                  fit_info: Optional[Mapping], imposed: frozenset,
+                  progress=lambda it, desc: it):
+    """
+    Fit the model whose design blocked cross-validation chose (steps 1-8 of the module).
+
+    Returns
+    -------
+    FrfModel or None
+        ``None`` when the records are too short to cross-validate.
+
+    Raises
+    ------
+    ShapeError, NonFiniteError
+        A segment's inputs or outputs are malformed (named).
+
+    """
+    for seg in used:
+        as_signals(seg.accel_mps2, f'accelerations of {seg.source}', input_channels)
+        as_signals(seg.force_n, f'forces of {seg.source}', output_channels)
+    order = QUANTITIES.index(input_quantity)
+    searched = search(used, fs_hz, config, input_channels, order, imposed, progress)
+    if searched is None:
+        return None
+    choice, welch, lags, centred = searched
+    est, h, fir, live, extra, static_x, static_y = fit_chosen(
+        centred, choice, welch, lags, fs_hz, config, order, input_channels)
+    extra = dict(extra, design=choice.record(output_channels,
+                                             (config.live or LiveDesign()).history_s))
+    return build_model(used, fs_hz, config, input_channels, output_channels,
+                       (est, h, fir, live, extra, static_x, static_y), fit_info)
