@@ -175,3 +175,35 @@ def test_fit_report_names_moments_the_inputs_cannot_explain():
     coherence['rf_my'] = 0.9
     assert 'every moment' in moment_input_lines(model, {'mean_coherence': coherence})[1]
     assert moment_input_lines(synthetic_model(), {'mean_coherence': {}}) == []
+
+
+@pytest.mark.slow
+def test_cli_fit_and_evaluate_a_24_output_model(tmp_path):
+    # `wheel-force fit` (shipped defaults, design search per output row) on a bag whose WFT
+    # carries moments: 24 outputs found by itself, and `evaluate` scores all of them
+    import sys
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from known_system import known_system
+
+    def write(path, seconds, seed):
+        n = int(seconds * FS_HZ)
+        x, y = known_system(n, seed)
+        moment = np.zeros((12, n))       # a known linear map: other rows, 0.3 m, one sample
+        moment[:, 1:] = 0.3 * (y[::-1, :-1] - 3000.0)
+        write_recording(path, T0_NS + PERIOD_NS * np.arange(n, dtype=np.int64), x, y,
+                        torque_nm=moment)
+    write(tmp_path / 'train', 60, 1)
+    write(tmp_path / 'val', 10, 2)
+    assert main(['fit', str(tmp_path / 'train'), '-o', str(tmp_path / 'm.npz')]) == 0
+    model = load_model(tmp_path / 'm.npz')
+    assert model.output_channels == OUTPUT_CHANNELS + MOMENT_CHANNELS
+    assert model.input_channels == INPUT_CHANNELS         # no rates, no spin in this bag
+    assert channel_units(model)[1] == ('N',) * 12 + ('N*m',) * 12
+    assert main(['evaluate', str(tmp_path / 'm.npz'), str(tmp_path / 'val'), '--json',
+                 str(tmp_path / 'e.json'), '--sn-slope-moment', '7']) == 0
+    doc = json.loads((tmp_path / 'e.json').read_text())
+    assert list(doc['channels']) == list(OUTPUT_CHANNELS + MOMENT_CHANNELS)
+    assert doc['sn_slope_moment'] == 7.0
+    # noise-free linear system: moments as good as the forces they follow (a wrong row ~100 %)
+    worst = max(doc['channels'][c]['rmse_pct'] for c in MOMENT_CHANNELS)
+    assert worst < 5.0, worst
