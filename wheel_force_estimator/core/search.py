@@ -3,9 +3,9 @@
 """
 The fit of ``wheel-force fit``, read top to bottom: scores, design, estimate, FIR, live.
 
-:func:`fit_by_search` is the whole sequence (the bag path and the generic-recording path both
-reach it through :func:`.design.fit_design`, which only adds the fallbacks for records too
-short to search):
+:func:`search` then :func:`fit_chosen` are the whole sequence (the bag path and the
+generic-recording path both reach them through :func:`.design.fit_design`, which adds the
+fallbacks for records too short to search and builds the model):
 
 1. **blocks** (:func:`scoring_blocks`): the longest scoring resolution (long Welch segment
    first) whose windows every block holds twice; the data cut into chunks dealt to
@@ -25,11 +25,11 @@ short to search):
    all the data (one factorisation per ridge serves the offline FIR and every live
    look-ahead).
 7. **the FIR**: the rows composed into one FRF and realised exactly (:func:`_realised`).
-8. **the live estimators**: every stored look-ahead, each row with its chosen ridge, and the
-   model (:func:`.pipeline.build_model`) with ``fit.design``.
+8. **the live estimators**: every stored look-ahead, each row with its chosen ridge; the
+   caller builds the model (:func:`.pipeline.build_model`) with ``fit.design``.
 """
 import dataclasses
-from typing import Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -57,12 +57,9 @@ from wheel_force_estimator.core.crossval import splice
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import look_ahead_samples
-from wheel_force_estimator.core.physics_laws import QUANTITIES
-from wheel_force_estimator.core.pipeline import build_model
 from wheel_force_estimator.core.pipeline import estimate_h1
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.spectra import combine_spectra
-from wheel_force_estimator.core.validation import as_signals
 
 #: Shortest scoring resolution tried [samples]; each block must hold two of its windows.
 MIN_SCORING_SEGMENT = 1024
@@ -423,36 +420,3 @@ def _rows_of(estimators):
     ridges = [float(e.info['regularisation']) for e in estimators]
     info = dict(first.info, regularisation=ridges[0] if len(set(ridges)) == 1 else ridges)
     return dataclasses.replace(first, fine_taps=fine, coarse_taps=coarse, info=info)
-
-
-def fit_by_search(used, fs_hz: float, config: FitConfig, input_channels: Sequence[str],
-                  output_channels: Sequence[str], input_quantity: str,
-                  fit_info: Optional[Mapping], imposed: frozenset,
-                  progress=lambda it, desc: it):
-    """
-    Fit the model whose design blocked cross-validation chose (steps 1-8 of the module).
-
-    Returns
-    -------
-    FrfModel or None
-        ``None`` when the records are too short to cross-validate.
-
-    Raises
-    ------
-    ShapeError, NonFiniteError
-        A segment's inputs or outputs are malformed (named).
-
-    """
-    for seg in used:
-        as_signals(seg.accel_mps2, f'accelerations of {seg.source}', input_channels)
-        as_signals(seg.force_n, f'forces of {seg.source}', output_channels)
-    order = QUANTITIES.index(input_quantity)
-    searched = search(used, fs_hz, config, input_channels, order, imposed, progress)
-    if searched is None:
-        return None
-    choice, welch, lags = searched
-    est, h, fir, live, extra, static_x, static_y = fit_chosen(
-        used, choice, welch, lags, fs_hz, config, order, input_channels)
-    extra = dict(extra, design=choice.record(output_channels))
-    return build_model(used, fs_hz, config, input_channels, output_channels,
-                       (est, h, fir, live, extra, static_x, static_y), fit_info)
