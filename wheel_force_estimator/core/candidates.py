@@ -57,9 +57,6 @@ SPLICE_CROSSOVERS_HZ = (0.0, 1.0, 2.0, 4.0, 8.0, math.inf)
 SCORING = 'scoring'
 #: Look-ahead of the two-sided least-squares FIR [s] (the longest stored live look-ahead).
 LS_LOOK_AHEAD_S = 0.25
-#: Live-estimator histories tried, as fractions of the configured one (``LiveDesign``'s
-#: ``history_s`` bounds the search; a shorter one reuses its factorisation).
-LIVE_HISTORY_FRACTIONS = (0.25, 0.5, 1.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -71,12 +68,6 @@ class Candidate:
     ls_regularisation: float
     crossover_hz: float
     ls_look_ahead_s: float = LS_LOOK_AHEAD_S
-    ls_history_s: Optional[float] = None
-
-    @property
-    def ls_key(self) -> Tuple[float, float, Optional[float]]:
-        """Return the key of this candidate's least-squares FIR (ridge, look-ahead, history)."""
-        return (self.ls_regularisation, self.ls_look_ahead_s, self.ls_history_s)
 
     @property
     def family(self) -> str:
@@ -94,8 +85,6 @@ class Candidate:
         if self.family != 'h1':
             out.update(ls_regularisation=self.ls_regularisation,
                        ls_look_ahead_s=self.ls_look_ahead_s)
-            if self.ls_history_s is not None:
-                out.update(ls_history_s=self.ls_history_s)
         if self.family == 'spliced':
             out.update(crossover_hz=self.crossover_hz)
         return out
@@ -103,14 +92,13 @@ class Candidate:
 
 def candidates(segment_lengths: Sequence[int], long_regs: Sequence[float],
                ls_regs: Sequence[float], crossovers: Sequence[float],
-               live_look_ahead_s: Optional[float] = None,
-               live_histories_s: Sequence[Optional[float]] = (None,)) -> List[Candidate]:
+               live_look_ahead_s: Optional[float] = None) -> List[Candidate]:
     """
     Return the distinct candidates of the grids (families ignore settings they lack).
 
-    ``live_look_ahead_s`` adds every live estimator (ridge x history, ``None`` = the full
-    history) as an offline candidate (the ``ls`` family at that look-ahead), so the offline
-    choice can never score worse than the live estimator on the held-out blocks.
+    ``live_look_ahead_s`` adds the live estimator itself as an offline candidate (the ``ls``
+    family at that look-ahead), so the offline choice can never score worse than the live
+    estimator on the held-out blocks.
     """
     seen, out = set(), []
     for c in crossovers:
@@ -124,37 +112,9 @@ def candidates(segment_lengths: Sequence[int], long_regs: Sequence[float],
                         out.append(cand)
     if live_look_ahead_s is not None and math.inf in crossovers:
         out.extend(Candidate(segment_lengths[0], long_regs[0], r, math.inf,
-                             float(live_look_ahead_s), h)
-                   for h in live_histories_s for r in ls_regs
-                   if live_look_ahead_s != LS_LOOK_AHEAD_S or h is not None)
+                             float(live_look_ahead_s))
+                   for r in ls_regs if live_look_ahead_s != LS_LOOK_AHEAD_S)
     return out
-
-
-@dataclasses.dataclass(frozen=True)
-class Centred:
-    """
-    A training segment about its own mean, as every statistic of the search takes it.
-
-    Each chunk of a segment is taken about the *segment's* mean, not its own: the
-    differences between the chunks' means are the quasi-static band (braking, cornering,
-    load transfer), which the unfiltered RMSE of a whole record counts (measured: half the
-    error power of the compact car's Fx below 0.05 Hz) and which a chunk's own mean would
-    hide from the least-squares FIRs and from the scorer.
-    """
-
-    x: np.ndarray
-    y: np.ndarray
-    mean_x: np.ndarray
-    mean_y: np.ndarray
-    source: str
-
-    @classmethod
-    def of(cls, seg) -> 'Centred':
-        """Return ``seg`` (a validated TrainingSegment) about its own mean."""
-        mx = seg.accel_mps2.mean(axis=1)
-        my = seg.force_n.mean(axis=1)
-        return cls(seg.accel_mps2 - mx[:, None], seg.force_n - my[:, None], mx, my,
-                   seg.source)
 
 
 @dataclasses.dataclass
@@ -168,44 +128,50 @@ class BlockStats:
     n: int
 
 
-def block_stats(segments: Sequence[Centred], pieces: Sequence[Piece], welch: Dict[int, object],
+def block_stats(segments, pieces: Sequence[Piece], welch: Dict[int, object],
                 fs_hz: float, max_lag: int) -> BlockStats:
     """
     Accumulate one block's statistics from its pieces (each statistic once per block).
 
     Parameters
     ----------
-    segments : sequence of Centred
-        The training segments about their means.
+    segments : sequence of TrainingSegment
+        Validated segments.
     pieces : sequence of Piece
         The block's pieces.
     welch : dict
         ``{segment_length: WelchConfig}`` of every resolution needed, and the scorer's
-        under the key :data:`SCORING` (its windows not detrended, so the quasi-static band
-        counts as in the unfiltered RMSE; the H1 resolutions detrend their own windows).
+        under the key :data:`SCORING`.
     fs_hz : float
         Sample rate [Hz].
     max_lag : int
-        Correlation lags needed [samples] (0 = none).  A piece's correlations are those of
-        its fluctuation about its own mean plus its mean's departure from the segment's
-        (:meth:`.live_estimator.CorrelationAccumulator.add`).
+        Correlation lags needed [samples] (0 = none).
 
     """
     first = segments[0]
-    n_in, n_out = first.x.shape[0], first.y.shape[0]
+    n_in, n_out = first.accel_mps2.shape[0], first.force_n.shape[0]
     parts: Dict[int, list] = {k: [] for k in welch}
     acc = CorrelationAccumulator(n_in, n_out, max_lag) if max_lag else None
     sum_x, sum_y, n = np.zeros(n_in), np.zeros(n_out), 0
     for p in pieces:
         seg = segments[p.segment]
-        x, y = seg.x[:, p.start:p.stop], seg.y[:, p.start:p.stop]
+        x = seg.accel_mps2[:, p.start:p.stop]
+        y = seg.force_n[:, p.start:p.stop]
         for key, cfg in welch.items():
-            if x.shape[1] >= cfg.segment_length:
+            if x.shape[1] < cfg.segment_length:
+                continue
+            if key == SCORING:
+                # the scorer's spectra: piece mean removed, windows not detrended, so the
+                # quasi-static band counts as in the unfiltered RMSE (whole-record mean)
+                parts[key].append(cross_spectra(x - x.mean(axis=1, keepdims=True),
+                                                y - y.mean(axis=1, keepdims=True), cfg,
+                                                name=seg.source))
+            else:
                 parts[key].append(cross_spectra(x, y, cfg, name=seg.source))
         if acc is not None:
-            acc.add(x, y, np.zeros(n_in + n_out))
-        sum_x += x.sum(axis=1) + seg.mean_x * x.shape[1]
-        sum_y += y.sum(axis=1) + seg.mean_y * y.shape[1]
+            acc.add(x, y)
+        sum_x += x.sum(axis=1)
+        sum_y += y.sum(axis=1)
         n += x.shape[1]
     spectra = {k: combine_spectra(v) for k, v in parts.items() if v}
     return BlockStats(spectra, acc.result(fs_hz) if acc is not None else None, sum_x, sum_y,
@@ -221,15 +187,7 @@ def combine_correlations(items: Sequence[Correlations]) -> Correlations:
 
 
 class LsSolutions:
-    """
-    The least-squares FIRs of one training set: one factorisation per ridge.
-
-    Each factorisation serves every look-ahead up to :data:`LS_LOOK_AHEAD_S` and every
-    history up to ``design.history_s`` (:class:`.live_estimator.LagOrderedFactor`).  Each
-    fold needs its own: one normal matrix of all the data with a fold's right-hand side was
-    measured 1.5-4x worse on a held-out course (a road course is not stationary: the
-    held-out events' inputs would weigh in the matrix without their outputs).
-    """
+    """The least-squares FIRs of one training set: one factorisation per ridge."""
 
     def __init__(self, corr: Correlations, design: LiveDesign, ridges: Sequence[float]):
         self.fs_hz = corr.fs_hz
@@ -237,40 +195,39 @@ class LsSolutions:
         eq = NormalEquations(corr, self.d_max, dataclasses.replace(
             design, look_aheads_s=(LS_LOOK_AHEAD_S,), regularisation=float(ridges[0])))
         self.factors = {r: LagOrderedFactor(eq, r) for r in ridges}
-        self._estimators: Dict[Tuple[float, int, Optional[float]], CausalEstimator] = {}
+        self._estimators: Dict[Tuple[float, int], CausalEstimator] = {}
 
-    def estimator(self, ridge: float, look_ahead: int,
-                  history_s: Optional[float] = None) -> CausalEstimator:
+    def estimator(self, ridge: float, look_ahead: int) -> CausalEstimator:
         """Return the estimator of ``ridge`` at ``look_ahead`` samples (solved once)."""
-        key = (ridge, int(look_ahead), history_s)
+        key = (ridge, int(look_ahead))
         if key not in self._estimators:
-            factor = self.factors[ridge]
-            drop = 0 if history_s is None else factor.history_blocks(history_s)
-            self._estimators[key] = factor.estimator(look_ahead, drop)
+            self._estimators[key] = self.factors[ridge].estimator(look_ahead)
         return self._estimators[key]
 
-    def response(self, ridge: float, look_ahead: int, n_fft: int,
-                 history_s: Optional[float] = None) -> np.ndarray:
+    def response(self, ridge: float, look_ahead: int, n_fft: int) -> np.ndarray:
         """Return the realised response on the ``n_fft`` grid, shape (nf, n_out, n_in)."""
-        fir = self.estimator(ridge, look_ahead, history_s).fir(self.fs_hz)
+        fir = self.estimator(ridge, look_ahead).fir(self.fs_hz)
         return response_on_grid(fir.taps, fir.delay_samples, n_fft)
 
 
 def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
-               ls: Dict[Tuple[float, float, Optional[float]], np.ndarray],
-               live: Dict[Tuple[float, Optional[float]], np.ndarray], cands: Sequence[Candidate],
+               ls: Dict[Tuple[float, float], np.ndarray],
+               live: Dict[float, np.ndarray], cands: Sequence[Candidate],
                held_out: CrossSpectra) -> Tuple[List[HeldOutPower], List[HeldOutPower]]:
     """
     Score every candidate (and every live ridge) of one fold on its held-out block.
+
+    Each distinct response is a base of one :class:`.crossval.BlendScorer`, and a spliced
+    candidate is scored from its two bases' terms (no response per candidate).
 
     Parameters
     ----------
     h1 : dict
         ``{(segment_length, long_regularisation): response}`` on the scoring grid.
     ls : dict
-        ``{(ridge, look_ahead_s, history_s): response}`` of the LS FIRs on the scoring grid.
+        ``{(ridge, look_ahead_s): response}`` of the LS FIRs on the scoring grid.
     live : dict
-        ``{(ridge, history_s): response}`` of the live LS FIRs on the scoring grid.
+        ``{ridge: response}`` of the live LS FIR on the scoring grid.
     cands : sequence of Candidate
         Offline candidates.
     held_out : CrossSpectra
@@ -279,7 +236,7 @@ def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
     Returns
     -------
     (list of HeldOutPower, list of HeldOutPower)
-        Per candidate, per live design (in ``live`` order).
+        Per candidate, per live ridge (in ``live`` order).
 
     """
     f = held_out.f_hz
@@ -292,14 +249,14 @@ def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
         same[id(h)] = ('ls',) + key
     live_keys = []
     for key, h in live.items():
-        if id(h) not in same:                 # the live FIR is often an LS candidate too
-            same[id(h)] = ('live',) + key
+        if id(h) not in same:                 # the live FIR is an LS candidate too
+            same[id(h)] = ('live', key)
             scorer.add(same[id(h)], h)
         live_keys.append(same[id(h)])
     offline = []
     for c in cands:
         h1_key = ('h1', c.segment_length, c.long_regularisation)
-        ls_key = ('ls',) + c.ls_key
+        ls_key = ('ls', c.ls_regularisation, c.ls_look_ahead_s)
         if c.family == 'h1':
             offline.append(scorer.power(h1_key))
         elif c.family == 'ls':

@@ -30,13 +30,17 @@ from typing import Iterable, Mapping, Optional, Sequence, Tuple
 from wheel_force_estimator.core.crossval import N_BLOCKS
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.model import FrfModel
+from wheel_force_estimator.core.physics_laws import QUANTITIES
+from wheel_force_estimator.core.pipeline import build_model
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.resolution import choose_segment_length
-from wheel_force_estimator.core.search import fit_by_search
+from wheel_force_estimator.core.search import fit_chosen
 from wheel_force_estimator.core.search import MIN_SCORING_SEGMENT
+from wheel_force_estimator.core.search import search
 from wheel_force_estimator.core.spindle import CHANNEL_UNITS
+from wheel_force_estimator.core.validation import as_signals
 
 
 #: What ``wheel-force fit`` uses when neither the params file nor the command line says
@@ -291,8 +295,8 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
         used = [s for s in used if s.accel_mps2.shape[1] >= config.segment_length]
     model, warning = None, ''
     if cross_validate:
-        model = fit_by_search(used, fs_hz, config, input_channels, output_channels,
-                              input_quantity, fit_info, frozenset(imposed), progress)
+        model = _cross_validated_model(used, fs_hz, config, input_channels, output_channels,
+                                       input_quantity, fit_info, frozenset(imposed))
         if model is None:
             warning = _too_short_note(used, fs_hz, config)
     note = '\n'.join(n for n in notes if n)
@@ -333,6 +337,24 @@ def _too_short_note(used, fs_hz: float, config: FitConfig) -> str:
             f'{max(MIN_SCORING_SEGMENT, config.segment_length)}-sample windows each at '
             f'least); fitted with the documented defaults (H1, segment '
             f'{config.segment_length}, long segment {config.long_segment_length or "off"}).')
+
+
+def _cross_validated_model(used, fs_hz, config, input_channels, output_channels,
+                           input_quantity, fit_info, imposed) -> Optional[FrfModel]:
+    """Return the cross-validated model (``None`` when the records are too short)."""
+    for seg in used:
+        as_signals(seg.accel_mps2, f'accelerations of {seg.source}', input_channels)
+        as_signals(seg.force_n, f'forces of {seg.source}', output_channels)
+    order = QUANTITIES.index(input_quantity)
+    searched = search(used, fs_hz, config, input_channels, order, imposed, progress)
+    if searched is None:
+        return None
+    choice, welch, lags = searched
+    est, h, fir, live, extra, static_x, static_y = fit_chosen(
+        used, choice, welch, lags, fs_hz, config, order, input_channels)
+    extra = dict(extra, design=choice.record(output_channels))
+    return build_model(used, fs_hz, config, input_channels, output_channels,
+                       (est, h, fir, live, extra, static_x, static_y), fit_info)
 
 
 def progress(iterable, desc: str):

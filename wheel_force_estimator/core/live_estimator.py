@@ -317,28 +317,12 @@ class CorrelationAccumulator:
         self._block = self._n_fft - self._t
         nz = self._n_in + self._n_out
         self._acc = np.zeros((nz, nz, self._n_fft // 2 + 1), dtype=np.complex128)
-        self._dc = np.zeros((nz, nz))
         self._n = 0
 
-    def add(self, x: np.ndarray, y: np.ndarray, offset: Optional[np.ndarray] = None) -> None:
-        """
-        Add one segment: ``x`` (n_in, n) inputs, ``y`` (n_out, n) outputs (validated).
-
-        ``offset`` (n_in + n_out,), optional: the segment is a chunk of a longer record
-        whose mean is ``offset``.  The chunk's fluctuation about its own mean is
-        correlated as a segment's, and its mean's departure ``d`` from ``offset`` adds
-        ``n d d^T`` at every lag (the quasi-static band between chunks, which a chunk's own
-        mean would remove).  Taking the chunk about ``offset`` instead would taper that
-        large, slow part by the pairs lost at the chunk's edges (``1 - lag / n``): measured,
-        it made the 4 s live estimator of Fz 50 % worse.  Both parts are positive
-        semi-definite, so the normal equations stay so.
-        """
+    def add(self, x: np.ndarray, y: np.ndarray) -> None:
+        """Add one segment: ``x`` (n_in, n) inputs, ``y`` (n_out, n) outputs (validated)."""
         z = np.concatenate([x, y], axis=0)
-        mean = z.mean(axis=1)
-        z = z - mean[:, None]
-        if offset is not None:
-            d = mean - np.asarray(offset, dtype=np.float64)
-            self._dc += z.shape[1] * np.outer(d, d)
+        z = z - z.mean(axis=1, keepdims=True)
         n = z.shape[1]
         for s in range(0, n, self._block):
             u = scipy.fft.rfft(z[:, s:s + self._block], n=self._n_fft, axis=1)
@@ -359,8 +343,7 @@ class CorrelationAccumulator:
         if self._n == 0:
             raise InsufficientDataError('live estimator: no training samples')
         t = self._t
-        c = (scipy.fft.irfft(self._acc, n=self._n_fft, axis=2)[:, :, :t + 1]
-             + self._dc[:, :, None]) / self._n
+        c = scipy.fft.irfft(self._acc, n=self._n_fft, axis=2)[:, :, :t + 1] / self._n
         full = np.concatenate([c.transpose(1, 0, 2)[:, :, :0:-1], c], axis=2)   # -T .. T
         ni = self._n_in
         return Correlations(np.ascontiguousarray(full[:ni, :ni]),
@@ -511,91 +494,36 @@ class LagOrderedFactor:
         self._blocks, self._eq, self._d_max, self._n_b = blocks, eq, d_max, n_b
         reg = eq.info['regularisation'] if regularisation is None else regularisation
         self._info = dict(eq.info, regularisation=float(reg))
-        self._future: Dict[Tuple[int, int], np.ndarray] = {}
 
-    def history_blocks(self, history_s: float) -> int:
-        """
-        Return how many of the oldest basis blocks a history of ``history_s`` leaves out.
-
-        The shorter history ends at the basis edge nearest ``history_s`` (never before the
-        full-rate taps): its basis is this one's without its oldest blocks.
-        """
-        edges = self._eq.edges
-        n_fine = _fine_count(edges[self._d_max:])
-        last = np.arange(self._d_max + n_fine, edges.size)               # candidate end edges
-        end = last[np.argmin(np.abs(edges[last] - 1 - history_s * self._eq.fs_hz))]
-        return int(edges.size - 1 - end)
-
-    def _future_factor(self, drop: int, look_ahead: int) -> np.ndarray:
-        """
-        Return the Cholesky factor of the future lags' block after dropping old blocks.
-
-        With the unknowns ordered (kept past, dropped past, future), removing the middle
-        group leaves the kept past's factor as it is and changes the future's to the
-        factor of ``L33 L33^T + L32 L32^T`` (a rank-``len(dropped)`` update of a block as
-        small as the future lags): a shorter history costs no new factorisation of the
-        whole system, and every look-ahead is still a leading block (only the
-        ``look_ahead`` lags' leading block is formed).
-        """
-        key = (drop, look_ahead)
-        if key not in self._future:
-            n_in = self._eq.n_in
-            p0 = n_in * (self._n_b - self._d_max)
-            p1, q = p0 - n_in * drop, p0 + n_in * look_ahead
-            l33, l32 = self._l[p0:q, p0:q], self._l[p0:q, p1:p0]
-            self._future[key] = scipy.linalg.cholesky(l33 @ l33.T + l32 @ l32.T, lower=True,
-                                                      check_finite=False)
-        return self._future[key]
-
-    def theta(self, look_ahead: int, drop: int = 0) -> np.ndarray:
+    def theta(self, look_ahead: int) -> np.ndarray:
         """
         Return the coefficients for ``look_ahead`` samples, shape (n_out, n_in, n_basis).
 
         Basis block ``p`` of the result is block ``p + D - look_ahead`` of the longest
-        look-ahead's basis.  ``drop`` > 0 solves without the oldest ``drop`` blocks (a
-        shorter history, :meth:`history_blocks`); their coefficients are zero.
+        look-ahead's basis.
         """
-        d, drop = int(look_ahead), int(drop)
-        n_past = self._n_b - self._d_max
+        d = int(look_ahead)
         if not 0 <= d <= self._d_max:
             raise ConfigError(f'look-ahead {d} is not within 0 .. {self._d_max}')
-        if not 0 <= drop < n_past:
-            raise ConfigError(f'history: cannot leave out {drop} of {n_past} past blocks')
         n_in = self._eq.n_in
-        m = n_in * (n_past + d)
-        rows = np.arange(m)
-        if drop:
-            p1, p0 = n_in * (n_past - drop), n_in * n_past
-            rows = np.concatenate([rows[:p1], rows[p0:]])
-            lead = np.zeros((rows.size, rows.size))
-            lead[:p1, :p1] = self._l[:p1, :p1]
-            lead[p1:, :p1] = self._l[p0:m, :p1]
-            lead[p1:, p1:] = self._future_factor(drop, d)
-        else:
-            lead = self._l[:m, :m]
-        z = scipy.linalg.solve_triangular(lead, self._rhs[rows], lower=True, check_finite=False)
-        sol = np.zeros((m, self._eq.n_out))
-        sol[rows] = scipy.linalg.solve_triangular(lead, z, lower=True, trans='T',
-                                                  check_finite=False)
+        m = n_in * (self._n_b - self._d_max + d)
+        lead = self._l[:m, :m]
+        z = scipy.linalg.solve_triangular(lead, self._rhs[:m], lower=True, check_finite=False)
+        sol = scipy.linalg.solve_triangular(lead, z, lower=True, trans='T', check_finite=False)
         used = self._blocks[:m // n_in]                                   # basis block per lag
-        theta = np.empty((self._eq.n_out, n_in, n_past + d))
+        theta = np.empty((self._eq.n_out, n_in, self._n_b - self._d_max + d))
         theta[:, :, used - (self._d_max - d)] = sol.reshape(used.size, n_in,
                                                             self._eq.n_out).transpose(2, 1, 0)
         return theta
 
-    def estimator(self, look_ahead: int, drop: int = 0) -> CausalEstimator:
-        """Return the live estimator for ``look_ahead`` samples (``drop``: see :meth:`theta`)."""
+    def estimator(self, look_ahead: int) -> CausalEstimator:
+        """Return the live estimator for ``look_ahead`` samples."""
         d = int(look_ahead)
-        theta = self.theta(d, drop)
+        theta = self.theta(d)
         edges = self._eq.edges[self._d_max - d:]
         n_fine = _fine_count(edges)
-        history_s = (self._eq.edges[self._eq.edges.size - 1 - drop] - 1) / self._eq.fs_hz
         info = dict(self._info, look_ahead_s=d / self._eq.fs_hz,
-                    n_basis_per_input=int(edges.size - 1 - drop), history_s=float(history_s))
-        if drop:
-            # the shorter basis in the longer one's blocks: the oldest coefficients are zero
-            # (one basis for every row, so rows of different histories share an estimator)
-            info['history_blocks_dropped'] = drop
+                    n_basis_per_input=int(edges.size - 1))
         return CausalEstimator(d, theta[:, :, :n_fine], edges[n_fine:], theta[:, :, n_fine:],
                                info)
 

@@ -3,36 +3,33 @@
 """
 The fit of ``wheel-force fit``, read top to bottom: scores, design, estimate, FIR, live.
 
-Candidates, their held-out scores, the chosen design, the estimate, its FIR and the live
-estimators.
-:func:`fit_by_search` is the whole sequence (the bag path and the generic-recording path both
-reach it through :func:`.design.fit_design`, which only adds the fallbacks for records too
-short to search):
+:func:`search` then :func:`fit_chosen` are the whole sequence (the bag path and the
+generic-recording path both reach them through :func:`.design.fit_design`, which adds the
+fallbacks for records too short to search and builds the model):
 
 1. **blocks** (:func:`scoring_blocks`): the longest scoring resolution (long Welch segment
    first) whose windows every block holds twice; the data cut into chunks dealt to
    :data:`.crossval.N_BLOCKS` blocks.  Too short: ``None`` (the caller fits the defaults and
    says so).
 2. **statistics per block, once** (:func:`.candidates.block_stats`): Welch cross-spectra at
-   every resolution of the grid and the correlations of the least-squares FIRs, every chunk
-   about its segment's mean.
-3. **candidates** (:func:`space`): H1 variants x LS ridges x splice crossovers, and the live
-   estimator's ridges x histories; a setting the user imposed keeps its value.
+   every resolution of the grid and the correlations of the least-squares FIRs.
+3. **candidates** (:func:`space`): H1 variants x LS ridges x splice crossovers; a setting
+   the user imposed keeps its value.
 4. **held-out scores**, fold by fold: each candidate is fitted from the sums of the other
    blocks' statistics and scored on the held-out block (:mod:`.crossval`), both figures.
-   The live estimators are scored on the same folds from the same factorisations.
+   The live estimator's ridge is scored on the same folds from the same factorisations.
 5. **the chosen design**: per output row, the candidate with the lowest held-out error
    (relative MSE, unfiltered plus 1 Hz high-passed) among those no worse than that row's
-   live estimator, and per row the live ridge and history.
+   live estimator, and per row the live ridge.
 6. **the estimate** (:func:`fit_chosen`): the chosen H1 variants and LS factorisations on
    all the data (one factorisation per ridge serves the offline FIR and every live
-   look-ahead and history).
+   look-ahead).
 7. **the FIR**: the rows composed into one FRF and realised exactly (:func:`_realised`).
-8. **the live estimators**: every stored look-ahead, each row with its chosen ridge and
-   history, and the model (:func:`.pipeline.build_model`) with ``fit.design``.
+8. **the live estimators**: every stored look-ahead, each row with its chosen ridge; the
+   caller builds the model (:func:`.pipeline.build_model`) with ``fit.design``.
 """
 import dataclasses
-from typing import Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -40,9 +37,7 @@ from wheel_force_estimator.core.candidates import block_stats
 from wheel_force_estimator.core.candidates import BlockStats
 from wheel_force_estimator.core.candidates import Candidate
 from wheel_force_estimator.core.candidates import candidates
-from wheel_force_estimator.core.candidates import Centred
 from wheel_force_estimator.core.candidates import combine_correlations
-from wheel_force_estimator.core.candidates import LIVE_HISTORY_FRACTIONS
 from wheel_force_estimator.core.candidates import LONG_REGULARISATIONS
 from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
 from wheel_force_estimator.core.candidates import LS_REGULARISATIONS
@@ -62,12 +57,9 @@ from wheel_force_estimator.core.crossval import splice
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import look_ahead_samples
-from wheel_force_estimator.core.physics_laws import QUANTITIES
-from wheel_force_estimator.core.pipeline import build_model
 from wheel_force_estimator.core.pipeline import estimate_h1
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.spectra import combine_spectra
-from wheel_force_estimator.core.validation import as_signals
 
 #: Shortest scoring resolution tried [samples]; each block must hold two of its windows.
 MIN_SCORING_SEGMENT = 1024
@@ -86,8 +78,6 @@ class Space:
         H1 variants: (short segment length, long-segment regularisation).
     ridges : tuple of float
         LS ridges (offline and live).
-    live : tuple of (float, float or None)
-        Live designs: (ridge, history [s]; ``None`` = the configured history).
     offline : tuple of Candidate
         Offline candidates.
     imposed : tuple of str
@@ -97,7 +87,6 @@ class Space:
 
     h1: Tuple[Tuple[int, float], ...]
     ridges: Tuple[float, ...]
-    live: Tuple[Tuple[float, Optional[float]], ...]
     offline: Tuple[Candidate, ...]
     imposed: Tuple[str, ...]
 
@@ -116,11 +105,10 @@ class Choice:
     ----------
     rows : tuple of Candidate
         Offline design per output row.
-    live_rows : tuple of (float, float or None)
-        Live design per output row: (ridge, history [s], ``None`` = the configured one).
+    live_ridges : tuple of float
+        Live-estimator ridge per output row.
     scores, live_scores : tuple of HeldOutPower
-        Held-out power per offline candidate (``space.offline`` order) and per live design
-        (``space.live`` order).
+        Held-out power per offline candidate (``space.offline`` order) and per live ridge.
     space : Space
         What was searched.
     n_score : int
@@ -131,15 +119,15 @@ class Choice:
     """
 
     rows: Tuple[Candidate, ...]
-    live_rows: Tuple[Tuple[float, Optional[float]], ...]
+    live_ridges: Tuple[float, ...]
     scores: Tuple[HeldOutPower, ...]
     live_scores: Tuple[HeldOutPower, ...]
     space: Space
     n_score: int
     blocks_s: Tuple[float, ...]
 
-    def record(self, output_channels: Sequence[str], live_history_s: float) -> dict:
-        """Return the model's ``fit.design`` entry (JSON; ``live_history_s``: the full one)."""
+    def record(self, output_channels: Sequence[str]) -> dict:
+        """Return the model's ``fit.design`` entry (JSON)."""
         def figures(score: HeldOutPower) -> dict:
             pct = score.rmse_pct()
             return {'cv_rmse_pct': [round(float(v), 3) for v in pct[0]],
@@ -151,23 +139,15 @@ class Choice:
             pct = self.scores[index[cand]].rmse_pct()
             rows[name] = dict(cand.as_dict(), cv_rmse_pct=round(float(pct[0, o]), 3),
                               cv_rmse_hp1_pct=round(float(pct[1, o]), 3),
-                              live_regularisation=self.live_rows[o][0],
-                              live_history_s=_history(self.live_rows[o][1], live_history_s))
+                              live_regularisation=self.live_ridges[o])
         return {'method': 'blocked_cross_validation', 'n_blocks': len(self.blocks_s),
                 'blocks_s': [round(b, 3) for b in self.blocks_s],
                 'scoring_segment_length': self.n_score, 'imposed': list(self.space.imposed),
                 'rows': rows,
                 'candidates': [dict(c.as_dict(), **figures(s))
                                for c, s in zip(self.space.offline, self.scores)],
-                'live_candidates': [dict({'regularisation': r,
-                                          'history_s': _history(h, live_history_s)},
-                                         **figures(s))
-                                    for (r, h), s in zip(self.space.live, self.live_scores)]}
-
-
-def _history(history_s: Optional[float], full_s: float) -> float:
-    """Return a live design's history [s] (``None`` = the full one)."""
-    return float(full_s if history_s is None else history_s)
+                'live_candidates': [dict({'regularisation': r}, **figures(s))
+                                    for r, s in zip(self.space.ridges, self.live_scores)]}
 
 
 def scoring_blocks(lengths: Sequence[int], config: FitConfig
@@ -184,7 +164,7 @@ def scoring_blocks(lengths: Sequence[int], config: FitConfig
 
 
 def space(config: FitConfig, imposed: frozenset, n_score: int,
-          live: Optional[LiveDesign]) -> Space:
+          live_look_ahead_s: Optional[float]) -> Space:
     """Return the candidates: the grids of the defaults, imposed settings kept."""
     long = config.long_segment_length
     if 'segment_length' in imposed:
@@ -196,12 +176,9 @@ def space(config: FitConfig, imposed: frozenset, n_score: int,
     lregs = ((config.long_regularisation,) if 'long_regularisation' in imposed or not long
              else LONG_REGULARISATIONS)
     crossovers = (0.0,) if imposed & H1_ONLY_KEYS else SPLICE_CROSSOVERS_HZ
-    histories = tuple(None if k == 1.0 else k * live.history_s
-                      for k in LIVE_HISTORY_FRACTIONS) if live else (None,)
     return Space(tuple((s, lr) for s in segs for lr in lregs), LS_REGULARISATIONS,
-                 tuple((r, h) for h in histories for r in LS_REGULARISATIONS),
                  tuple(candidates(segs, lregs, LS_REGULARISATIONS, crossovers,
-                                  live.look_aheads_s[0] if live else None, histories)),
+                                  live_look_ahead_s)),
                  tuple(sorted(imposed)))
 
 
@@ -226,11 +203,10 @@ def welch_configs(config: FitConfig, fs_hz: float, sp: Space, n_score: int) -> d
     Return ``{segment_length: WelchConfig}`` of every resolution the search needs.
 
     The scorer's (key :data:`.candidates.SCORING`): ``n_score``-sample windows without
-    per-window detrend (the chunks are taken about their segment's mean instead, see
-    :func:`.candidates.block_stats`), so neither a window nor a chunk hides the quasi-static
-    error below its own resolution from the unfiltered figure; measured, per-window detrend
-    made the H1 rows of the van's Fz look 30 % better than the live estimator where a
-    held-out course found them 7 % worse.
+    per-window detrend (each chunk's mean is removed instead), so a window does not hide the
+    quasi-static error below its own resolution from the unfiltered figure; measured, per-window
+    detrend made the H1 rows of the van's Fz look 30 % better than the live estimator where
+    a held-out course found them 7 % worse.
     """
     lengths = {s for s, _ in sp.h1} | {config.long_segment_length}
     out = {n: dataclasses.replace(config.welch(fs_hz), segment_length=n) for n in lengths if n}
@@ -247,16 +223,16 @@ def max_lag(live: LiveDesign, fs_hz: float) -> int:
 
 def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
            imposed: frozenset = frozenset(), progress=lambda it, desc: it
-           ) -> Optional[Tuple[Choice, dict, int, List[Centred]]]:
+           ) -> Optional[Tuple[Choice, dict, int]]:
     """
     Choose each output's design by blocked cross-validation (see the module notes).
 
     Returns
     -------
-    (Choice, dict, int, list of Centred) or None
-        The choice, and for the final fit: the Welch configurations and correlation lags
-        of the search and the segments about their means; ``None`` when the data is too
-        short for :data:`.crossval.N_BLOCKS` blocks.
+    (Choice, dict, int) or None
+        The choice, the Welch configurations and correlation lags of the search (for the
+        final fit); ``None`` when the data is too short for :data:`.crossval.N_BLOCKS`
+        blocks.
 
     """
     lengths = [s.accel_mps2.shape[1] for s in used]
@@ -264,14 +240,12 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     if n_score is None:
         return None
     live = config.live or LiveDesign()
-    sp = space(config, imposed, n_score, live)
+    sp = space(config, imposed, n_score, live.look_aheads_s[0])
     # the scorer's window: the longest power of two every chunk holds (the finest grid)
     n_score = 1 << int(np.log2(min(p.stop - p.start for b in blocks for p in b)))
     lags = max_lag(live, fs_hz) if (sp.needs_ls or config.live is not None) else 0
     welch = welch_configs(config, fs_hz, sp, n_score)
-    centred = [Centred.of(s) for s in used]
-    stats = [block_stats(centred, b, welch, fs_hz, lags)
-             for b in progress(blocks, 'fit: blocks')]
+    stats = [block_stats(used, b, welch, fs_hz, lags) for b in progress(blocks, 'fit: blocks')]
     d_ls = look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
     d_live = look_ahead_samples(live.look_aheads_s[0], fs_hz)
     scores = live_scores = None
@@ -283,11 +257,9 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
         ls_resp, live_resp = {}, {}
         if lags:
             ls = LsSolutions(combine_correlations([s.corr for s in train]), live, sp.ridges)
-            live_resp = {(r, h): ls.response(r, d_live, n_score, h) for r, h in sp.live}
-            ls_resp = {(r, LS_LOOK_AHEAD_S, None): ls.response(r, d_ls, n_score)
-                       for r in sp.ridges}
-            ls_resp.update({(r, live.look_aheads_s[0], h): live_resp[(r, h)]
-                            for r, h in sp.live})
+            live_resp = {r: ls.response(r, d_live, n_score) for r in sp.ridges}
+            ls_resp = {(r, LS_LOOK_AHEAD_S): ls.response(r, d_ls, n_score) for r in sp.ridges}
+            ls_resp.update({(r, live.look_aheads_s[0]): live_resp[r] for r in sp.ridges})
         off, lv = score_fold(h1, ls_resp, live_resp, sp.offline, stats[k].spectra[SCORING])
         scores = off if scores is None else [a + b for a, b in zip(scores, off)]
         live_scores = lv if live_scores is None else [a + b for a, b in zip(live_scores, lv)]
@@ -295,16 +267,15 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     live_rows = (best_rows(np.stack([s.criterion() for s in live_scores]))[0] if lags
                  else np.zeros(n_out, dtype=int))
     rows = _offline_rows(scores, sp, live.look_aheads_s[0],
-                         [sp.live[i] for i in live_rows] if lags else None)
+                         [sp.ridges[i] for i in live_rows] if lags else None)
     choice = Choice(tuple(sp.offline[i] for i in rows),
-                    tuple(sp.live[i] for i in live_rows), tuple(scores),
+                    tuple(float(sp.ridges[i]) for i in live_rows), tuple(scores),
                     tuple(live_scores), sp, n_score, tuple(s.n / fs_hz for s in stats))
-    return choice, welch, lags, centred
+    return choice, welch, lags
 
 
 def _offline_rows(scores: Sequence[HeldOutPower], sp: Space, live_look_ahead_s: float,
-                  live_rows: Optional[Sequence[Tuple[float, Optional[float]]]]
-                  ) -> np.ndarray:
+                  live_ridges: Optional[Sequence[float]]) -> np.ndarray:
     """
     Return the offline candidate per output, never worse than live on the held-out blocks.
 
@@ -318,12 +289,12 @@ def _offline_rows(scores: Sequence[HeldOutPower], sp: Space, live_look_ahead_s: 
     """
     rel = np.stack([s.error / np.maximum(s.target, np.finfo(float).tiny) for s in scores])
     criterion = rel.sum(axis=1)                                     # (n_cand, n_out)
-    if live_rows is None:
+    if live_ridges is None:
         return best_rows(criterion)[0]
     rows = best_rows(criterion)[0]
-    for o, (ridge, history) in enumerate(live_rows):
+    for o, ridge in enumerate(live_ridges):
         live = [k for k, c in enumerate(sp.offline) if c.family == 'ls'
-                and c.ls_key == (ridge, live_look_ahead_s, history)]
+                and c.ls_regularisation == ridge and c.ls_look_ahead_s == live_look_ahead_s]
         if not live:                      # no LS candidate (an imposed H1 estimator)
             continue
         ok = np.all(rel[:, :, o] <= rel[live[0], :, o] * (1 + 1e-12), axis=1)
@@ -331,8 +302,8 @@ def _offline_rows(scores: Sequence[HeldOutPower], sp: Space, live_look_ahead_s: 
     return rows
 
 
-def fit_chosen(centred: Sequence[Centred], choice: Choice, welch: dict, lags: int,
-               fs_hz: float, config: FitConfig, order: int, input_channels):
+def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
+               config: FitConfig, order: int, input_channels):
     """
     Fit the chosen design of every row on all the data and compose the rows.
 
@@ -345,26 +316,23 @@ def fit_chosen(centred: Sequence[Centred], choice: Choice, welch: dict, lags: in
         inputs and outputs.
 
     """
+    # from the whole segments: no window or pair lost at a chunk edge
+    whole = block_stats(used, [Piece(i, 0, s.accel_mps2.shape[1]) for i, s in enumerate(used)],
+                        welch, fs_hz, lags)
     variants = {(c.segment_length, c.long_regularisation) for c in choice.rows
                 if c.family != 'ls'}
     # the indicators (coherence, conditioning) of the least-regularised H1 variant at the
     # configured segment: regularisation biases the multiple coherence low
     default = min((v for v in choice.space.h1 if v[0] == config.segment_length),
                   key=lambda v: v[1], default=choice.space.h1[0])
-    # From the whole segments, not the sum of the blocks: a long window or a correlation pair
-    # straddling two chunks would be lost (a chunk of a short record may hold no
-    # 8192-sample window at all).  Only the resolutions the chosen design uses.
-    needed = {s for s, _ in variants | {default}} | {config.long_segment_length}
-    whole = block_stats(centred, [Piece(i, 0, s.x.shape[1]) for i, s in enumerate(centred)],
-                        {k: welch[k] for k in needed if k in welch}, fs_hz, lags)
     fits = h1_fits([whole], config, sorted(variants | {default}), fs_hz, order, input_channels)
     ref_est, _, ref_fir, extra = fits[default]
     live = config.live or LiveDesign()
     ls = None
     n_model = max(ref_fir.n_taps, config.long_segment_length)
-    if whole.corr is not None:
+    if lags:
         ridges = sorted({c.ls_regularisation for c in choice.rows if c.family != 'h1'}
-                        | {r for r, _ in choice.live_rows})
+                        | set(choice.live_ridges))
         ls = LsSolutions(whole.corr, live, ridges)
         span = ls.d_max + int(round(live.history_s * fs_hz)) + 1
         n_model = max(n_model, 2 * int(2 ** np.ceil(np.log2(span))))
@@ -374,7 +342,7 @@ def fit_chosen(centred: Sequence[Centred], choice: Choice, welch: dict, lags: in
     estimators = ()
     if config.live is not None:
         looks = list(dict.fromkeys(look_ahead_samples(v, fs_hz) for v in live.look_aheads_s))
-        estimators = tuple(_rows_of([ls.estimator(r, d, h) for r, h in choice.live_rows])
+        estimators = tuple(_rows_of([ls.estimator(r, d) for r in choice.live_ridges])
                            for d in looks)
     return (_indicators_on(ref_est, f_hz), h, fir, estimators, extra, whole.sum_x / whole.n,
             whole.sum_y / whole.n)
@@ -409,7 +377,7 @@ def _compose(rows: Sequence[Candidate], fits, ls, f_hz: np.ndarray, n_model: int
                 responses[key] = response_on_grid(fir.taps, fir.delay_samples, n_model)
             else:
                 d = look_ahead_samples(key[2], ls.fs_hz)
-                responses[key] = ls.response(key[1], d, n_model, key[3])
+                responses[key] = ls.response(key[1], d, n_model)
         return responses[key]
 
     h = np.empty((f_hz.size,) + response_shape(fits), dtype=np.complex128)
@@ -418,10 +386,10 @@ def _compose(rows: Sequence[Candidate], fits, ls, f_hz: np.ndarray, n_model: int
         if c.family == 'h1':
             h[:, o] = response(h1)[:, o]
         elif c.family == 'ls':
-            h[:, o] = response(('ls',) + c.ls_key)[:, o]
+            h[:, o] = response(('ls', c.ls_regularisation, c.ls_look_ahead_s))[:, o]
         else:
             w = blend_weight(f_hz, c.crossover_hz)
-            ls_key = ('ls',) + c.ls_key
+            ls_key = ('ls', c.ls_regularisation, c.ls_look_ahead_s)
             h[:, o] = splice(response(ls_key), response(h1), w)[:, o]
     return h
 
@@ -449,43 +417,6 @@ def _rows_of(estimators):
     rows = np.arange(first.n_out)
     fine = np.stack([e.fine_taps for e in estimators])[rows, rows]
     coarse = np.stack([e.coarse_taps for e in estimators])[rows, rows]
-    info = dict(first.info)
-    for key in ('regularisation', 'history_s'):
-        values = [float(e.info[key]) for e in estimators]
-        info[key] = values[0] if len(set(values)) == 1 else values
-    info.pop('history_blocks_dropped', None)
+    ridges = [float(e.info['regularisation']) for e in estimators]
+    info = dict(first.info, regularisation=ridges[0] if len(set(ridges)) == 1 else ridges)
     return dataclasses.replace(first, fine_taps=fine, coarse_taps=coarse, info=info)
-
-
-def fit_by_search(used, fs_hz: float, config: FitConfig, input_channels: Sequence[str],
-                  output_channels: Sequence[str], input_quantity: str,
-                  fit_info: Optional[Mapping], imposed: frozenset,
-                  progress=lambda it, desc: it):
-    """
-    Fit the model whose design blocked cross-validation chose (steps 1-8 of the module).
-
-    Returns
-    -------
-    FrfModel or None
-        ``None`` when the records are too short to cross-validate.
-
-    Raises
-    ------
-    ShapeError, NonFiniteError
-        A segment's inputs or outputs are malformed (named).
-
-    """
-    for seg in used:
-        as_signals(seg.accel_mps2, f'accelerations of {seg.source}', input_channels)
-        as_signals(seg.force_n, f'forces of {seg.source}', output_channels)
-    order = QUANTITIES.index(input_quantity)
-    searched = search(used, fs_hz, config, input_channels, order, imposed, progress)
-    if searched is None:
-        return None
-    choice, welch, lags, centred = searched
-    est, h, fir, live, extra, static_x, static_y = fit_chosen(
-        centred, choice, welch, lags, fs_hz, config, order, input_channels)
-    extra = dict(extra, design=choice.record(output_channels,
-                                             (config.live or LiveDesign()).history_s))
-    return build_model(used, fs_hz, config, input_channels, output_channels,
-                       (est, h, fir, live, extra, static_x, static_y), fit_info)

@@ -16,8 +16,6 @@ def _label(cand: dict) -> str:
     if 'ls_regularisation' in cand:
         parts.append(f'ridge {cand["ls_regularisation"]:g} '
                      f'D {1e3 * cand["ls_look_ahead_s"]:.0f} ms')
-    if 'ls_history_s' in cand:
-        parts.append(f'history {cand["ls_history_s"]:g} s')
     if 'crossover_hz' in cand:
         parts.append(f'x {cand["crossover_hz"]:g} Hz')
     return ' '.join(parts)
@@ -40,14 +38,12 @@ def design_tables(design: dict, output_channels) -> tuple:
         Per-output choice table, per-candidate table (mean held-out RMSE % over outputs).
 
     """
-    rows = ['| output | design | held-out RMSE % | 1 Hz HP % | live ridge | live history [s] |',
-            '|---|---|---|---|---|---|']
+    rows = ['| output | design | held-out RMSE % | 1 Hz HP % | live ridge |',
+            '|---|---|---|---|---|']
     for name in output_channels:
         r = design['rows'][name]
-        history = r.get('live_history_s')            # absent in models before issue 29's
         rows.append(f'| {name} | {_label(r)} | {r["cv_rmse_pct"]:.1f} | '
-                    f'{r["cv_rmse_hp1_pct"]:.1f} | {r["live_regularisation"]:g} | '
-                    f'{"-" if history is None else f"{history:g}"} |')
+                    f'{r["cv_rmse_hp1_pct"]:.1f} | {r["live_regularisation"]:g} |')
     cands = ['| candidate | mean held-out RMSE % | mean 1 Hz HP % | chosen for |',
              '|---|---|---|---|']
     for c in design['candidates']:
