@@ -207,3 +207,17 @@ def test_cli_fit_and_evaluate_a_24_output_model(tmp_path):
     # noise-free linear system: moments as good as the forces they follow (a wrong row ~100 %)
     worst = max(doc['channels'][c]['rmse_pct'] for c in MOMENT_CHANNELS)
     assert worst < 5.0, worst
+
+
+def test_default_constructed_rates_are_not_inputs(tmp_path):
+    """Rates all zero with a zero covariance (a tool that fills only the acceleration)."""
+    n = 300
+    accel, force, _, rate, *_ = _signals(n)
+    stamp = T0_NS + PERIOD_NS * np.arange(n, dtype=np.int64)
+    path = write_recording(tmp_path / 'zero', stamp, accel, force,
+                           rate_radps=np.zeros_like(rate), rate_variance=0.0)
+    # bug caught: every bag from such a tool gained 12 zero-power inputs by default
+    assert available_extras(path) == ()
+    live = write_recording(tmp_path / 'live', stamp, accel, force, rate_radps=rate,
+                           rate_variance=0.0)
+    assert available_extras(live) == ('rates',)

@@ -333,7 +333,9 @@ def available_extras(path, topics=None, *, bulk: bool = True) -> Tuple[str, ...]
       (WrenchStamped has no "not provided" flag: a logger that leaves the moments out
       writes zeros);
     * ``'rates'``: every Imu message's angular-velocity covariance is provided
-      (``covariance[0] != -1``, REP-145);
+      (``covariance[0] != -1``, REP-145) and the rates are not zero throughout on any Imu
+      topic (a default-constructed field: a driver or tool that fills only the linear
+      acceleration leaves zeros with a zero covariance);
     * ``'spin'``: the travel topic exists and carries the ``{corner}_wheel`` joints with
       velocities.
 
@@ -357,7 +359,10 @@ def available_extras(path, topics=None, *, bulk: bool = True) -> Tuple[str, ...]
                       fields=dict.fromkeys(topics.imu_topics, IMU_RATE_COVARIANCE))
     if all(cov.values[t].size and np.all(cov.values[t][:, 0] != -1.0)
            for t in topics.imu_topics):
-        found.append('rates')
+        rates = read_topics(path, dict.fromkeys(topics.imu_topics, IMU_TYPE), {}, bulk=bulk,
+                            fields=dict.fromkeys(topics.imu_topics, IMU_RATE))
+        if all(np.any(rates.values[t] != 0.0) for t in topics.imu_topics):
+            found.append('rates')
     try:
         read_topics(path, {topics.travel_topic: travel_io.TRAVEL_TYPE}, {}, bulk=bulk,
                     fields={topics.travel_topic: travel_io.SPIN_FIELD})
