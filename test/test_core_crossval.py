@@ -13,11 +13,13 @@ from wheel_force_estimator.core.candidates import Candidate
 from wheel_force_estimator.core.candidates import candidates
 from wheel_force_estimator.core.candidates import combine_correlations
 from wheel_force_estimator.core.crossval import blend_weight
+from wheel_force_estimator.core.crossval import BlendScorer
 from wheel_force_estimator.core.crossval import block_pieces
 from wheel_force_estimator.core.crossval import held_out_power
 from wheel_force_estimator.core.crossval import hp_power_weight
 from wheel_force_estimator.core.crossval import Piece
 from wheel_force_estimator.core.crossval import response_on_grid
+from wheel_force_estimator.core.crossval import splice
 from wheel_force_estimator.core.design import fit_design
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
@@ -214,3 +216,37 @@ def test_refit_with_the_chosen_design_reproduces_the_fit_and_keeps_its_rows():
     other = fitted.refit([TrainingSegment(x2, y2, 'other')])
     assert other.fit['design']['rows'] == fitted.model.fit['design']['rows']
     assert not np.allclose(other.fir_taps, fitted.model.fir_taps)
+
+
+def test_blend_scorer_equals_the_score_of_the_blended_response():
+    """Expanded blend terms == held_out_power of the spliced FRF (bug: the pair term)."""
+    n = 1 << 15
+    x = coloured(3, n, 5)
+    rng = np.random.default_rng(6)
+    taps = rng.normal(size=(2, 3, 7))
+    y = apply_fir(FirFilter(taps, 3, FS_HZ), x) + 0.2 * coloured(2, n, 7, 40.0)
+    sp = cross_spectra(x, y, WelchConfig(fs_hz=FS_HZ, segment_length=512))
+    hpw = hp_power_weight(sp.f_hz, FS_HZ)
+    a = response_on_grid(taps * 1.1, 3, 512)
+    b = response_on_grid(taps * 0.7 + 0.02, 3, 512)
+    scorer = BlendScorer(sp, hpw)
+    scorer.add('a', a)
+    scorer.add('b', b)
+    w = blend_weight(sp.f_hz, 20.0)
+    for got, want in ((scorer.power('a'), held_out_power(a, sp, hpw)),
+                      (scorer.power('a', 'b', w), held_out_power(splice(a, b, w), sp, hpw))):
+        np.testing.assert_allclose(got.error, want.error, rtol=1e-10)
+        np.testing.assert_allclose(got.target, want.target, rtol=1e-12)
+    assert not np.allclose(scorer.power('a', 'b', w).error, scorer.power('a').error)
+
+
+def test_response_on_grid_wraps_taps_longer_than_the_grid():
+    """Taps beyond n_fft fold onto the grid (DTFT sampled at k fs / n_fft)."""
+    rng = np.random.default_rng(8)
+    taps = rng.normal(size=(1, 2, 21))
+    delay = 5
+    h = response_on_grid(taps, delay, 8)
+    k = np.arange(5)[:, None]
+    lag = np.arange(21) - delay
+    want = (taps[0][None, :, :] * np.exp(-2j * np.pi * k[:, :, None] * lag / 8)).sum(axis=2)
+    np.testing.assert_allclose(h[:, 0, :], want, atol=1e-12)

@@ -215,7 +215,8 @@ def test_unfitted_look_ahead_names_the_available_ones(fitted):
 def test_model_round_trip_keeps_the_live_estimators(fitted, tmp_path):
     model, x, _ = fitted
     loaded = load_model(save_model(model, tmp_path / 'm.npz'))
-    assert json.loads(str(np.load(tmp_path / 'm.npz')['meta']))['schema_version'] == 2
+    # schema 2 brought the live estimators; 3 (issue 33) adds per-channel units
+    assert json.loads(str(np.load(tmp_path / 'm.npz')['meta']))['schema_version'] == 3
     for a, b in zip(model.live, loaded.live):
         np.testing.assert_array_equal(a.fir(FS_HZ).taps, b.fir(FS_HZ).taps)
         assert a.info == b.info

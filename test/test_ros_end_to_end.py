@@ -16,7 +16,9 @@ from support.ros_testing import start_node
 from support.ros_testing import stop_node
 
 from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator import RATE_CHANNELS
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import read_wrench_topics
 from wheel_force_estimator.bagio import TopicConfig
@@ -31,7 +33,7 @@ from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.ros.replay import replay_bag
 from wheel_force_estimator.ros.replay import ReplaySettings
 
-pytestmark = [pytest.mark.ros, pytest.mark.timeout(300)]
+pytestmark = [pytest.mark.ros, pytest.mark.timeout(400)]
 
 FS_HZ = 512.0
 PERIOD_NS = 1_953_125
@@ -69,9 +71,19 @@ def test_bag_fit_predict_and_node_agree(ros_env, tmp_path):
     val = read_recording(tmp_path / 'val', topics, require_wft=True)
     assert np.max(rmse_pct(val.segments[0].force_n, pred_force)) < 5.0
 
+    _node_replay_equals_prediction(path, ros_env, tmp_path, pred_stamps, pred_force)
+
+
+def _node_replay_equals_prediction(model, ros_env, tmp_path, pred_stamps, pred_force):
+    """
+    Replay ``tmp_path / 'val'`` to the node running ``model``; return what it published.
+
+    Asserts the node's wrenches equal ``predict --causal``'s forces sample for sample and
+    that it stops cleanly after the replay.
+    """
     log = tmp_path / 'node.log'
-    proc = start_node(path, ros_env, {'input_reliability': 'reliable',
-                                      'input_qos_depth': 5000, 'flush_timeout_s': 1.0},
+    proc = start_node(model, ros_env, {'input_reliability': 'reliable',
+                                       'input_qos_depth': 5000, 'flush_timeout_s': 1.0},
                       log_path=log)
     try:
         settings = ReplaySettings(rate=4.0, wait_subscribers_s=30.0, settle_s=3.0, record=True)
@@ -85,3 +97,90 @@ def test_bag_fit_predict_and_node_agree(ros_env, tmp_path):
         assert proc.wait(20) == 0                        # stopped after the replay
     finally:
         stop_node(proc)
+    return result
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('rates', [False, True], ids=['accel', 'accel+rates'])
+def test_six_component_node_equals_predict_causal(ros_env, tmp_path, rates):
+    # Issue 33: a 24-output model (forces, then moments) from the accelerations (and the
+    # spindle angular rates); the node must publish the moments as wrench.torque, sample for
+    # sample what `predict --causal` writes.
+    def write(path, seconds, seed):
+        n = int(seconds * FS_HZ)
+        x, y = known_system(n, seed)
+        rate = None
+        moment = np.zeros((12, n))       # a known linear map: other rows, 0.3 m, one sample
+        moment[:, 1:] = 0.3 * (y[::-1, :-1] - 3000.0)
+        if rates:  # coloured like the accelerations; the moments follow them too
+            rate = known_system(n, seed + 10)[0][:, :] * 0.01
+            rate[2::3] -= 0.0981
+            moment[:, 1:] += 3000.0 * rate[::-1, :-1]         # N m per rad/s, one sample
+        write_recording(path, T0_NS + PERIOD_NS * np.arange(n, dtype=np.int64), x, y,
+                        torque_nm=moment, rate_radps=rate)
+    write(tmp_path / 'train', 60, 1)
+    write(tmp_path / 'val', 8, 2)
+    extras = ('moments', 'rates') if rates else ('moments',)
+    rec = read_recording(tmp_path / 'train', TopicConfig(), require_wft=True, extras=extras)
+    inputs = INPUT_CHANNELS + (RATE_CHANNELS if rates else ())
+    outputs = OUTPUT_CHANNELS + MOMENT_CHANNELS
+    config = FitConfig(live=LiveDesign(look_aheads_s=(0.05,), history_s=0.3, fine_s=0.03,
+                                       blocks_per_octave=4))
+    model = fit_model([TrainingSegment(s.signals(inputs), s.signals(outputs), 'train')
+                       for s in rec.segments], FS_HZ, config, inputs, outputs)
+    path = save_model(model, tmp_path / 'model.npz')
+    assert main(['predict', str(path), str(tmp_path / 'val'), '-o', str(tmp_path / 'pred'),
+                 '--causal']) == 0
+    topics = TopicConfig()
+    pred_stamps, pred_force = read_wrench_topics(tmp_path / 'pred', topics.output_topics)
+    pred_torque = _read_torque(tmp_path / 'pred', topics.output_topics)
+    val = read_recording(tmp_path / 'val', topics, require_wft=True, extras=extras)
+    # noise-free linear system: the moments are estimated as well as the forces (a wrong row
+    # or a dropped torque is ~100 %)
+    assert np.max(rmse_pct(val.segments[0].moment_nm, pred_torque)) < 5.0
+
+    result = _node_replay_equals_prediction(path, ros_env, tmp_path, pred_stamps, pred_force)
+    np.testing.assert_allclose(result.output_torque_nm, pred_torque, rtol=0,
+                               atol=RTOL * np.abs(pred_torque).max())
+    keys = {kv.key for status in result.damage.status for kv in status.values}
+    assert {'mx', 'my', 'mz'} <= keys                    # the damage topic carries them
+
+
+def _read_torque(path, topics):
+    """Return the (12, n) wrench.torque of the four output topics (rosbags' reader)."""
+    from wheel_force_estimator.bagio.cdr import WRENCH_TORQUE
+    from wheel_force_estimator.bagio.decode import read_topics
+    from wheel_force_estimator.bagio.fastcdr import WRENCH_TYPE
+    got = read_topics(path, dict.fromkeys(topics, WRENCH_TYPE), {},
+                      fields=dict.fromkeys(topics, WRENCH_TORQUE))
+    return np.concatenate([got.values[t].T for t in topics])
+
+
+@pytest.mark.slow
+def test_rate_model_refuses_imu_without_angular_velocity(ros_env, tmp_path):
+    # Imu messages whose angular velocity is "not provided" (REP-145 covariance[0] = -1) feed
+    # a model that needs the rates: nothing is estimated from zeros, the node says which topic
+    # and keeps running (bug caught: rates silently read as 0).
+    from support.ros_testing import synthetic_model
+    from wheel_force_estimator.ros.replay import replay_samples
+    model = synthetic_model(input_channels=INPUT_CHANNELS + RATE_CHANNELS,
+                            output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS)
+    path = save_model(model, tmp_path / 'rates.npz')
+    n = 512
+    x, _ = known_system(n, 3)
+    stamps = T0_NS + PERIOD_NS * np.arange(n, dtype=np.int64)
+    log = tmp_path / 'node.log'
+    proc = start_node(path, ros_env, {'input_reliability': 'reliable', 'input_qos_depth': 5000},
+                      log_path=log)
+    try:
+        settings = ReplaySettings(rate=4.0, wait_subscribers_s=30.0, settle_s=2.0, record=True)
+        result = replay_samples(stamps, x, settings)         # no rates: covariance[0] = -1
+        assert result.output_counts == (0, 0, 0, 0)
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(20) == 0                            # never crashed
+    finally:
+        stop_node(proc)
+    text = log.read_text()
+    for topic in ('/spindle/lf/imu', '/spindle/rr/imu'):
+        assert f'{topic}: ' in text and 'without angular velocity' in text, text[-2000:]
+    assert 'dropped_no_angular_rate=[512, 512, 512, 512]' in text, text[-2000:]

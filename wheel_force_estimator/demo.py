@@ -13,7 +13,11 @@
    effect, names it, writes the augmented model and shows the holdout RMSE before/after;
    ``wheel-force evaluate`` of that model on the report samples (``fit.report_on``)
    reproduces the reported "after",
-6. ``wheel-force fleet``: five simulated customer cars on public roads, milder per hour than
+6. six components (issue 33): a session with the wheel moments, spindle angular rates and
+   wheel spin recorded (``simulate --six``), a 24-output fit (forces and moments, from the
+   accelerations and the spin rates), its held-out RMSE per component and a time history of
+   one moment (``six_components/moment_lf_my.png``),
+7. ``wheel-force fleet``: five simulated customer cars on public roads, milder per hour than
    the proving ground (spindle accelerometers only; other
    roads, other drivers' speeds) against the proving-ground validation session as the
    reference schedule: damage per hour per channel, fleet percentiles, how many repeats of
@@ -89,6 +93,44 @@ def _replay_through_node(out: Path, model: Path, validation: Path, rate: float) 
         except subprocess.TimeoutExpired:
             node.kill()
     return live_bag
+
+
+def _six_components(out: Path, scale: float) -> None:
+    """Fit forces and moments from the accelerations and spin rates; plot one moment."""
+    from wheel_force_estimator.bagio import read_recording
+    from wheel_force_estimator.core.model import load_model
+    from wheel_force_estimator.core.predict import predict_forces
+    from wheel_force_estimator.report.evaluation_plots import plot_time_overlay
+
+    six = out / 'six_components'
+    six.mkdir()
+    train, val, model = six / 'training', six / 'validation', six / 'model.npz'
+    # a shorter session: 16 inputs x 24 outputs cost more than the 12 x 12 fit
+    _run(['simulate', str(train), '--six', '--seed', '1', '--duration-scale',
+          str(0.4 * scale)])
+    _run(['simulate', str(val), '--six', '--seed', '2', '--duration-scale', str(0.2 * scale)])
+    config = six / 'fit.yaml'
+    config.write_text('wheel_force_fit:\n  ros__parameters:\n    inputs: ["spin"]\n'
+                      '    moments: true\n')
+    _run(['fit', str(train), '-o', str(model), '--config', str(config)])
+    _run(['evaluate', str(model), str(val), '--json', str(six / 'evaluation.json'),
+          '--report', str(six / 'evaluation_report')])
+    doc = json.loads((six / 'evaluation.json').read_text())['channels']
+    print('\nsix components, held out: RMSE % per component (mean of the 4 corners)')
+    for comp in ('fx', 'fy', 'fz', 'mx', 'my', 'mz'):
+        values = [v['rmse_pct'] for k, v in doc.items() if k.endswith('_' + comp)]
+        print(f'  {comp}: {np.mean(values):6.1f}')
+    fitted = load_model(model)
+    seg = max(read_recording(val, require_wft=True, extras=('moments', 'spin')).segments,
+              key=lambda s: s.n_samples)
+    pred = predict_forces(fitted, seg.signals(fitted.input_channels))
+    row = fitted.output_channels.index('lf_my')
+    t_s = (seg.stamp_ns - seg.stamp_ns[0]) * 1e-9
+    mid = 0.5 * t_s[-1]
+    png = plot_time_overlay(six / 'moment_lf_my.png', t_s, seg.moment_nm[1:2], pred[row:row + 1],
+                            ['lf_my'], window_s=(mid, min(mid + 5.0, t_s[-1])),
+                            title='lf_my: drive/brake moment, held out (5 s)')
+    print(f'moment time history: {png}')
 
 
 def _diagnose(out: Path, scale: float) -> None:
@@ -194,6 +236,7 @@ def main(argv=None) -> int:
     parser.add_argument('--no-node', action='store_true', help='skip the live node step')
     parser.add_argument('--no-diagnosis', action='store_true', help='skip the diagnosis step')
     parser.add_argument('--no-fleet', action='store_true', help='skip the fleet step')
+    parser.add_argument('--no-six', action='store_true', help='skip the six-component step')
     args = parser.parse_args(argv)
     out = Path(args.out)
     if out.exists():
@@ -217,11 +260,14 @@ def main(argv=None) -> int:
         print(f'{"channel":8s} {"offline RMSE %":>15s} {"live RMSE %":>12s}')
         for name, figures in offline['channels'].items():
             print(f'{name:8s} {figures["rmse_pct"]:15.1f} {live["rmse_pct"][name]:12.1f}')
+    if not args.no_six:
+        _six_components(out, args.duration_scale)
     if not args.no_diagnosis:
         _diagnose(out, args.duration_scale)
     if not args.no_fleet:
         _fleet(out, model, val, args.duration_scale)
     reports = (['fit_report', 'evaluation_report']
+               + ([] if args.no_six else ['six_components/evaluation_report'])
                + ([] if args.no_diagnosis else ['diagnosis_report'])
                + ([] if args.no_fleet else ['fleet_report']))
     print('\nreports: ' + ', '.join(str(out / r / 'report.md') for r in reports))

@@ -21,13 +21,35 @@ def input_storage(path) -> str:
     return 'mcap'
 
 
-def predict_recording(model, recording, causal_delay_samples=None):
-    """Predict every segment of ``recording``; return a list of ``(stamp_ns, force_n)``."""
+def bag_extras(model, where: str, with_wft: bool = True):
+    """
+    Return the reader's ``extras`` a bag must carry for ``model`` (core.spindle's rule).
+
+    The moments are read only with the WFT topics (``evaluate``, fleet bags with them).
+    """
+    from wheel_force_estimator.core.spindle import spindle_layout
+    extras = spindle_layout(model, where).extras
+    return tuple(e for e in extras if with_wft or e != 'moments')
+
+
+def split_loads(loads):
+    """Return ``(force_n (12, n), torque_nm (12, n) or None)`` of a model's outputs."""
     from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator.core.predict import predict_forces
-    # the forces come first; moments, if the model has them, follow (core.spindle)
     n = len(OUTPUT_CHANNELS)
-    return [(seg.stamp_ns, predict_forces(model, seg.accel_mps2, causal_delay_samples)[:n])
+    return loads[:n], (loads[n:2 * n] if loads.shape[0] > n else None)
+
+
+def predict_recording(model, recording, causal_delay_samples=None):
+    """
+    Predict every segment of ``recording``; return a list of ``(stamp_ns, loads)``.
+
+    The model's declared inputs are taken from the segments (``Segment.signals``: the
+    accelerations, then the angular rates and spin when the model has them); ``loads`` has
+    every output of the model: the forces, then the moments if it has them (core.spindle).
+    """
+    from wheel_force_estimator.core.predict import predict_forces
+    return [(seg.stamp_ns, predict_forces(model, seg.signals(model.input_channels),
+                                          causal_delay_samples))
             for seg in recording.segments]
 
 
@@ -51,7 +73,8 @@ def stream_recording(model, recording, causal_delay_samples=None):
     def blocks():
         n = len(OUTPUT_CHANNELS)  # the forces; moments, if any, follow (core.spindle)
         for seg in segments:
-            for block in iter_forces(model, seg.accel_mps2, causal_delay_samples):
+            for block in iter_forces(model, seg.signals(model.input_channels),
+                                     causal_delay_samples):
                 yield block[:n]
     return stamps, SignalBlocks(OUTPUT_CHANNELS, stamps.size, prefetched(blocks()))
 
@@ -77,27 +100,29 @@ def prefetched(items):
             yield item
 
 
-def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None, ranges=None):
+def evaluate_recordings(model, recordings, sn_slope, causal_delay_samples=None, ranges=None,
+                        sn_slope_moment=None):
     """
     Predict and evaluate bag recordings; return ``(Evaluation, segments)``.
 
-    ``ranges`` (``--samples``, one recording) keeps only those samples of the prediction.
+    Every output of the model is scored (the moments too, against the recorded
+    ``wrench.torque``, with ``sn_slope_moment``).  ``ranges`` (``--samples``, one
+    recording) keeps only those samples of the prediction.
     """
-    from wheel_force_estimator import OUTPUT_CHANNELS
     from wheel_force_estimator.core.evaluation import EvalSegment
     from wheel_force_estimator.core.evaluation import evaluate_segments
 
     segments, events = [], []
     for rec in recordings:
         segments.extend(selected([
-            EvalSegment(seg.force_n, pred, stamps, f'{rec.path}#{i}')
+            EvalSegment(seg.signals(model.output_channels), pred, stamps, f'{rec.path}#{i}')
             for i, ((stamps, pred), seg) in enumerate(
                 zip(predict_recording(model, rec, causal_delay_samples), rec.segments))],
             ranges, rec.path))
         events.extend(rec.events)
     events.sort()
-    forces = model.output_channels[:len(OUTPUT_CHANNELS)]   # moments, if any, follow
-    evaluation = evaluate_segments(segments, model.fs_hz, forces, sn_slope, events=events)
+    evaluation = evaluate_segments(segments, model.fs_hz, model.output_channels, sn_slope,
+                                   events=events, sn_slope_moment=sn_slope_moment)
     return evaluation, segments
 
 

@@ -10,6 +10,7 @@ the Jazzy message types.  Topic names come from the node's params file
 """
 from wheel_force_estimator.bagio.align import Gap
 from wheel_force_estimator.bagio.align import Segment
+from wheel_force_estimator.bagio.reader import available_extras
 from wheel_force_estimator.bagio.reader import read_imu_topic
 from wheel_force_estimator.bagio.reader import read_recording
 from wheel_force_estimator.bagio.reader import read_string_topic
@@ -21,7 +22,7 @@ from wheel_force_estimator.bagio.writer import write_forces
 from wheel_force_estimator.bagio.writer import write_recording
 
 __all__ = [
-    'Gap', 'Recording', 'Segment', 'TopicConfig', 'load_topic_config', 'read_imu_topic',
-    'read_recording', 'read_string_topic', 'read_wrench_topics', 'write_forces',
-    'write_recording',
+    'Gap', 'Recording', 'Segment', 'TopicConfig', 'available_extras', 'load_topic_config',
+    'read_imu_topic', 'read_recording', 'read_string_topic', 'read_wrench_topics',
+    'write_forces', 'write_recording',
 ]

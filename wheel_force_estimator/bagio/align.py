@@ -15,7 +15,12 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator import RATE_CHANNELS
+from wheel_force_estimator import SPIN_ACCEL_CHANNELS
+from wheel_force_estimator import SPIN_CHANNELS
+from wheel_force_estimator.core.derived import spin_acceleration
 from wheel_force_estimator.core.errors import BagError
 from wheel_force_estimator.core.errors import NonFiniteError
 from wheel_force_estimator.core.errors import ShapeError
@@ -23,6 +28,10 @@ from wheel_force_estimator.core.gaps import classify_steps
 from wheel_force_estimator.core.gaps import MIN_STEP_FACTOR
 from wheel_force_estimator.core.gaps import missing_samples
 
+# Channel groups of a segment: names -> attribute (Segment.signals).
+_GROUPS = ((INPUT_CHANNELS, 'accel_mps2'), (RATE_CHANNELS, 'rate_radps'),
+           (SPIN_CHANNELS, 'spin_radps'), (OUTPUT_CHANNELS, 'force_n'),
+           (MOMENT_CHANNELS, 'moment_nm'))
 # Corner-to-corner / expected sample rate tolerance (relative).
 RATE_TOLERANCE = 1e-3
 _NS_PER_S = 1_000_000_000
@@ -75,6 +84,13 @@ class Segment:
     travel_m : numpy.ndarray, shape (4, n), float64, or None
         Suspension compression per corner [m], positive in bump (``bagio.travel``); None
         when the recording carries no travel topic.
+    moment_nm : numpy.ndarray, shape (12, n), float64, or None
+        Wheel moments (``wrench.torque``) in ``MOMENT_CHANNELS`` order [N m]; None when not
+        read.
+    rate_radps : numpy.ndarray, shape (12, n), float64, or None
+        Spindle angular rates (``Imu.angular_velocity``) in ``RATE_CHANNELS`` order [rad/s].
+    spin_radps : numpy.ndarray, shape (4, n), float64, or None
+        Wheel spin rates (``{corner}_wheel`` joint velocity) [rad/s].
 
     """
 
@@ -83,6 +99,9 @@ class Segment:
     force_n: Optional[np.ndarray]
     source: str
     travel_m: Optional[np.ndarray] = None
+    moment_nm: Optional[np.ndarray] = None
+    rate_radps: Optional[np.ndarray] = None
+    spin_radps: Optional[np.ndarray] = None
 
     def __post_init__(self):
         """Check dtypes and shapes so downstream code can rely on them."""
@@ -93,7 +112,10 @@ class Segment:
         n = stamp.shape[0]
         for name, arr, rows in (('accel_mps2', self.accel_mps2, len(INPUT_CHANNELS)),
                                 ('force_n', self.force_n, len(OUTPUT_CHANNELS)),
-                                ('travel_m', self.travel_m, 4)):
+                                ('travel_m', self.travel_m, 4),
+                                ('moment_nm', self.moment_nm, len(MOMENT_CHANNELS)),
+                                ('rate_radps', self.rate_radps, len(RATE_CHANNELS)),
+                                ('spin_radps', self.spin_radps, len(SPIN_CHANNELS))):
             if arr is None and name != 'accel_mps2':
                 continue
             arr = np.asarray(arr)
@@ -105,6 +127,46 @@ class Segment:
     def n_samples(self) -> int:
         """Return the number of samples."""
         return int(self.stamp_ns.shape[0])
+
+    def signals(self, channels) -> np.ndarray:
+        """
+        Return the declared channels stacked, ``(len(channels), n)`` float64.
+
+        Channels are looked up by name in the groups (accelerations, angular rates, spin,
+        forces, moments), so a model's declared inputs or outputs come out in its order; the
+        spin accelerations (``SPIN_ACCEL_CHANNELS``) are derived from the spin rates on this
+        segment (:func:`..core.derived.spin_acceleration`).
+
+        Raises
+        ------
+        BagError
+            A channel of no group, or of a group this segment was read without.
+
+        """
+        channels = tuple(channels)
+        for group, attr in _GROUPS:
+            if channels == group and getattr(self, attr) is not None:
+                return getattr(self, attr)  # a whole group: the array itself, no copy
+        rows = []
+        for name in channels:
+            if name in SPIN_ACCEL_CHANNELS:  # derived: d(spin)/dt on this segment
+                if self.spin_radps is None:
+                    raise BagError(f'{self.source}: channel {name} needs spin_radps, which '
+                                   'was not read from this recording')
+                k = SPIN_ACCEL_CHANNELS.index(name)
+                rows.append(spin_acceleration(self.spin_radps[k:k + 1], self.stamp_ns)[0])
+                continue
+            for group, attr in _GROUPS:
+                if name in group:
+                    arr = getattr(self, attr)
+                    if arr is None:
+                        raise BagError(f'{self.source}: channel {name} needs {attr}, which '
+                                       'was not read from this recording')
+                    rows.append(arr[group.index(name)])
+                    break
+            else:
+                raise BagError(f'{self.source}: unknown channel {name!r}')
+        return np.ascontiguousarray(np.stack(rows)) if rows else np.zeros((0, self.n_samples))
 
 
 @dataclass(frozen=True)

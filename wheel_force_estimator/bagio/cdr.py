@@ -64,6 +64,12 @@ IMU = Layout(IMU_TYPE, 37 * 8, 25 * 8, ('linear_acceleration',))
 # WrenchStamped tail: force(3) + torque(3) float64.
 WRENCH = Layout(WRENCH_TYPE, 6 * 8, 0, ('wrench', 'force'))
 LAYOUTS = {IMU_TYPE: IMU, WRENCH_TYPE: WRENCH}
+# The other vectors of the same messages (six components, issue 33): the Imu's
+# angular_velocity (after orientation(4) + cov(9)), the first three elements of its
+# covariance (element 0 = -1: not provided, REP-145), and the wrench torque.
+IMU_RATE = Layout(IMU_TYPE, 37 * 8, 13 * 8, ('angular_velocity',))
+IMU_RATE_COVARIANCE = Layout(IMU_TYPE, 37 * 8, 16 * 8, ('angular_velocity_covariance',))
+WRENCH_TORQUE = Layout(WRENCH_TYPE, 6 * 8, 3 * 8, ('wrench', 'torque'))
 
 
 def body_offset(strlen: int) -> int:
@@ -82,6 +88,8 @@ def payload_length(layout: Layout, strlen: int) -> int:
 
 _IMU_BODY_BYTES = IMU.tail_bytes
 _IMU_ACCEL_FROM_END = IMU.tail_bytes - IMU.value_offset
+_IMU_RATE_FROM_END = IMU_RATE.tail_bytes - IMU_RATE.value_offset
+_IMU_RATE_COV_FROM_END = IMU_RATE_COVARIANCE.tail_bytes - IMU_RATE_COVARIANCE.value_offset
 _WRENCH_BODY_BYTES = WRENCH.tail_bytes
 _ENCAPSULATION = 4
 _HEADER_FIXED = 12          # sec, nanosec, string length
@@ -111,7 +119,14 @@ class DecodedImu:
     wrong_frame : numpy.ndarray, shape (n,), bool
         ``header.frame_id`` differs from the expected one (never set when none is expected).
     nonfinite : numpy.ndarray, shape (n,), bool
-        A well-formed message whose acceleration holds NaN or infinity.
+        A well-formed message whose acceleration (or, when decoded, angular velocity) holds
+        NaN or infinity.
+    rate_radps : numpy.ndarray, shape (3, n), float64, or None
+        ``angular_velocity`` x, y, z [rad/s] when asked for (``decode_imu(rates=True)``).
+    no_angular_rate : numpy.ndarray, shape (n,), bool, or None
+        A well-formed message whose angular velocity is flagged "not provided"
+        (``angular_velocity_covariance[0] == -1``, REP-145); None when rates were not asked
+        for.
 
     """
 
@@ -120,11 +135,28 @@ class DecodedImu:
     malformed: np.ndarray
     wrong_frame: np.ndarray
     nonfinite: np.ndarray
+    rate_radps: Optional[np.ndarray] = None
+    no_angular_rate: Optional[np.ndarray] = None
 
     @property
     def valid(self) -> np.ndarray:
         """Messages that are usable samples."""
-        return ~(self.malformed | self.wrong_frame | self.nonfinite)
+        bad = self.malformed | self.wrong_frame | self.nonfinite
+        return ~(bad if self.no_angular_rate is None else bad | self.no_angular_rate)
+
+    def values(self) -> np.ndarray:
+        """Return the acceleration, then the angular rates if decoded: (3 or 6, n)."""
+        if self.rate_radps is None:
+            return self.accel_mps2
+        return np.concatenate([self.accel_mps2, self.rate_radps])
+
+    def sliced(self, lo: int, hi: int) -> 'DecodedImu':
+        """Return messages ``lo:hi``."""
+        return DecodedImu(
+            self.stamp_ns[lo:hi], self.accel_mps2[:, lo:hi], self.malformed[lo:hi],
+            self.wrong_frame[lo:hi], self.nonfinite[lo:hi],
+            None if self.rate_radps is None else self.rate_radps[:, lo:hi],
+            None if self.no_angular_rate is None else self.no_angular_rate[lo:hi])
 
 
 @functools.lru_cache(maxsize=64)
@@ -208,7 +240,8 @@ def _decode_batch(raws: Sequence[bytes], body_bytes: int, value_from_end: int, n
     return stamps, values, bad, wrong
 
 
-def decode_imu(raws: Sequence[bytes], expected_frame_id: Optional[str] = None) -> DecodedImu:
+def decode_imu(raws: Sequence[bytes], expected_frame_id: Optional[str] = None,
+               rates: bool = False) -> DecodedImu:
     """
     Decode a batch of serialized ``sensor_msgs/Imu`` messages.
 
@@ -218,6 +251,9 @@ def decode_imu(raws: Sequence[bytes], expected_frame_id: Optional[str] = None) -
         Serialized messages (``raw=True`` subscription callbacks), any count.
     expected_frame_id : str, optional
         Accepted ``header.frame_id``; ``None`` or ``''`` accepts any.
+    rates : bool
+        Also decode ``angular_velocity`` and flag the messages whose covariance says it is
+        not provided (six-component models, issue 33).
 
     Returns
     -------
@@ -228,7 +264,14 @@ def decode_imu(raws: Sequence[bytes], expected_frame_id: Optional[str] = None) -
                                               expected_frame_id)
     accel = np.ascontiguousarray(accel.T)
     nonfinite = ~bad & ~np.isfinite(accel).all(axis=0)
-    return DecodedImu(stamps, accel, bad, wrong & ~bad, nonfinite & ~wrong)
+    if not rates:
+        return DecodedImu(stamps, accel, bad, wrong & ~bad, nonfinite & ~wrong)
+    _, rate, _, _ = _decode_batch(raws, _IMU_BODY_BYTES, _IMU_RATE_FROM_END, 3, None)
+    _, cov, _, _ = _decode_batch(raws, _IMU_BODY_BYTES, _IMU_RATE_COV_FROM_END, 1, None)
+    rate = np.ascontiguousarray(rate.T)
+    no_rate = ~bad & ~wrong & (cov[:, 0] == -1.0)
+    nonfinite |= ~bad & ~no_rate & ~np.isfinite(rate).all(axis=0)
+    return DecodedImu(stamps, accel, bad, wrong & ~bad, nonfinite & ~wrong, rate, no_rate)
 
 
 def decode_wrench(raws: Sequence[bytes]) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -315,12 +358,13 @@ def encode_wrench(stamp_ns, force_n, frame_id: str, torque_nm=None) -> List[byte
     return _encode(stamp_ns, np.concatenate([force, torque]).T, frame_id)
 
 
-def encode_imu(stamp_ns, accel_mps2, frame_id: str) -> List[bytes]:
+def encode_imu(stamp_ns, accel_mps2, frame_id: str, rate_radps=None) -> List[bytes]:
     """
-    Serialize ``sensor_msgs/Imu`` messages carrying only a linear acceleration.
+    Serialize ``sensor_msgs/Imu`` messages carrying a linear acceleration (and rates).
 
-    Orientation and angular velocity are marked as not provided (covariance element 0 = -1,
-    REP-145); the acceleration covariance is 0 (unknown).
+    Orientation is marked as not provided (covariance element 0 = -1, REP-145), and so is the
+    angular velocity unless ``rate_radps`` is given (then its covariance is 0: unknown); the
+    acceleration covariance is 0 (unknown).
 
     Parameters
     ----------
@@ -330,6 +374,8 @@ def encode_imu(stamp_ns, accel_mps2, frame_id: str) -> List[bytes]:
         Linear acceleration x, y, z [m/s²].
     frame_id : str
         ``header.frame_id`` of every message.
+    rate_radps : array_like, shape (3, n), optional
+        Angular velocity x, y, z [rad/s].
 
     Returns
     -------
@@ -347,6 +393,13 @@ def encode_imu(stamp_ns, accel_mps2, frame_id: str) -> List[bytes]:
         raise ShapeError(f'encode_imu: acceleration {accel.shape}, expected (3, n)')
     body = np.zeros((accel.shape[1], 37))
     body[:, 4] = -1.0       # orientation_covariance[0]: no orientation estimate
-    body[:, 16] = -1.0      # angular_velocity_covariance[0]: no angular velocity
+    if rate_radps is None:
+        body[:, 16] = -1.0  # angular_velocity_covariance[0]: no angular velocity
+    else:
+        rate = np.asarray(rate_radps, dtype=np.float64)
+        if rate.shape != accel.shape:
+            raise ShapeError(f'encode_imu: angular velocity {rate.shape}, expected '
+                             f'{accel.shape}')
+        body[:, 13:16] = rate.T
     body[:, 25:28] = accel.T
     return _encode(stamp_ns, body, frame_id)

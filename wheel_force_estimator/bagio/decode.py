@@ -31,6 +31,7 @@ from rosbags.typesys import Stores
 from rosbags.typesys import TypesysError
 
 from wheel_force_estimator.bagio import travel as travel_io
+from wheel_force_estimator.bagio.cdr import Layout
 from wheel_force_estimator.bagio.fastcdr import extract
 from wheel_force_estimator.bagio.fastcdr import LAYOUTS
 from wheel_force_estimator.bagio.fastcdr import STRING_TYPE
@@ -115,19 +116,27 @@ class _StackedValues:
 
 
 def read_topics(path: Path, required: Dict[str, str], optional: Dict[str, str],
-                bulk: bool = True, stacked: Sequence[Sequence[str]] = ()) -> Decoded:
+                bulk: bool = True, stacked: Sequence[Sequence[str]] = (),
+                fields: Optional[Dict[str, object]] = None) -> Decoded:
     """
     Decode the given topics (name -> expected type) of any supported bag.
 
     ``stacked`` lists groups of required topics (e.g. the four Imu corners) whose values the
-    bulk path decodes into one shared corner-stacked array.
+    bulk path decodes into one shared corner-stacked array.  ``fields`` chooses, per topic,
+    another vector than the default one (a :class:`.cdr.Layout` of the same type, e.g. the
+    Imu's angular velocity) or, for a JointState, a :class:`.travel.JointField`.
     """
+    fields = dict(fields or {})
+
+    def layout_of(topic, msgtype):
+        chosen = fields.get(topic)
+        return chosen if isinstance(chosen, Layout) else LAYOUTS.get(msgtype)
     if bulk and path.suffix != '.bag':
         store = jazzy_typestore()
         groups = [_StackedValues(t for t in group if t in required) for group in stacked]
 
         def make_sink(topic, msgtype):
-            layout = LAYOUTS.get(msgtype)
+            layout = layout_of(topic, msgtype)
             if layout is None:
                 return None  # keep raw payloads (event strings)
 
@@ -147,7 +156,7 @@ def read_topics(path: Path, required: Dict[str, str], optional: Dict[str, str],
             pass
         else:
             return _decode_raw(path, raw, _check_wanted(path, present, required, optional),
-                               present)
+                               present, fields=fields)
     if path.suffix != '.bag':
         try:  # every message through rosbags' deserialiser; mcap read record by record
             present, raw = read_raw_topics(path, list(required) + list(optional), scan=True)
@@ -155,7 +164,7 @@ def read_topics(path: Path, required: Dict[str, str], optional: Dict[str, str],
             pass  # not a rosbag2 recording this package reads: rosbags' AnyReader
         else:
             return _decode_raw(path, raw, _check_wanted(path, present, required, optional),
-                               present, bulk=False)
+                               present, bulk=False, fields=fields)
     try:
         reader = AnyReader([path], default_typestore=jazzy_typestore())
         reader.open()
@@ -164,17 +173,19 @@ def read_topics(path: Path, required: Dict[str, str], optional: Dict[str, str],
     try:
         present = {name: info.msgtype for name, info in reader.topics.items()}
         wanted = _check_wanted(path, present, required, optional)
-        out = _decode_generic(path, reader, wanted)
+        out = _decode_generic(path, reader, wanted, fields)
         out.skipped = _skipped(present, wanted)
         return out
     finally:
         reader.close()
 
 
-def _decode_raw(path, raw, wanted, present, bulk: bool = True) -> Decoded:
+def _decode_raw(path, raw, wanted, present, bulk: bool = True, fields=None) -> Decoded:
     out = Decoded(skipped=_skipped(present, wanted))
     store = jazzy_typestore()
+    fields = fields or {}
     for name, msgtype in wanted.items():
+        which = fields.get(name)
         topic = raw.get(name)
         out.n_messages += topic.n if topic is not None else 0
         if msgtype == STRING_TYPE:
@@ -192,19 +203,22 @@ def _decode_raw(path, raw, wanted, present, bulk: bool = True) -> Decoded:
         elif msgtype == travel_io.TRAVEL_TYPE:
             def deserialize(data, name=name, msgtype=msgtype):
                 return _deserialize(path, name, store, data, msgtype)
+            joint = which if isinstance(which, travel_io.JointField) else travel_io.JointField()
             if bulk:
                 out.stamp_ns[name], out.values[name] = travel_io.decode_rows(
                     path, name, topic.groups, topic.n, deserialize,
-                    lambda msg: store.serialize_cdr(msg, travel_io.TRAVEL_TYPE))
+                    lambda msg: store.serialize_cdr(msg, travel_io.TRAVEL_TYPE), joint)
             else:
                 msgs = [None] * topic.n
                 for pos, rows in topic.groups:
                     for p, row in zip(pos.tolist(), rows):
                         msgs[p] = deserialize(row.tobytes())
-                out.stamp_ns[name], out.values[name] = travel_io.decode_messages(path, name, msgs)
+                out.stamp_ns[name], out.values[name] = travel_io.decode_messages(path, name, msgs,
+                                                                                 joint)
         elif isinstance(topic, RawTopic):  # fallback path: message by message
+            layout = which if isinstance(which, Layout) else LAYOUTS[msgtype]
             out.stamp_ns[name], out.values[name] = _deserialize_all(path, name, store, topic,
-                                                                    msgtype)
+                                                                    msgtype, layout)
         else:
             out.stamp_ns[name] = topic.stamp_ns
             out.values[name] = topic.values
@@ -212,10 +226,9 @@ def _decode_raw(path, raw, wanted, present, bulk: bool = True) -> Decoded:
     return out
 
 
-def _deserialize_all(path, name, store, topic: RawTopic, msgtype: str):
+def _deserialize_all(path, name, store, topic: RawTopic, msgtype: str, layout: Layout):
     stamp = np.empty(topic.n, np.int64)
     values = np.empty((topic.n, 3))
-    layout = LAYOUTS[msgtype]
     for pos, rows in topic.groups:
         for p, row in zip(pos.tolist(), rows):
             stamp[p], values[p] = extract(layout, _deserialize(path, name, store, row.tobytes(),
@@ -230,7 +243,7 @@ def _deserialize(path, topic, store, data: bytes, msgtype: str):
         raise BagError(f'{path}: {topic}: undecodable {msgtype} message: {err}') from err
 
 
-def _decode_generic(path, reader, wanted) -> Decoded:
+def _decode_generic(path, reader, wanted, fields) -> Decoded:
     out = Decoded()
     conns = [c for c in reader.connections if c.topic in wanted]
     stamps: Dict[str, list] = {name: [] for name in wanted}
@@ -245,7 +258,9 @@ def _decode_generic(path, reader, wanted) -> Decoded:
                 vals[conn.topic].append(msg)
                 stamps[conn.topic].append(0)
             else:
-                stamp, vec = extract(LAYOUTS[msgtype], msg)
+                chosen = fields.get(conn.topic)
+                stamp, vec = extract(chosen if isinstance(chosen, Layout) else LAYOUTS[msgtype],
+                                     msg)
                 stamps[conn.topic].append(stamp)
                 vals[conn.topic].append(vec)
     except _ROSBAGS_ERRORS as err:
@@ -261,8 +276,10 @@ def _decode_generic(path, reader, wanted) -> Decoded:
         if msgtype == STRING_TYPE:
             out.strings[name] = stamps[name]
         elif msgtype == travel_io.TRAVEL_TYPE:
-            out.stamp_ns[name], out.values[name] = travel_io.decode_messages(path, name,
-                                                                             vals[name])
+            joint = fields.get(name)
+            out.stamp_ns[name], out.values[name] = travel_io.decode_messages(
+                path, name, vals[name],
+                joint if isinstance(joint, travel_io.JointField) else travel_io.JointField())
         else:
             out.stamp_ns[name] = np.asarray(stamps[name], np.int64).reshape(-1)
             out.values[name] = np.asarray(vals[name], np.float64).reshape(-1, 3)

@@ -47,7 +47,11 @@ def extract(layout: Layout, msg) -> Tuple[int, Tuple[float, float, float]]:
     for name in layout.vector_path:
         vec = getattr(vec, name)
     stamp = msg.header.stamp
-    return int(stamp.sec) * _NS_PER_S + int(stamp.nanosec), (vec.x, vec.y, vec.z)
+    if isinstance(vec, np.ndarray):  # a covariance: its first three elements
+        values = tuple(float(v) for v in vec[:3])
+    else:
+        values = (vec.x, vec.y, vec.z)
+    return int(stamp.sec) * _NS_PER_S + int(stamp.nanosec), values
 
 
 def _same_bits(a, b) -> bool:

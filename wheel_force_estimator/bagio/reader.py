@@ -30,6 +30,9 @@ from wheel_force_estimator.bagio.align import Segment
 from wheel_force_estimator.bagio.align import stack_corners
 from wheel_force_estimator.bagio.align import stamp_text
 from wheel_force_estimator.bagio.align import TopicSeries
+from wheel_force_estimator.bagio.cdr import IMU_RATE
+from wheel_force_estimator.bagio.cdr import IMU_RATE_COVARIANCE
+from wheel_force_estimator.bagio.cdr import WRENCH_TORQUE
 from wheel_force_estimator.bagio.decode import Decoded
 from wheel_force_estimator.bagio.decode import jazzy_typestore
 from wheel_force_estimator.bagio.decode import read_topics
@@ -40,6 +43,7 @@ from wheel_force_estimator.bagio.order import order_by_stamp
 from wheel_force_estimator.bagio.topics import default_topic_config
 from wheel_force_estimator.core.errors import BagError
 from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.core.errors import NonFiniteError
 
 
 @dataclass(frozen=True, eq=False)  # holds arrays: compare fields, not objects
@@ -156,7 +160,7 @@ def _series(path, decoded: Decoded, topic: str, channels,
 
 def read_recording(path, topics=None, require_wft: bool = True,
                    expected_fs_hz: Optional[float] = None, *, bulk: bool = True,
-                   travel: bool = False) -> Recording:
+                   travel: bool = False, extras: Tuple[str, ...] = ()) -> Recording:
     """
     Read a recording and align its topics on ``header.stamp``.
 
@@ -178,6 +182,12 @@ def read_recording(path, topics=None, require_wft: bool = True,
         Also read the suspension travel topic (``topics.travel_topic``) when the bag carries
         it: ``Segment.travel_m`` is set, and samples without finite travel are dropped from
         every channel and counted.  False (fit, predict, evaluate) leaves it unread.
+    extras : tuple of str
+        Six-component groups to read as well (:data:`EXTRAS`): ``'moments'`` (the WFT
+        ``wrench.torque``, needs ``require_wft``), ``'rates'`` (``Imu.angular_velocity``;
+        refused, per topic, where its covariance says "not provided"), ``'spin'`` (velocity
+        of the ``{corner}_wheel`` joints on ``topics.travel_topic``).  Each must be on every
+        sample of the segments; nothing is filled in.
 
     Returns
     -------
@@ -224,6 +234,8 @@ def read_recording(path, topics=None, require_wft: bool = True,
         clock, travel_m = on_clock
         segments = tuple(replace(seg, travel_m=np.ascontiguousarray(
             travel_m[:, np.searchsorted(clock, seg.stamp_ns)])) for seg in segments)
+    if extras:
+        segments = _with_extras(path, topics, segments, tuple(extras), require_wft, bulk)
     events = tuple((int(s), str(name)) for s, name in
                    decoded.strings.get(topics.event_topic, ()))
     n_read = {t: int(decoded.stamp_ns[t].size) for t in required}
@@ -246,6 +258,129 @@ def read_recording(path, topics=None, require_wft: bool = True,
         travel_topic=topics.travel_topic if on_clock is not None else None,
         travel_dropped=dropped,
     )
+
+
+#: Six-component groups :func:`read_recording` can add (``extras``).
+EXTRAS = ('moments', 'rates', 'spin')
+
+
+def _on_segments(path, topic: str, stamp_ns, values, segments, what: str):
+    """Rows of ``values`` (n, k) at every segment stamp; refuse any that is missing."""
+    out = []
+    for seg in segments:
+        at = np.searchsorted(stamp_ns, seg.stamp_ns)
+        ok = at < stamp_ns.size
+        ok[ok] = stamp_ns[at[ok]] == seg.stamp_ns[ok]
+        if not ok.all():
+            i = int(np.argmin(ok))
+            raise BagError(f'{path}: {topic}: no {what} at {stamp_text(seg.stamp_ns[i])} '
+                           f'({int((~ok).sum())} sample(s) of {seg.source} without it); '
+                           'nothing is filled in')
+        rows = np.ascontiguousarray(values[at].T)
+        bad = ~np.isfinite(rows)
+        if bad.any():
+            j = int(np.argmax(bad.any(axis=0)))
+            raise NonFiniteError(f'{path}: {topic}: {what} not finite at '
+                                 f'{stamp_text(seg.stamp_ns[j])}')
+        out.append(rows)
+    return out
+
+
+def _with_extras(path, topics, segments, extras, require_wft: bool, bulk: bool):
+    """Return the segments with the six-component groups ``extras`` read and attached."""
+    unknown = [e for e in extras if e not in EXTRAS]
+    if unknown:
+        raise ConfigError(f'extras must be among {EXTRAS}, got {unknown}')
+    if 'moments' in extras and not require_wft:
+        raise ConfigError('extras: moments are read with the WFT topics (require_wft)')
+    parts = {}
+    if 'moments' in extras:
+        got = read_topics(path, dict.fromkeys(topics.wft_topics, WRENCH_TYPE), {}, bulk=bulk,
+                          fields=dict.fromkeys(topics.wft_topics, WRENCH_TORQUE))
+        parts['moment_nm'] = _corner_rows(path, got, topics.wft_topics, segments, 'torque')
+    if 'rates' in extras:
+        imu = dict.fromkeys(topics.imu_topics, IMU_TYPE)
+        cov = read_topics(path, imu, {}, bulk=bulk,
+                          fields=dict.fromkeys(topics.imu_topics, IMU_RATE_COVARIANCE))
+        missing = [f'{t} ({int((cov.values[t][:, 0] == -1.0).sum())} of '
+                   f'{cov.values[t].shape[0]} messages)' for t in topics.imu_topics
+                   if (cov.values[t][:, 0] == -1.0).any()]
+        if missing:
+            raise BagError(f'{path}: angular velocity not provided (REP-145 covariance[0] = -1)'
+                           f' on {", ".join(missing)}: the model needs the spindle angular '
+                           'rates; nothing is filled in')
+        got = read_topics(path, imu, {}, bulk=bulk,
+                          fields=dict.fromkeys(topics.imu_topics, IMU_RATE))
+        parts['rate_radps'] = _corner_rows(path, got, topics.imu_topics, segments,
+                                           'angular velocity')
+    if 'spin' in extras:
+        topic = topics.travel_topic
+        got = read_topics(path, {topic: travel_io.TRAVEL_TYPE}, {}, bulk=bulk,
+                          fields={topic: travel_io.SPIN_FIELD})
+        stamp, values, _ = order_by_stamp(path, topic, got.stamp_ns[topic], got.values[topic])
+        parts['spin_radps'] = _on_segments(path, topic, stamp, values, segments,
+                                           'wheel spin (velocity of '
+                                           f'{", ".join(travel_io.WHEEL_JOINT_NAMES)})')
+    return tuple(replace(seg, **{k: v[i] for k, v in parts.items()})
+                 for i, seg in enumerate(segments))
+
+
+def available_extras(path, topics=None, *, bulk: bool = True) -> Tuple[str, ...]:
+    """
+    Return the six-component groups a recording carries (what ``fit`` fits by default).
+
+    * ``'moments'``: the WFT messages' ``wrench.torque`` is not zero throughout
+      (WrenchStamped has no "not provided" flag: a logger that leaves the moments out
+      writes zeros);
+    * ``'rates'``: every Imu message's angular-velocity covariance is provided
+      (``covariance[0] != -1``, REP-145) and the rates are not zero throughout on any Imu
+      topic (a default-constructed field: a driver or tool that fills only the linear
+      acceleration leaves zeros with a zero covariance);
+    * ``'spin'``: the travel topic exists and carries the ``{corner}_wheel`` joints with
+      velocities.
+
+    Raises
+    ------
+    BagError
+        Bad path or corrupt bag.
+
+    """
+    topics = default_topic_config(topics)
+    path = _check_path(path)
+    found = []
+    try:
+        got = read_topics(path, dict.fromkeys(topics.wft_topics, WRENCH_TYPE), {}, bulk=bulk,
+                          fields=dict.fromkeys(topics.wft_topics, WRENCH_TORQUE))
+        if any(np.any(got.values[t] != 0.0) for t in topics.wft_topics):
+            found.append('moments')
+    except BagError:
+        pass  # no WFT topics: no moments either
+    cov = read_topics(path, dict.fromkeys(topics.imu_topics, IMU_TYPE), {}, bulk=bulk,
+                      fields=dict.fromkeys(topics.imu_topics, IMU_RATE_COVARIANCE))
+    if all(cov.values[t].size and np.all(cov.values[t][:, 0] != -1.0)
+           for t in topics.imu_topics):
+        rates = read_topics(path, dict.fromkeys(topics.imu_topics, IMU_TYPE), {}, bulk=bulk,
+                            fields=dict.fromkeys(topics.imu_topics, IMU_RATE))
+        if all(np.any(rates.values[t] != 0.0) for t in topics.imu_topics):
+            found.append('rates')
+    try:
+        read_topics(path, {topics.travel_topic: travel_io.TRAVEL_TYPE}, {}, bulk=bulk,
+                    fields={topics.travel_topic: travel_io.SPIN_FIELD})
+        found.append('spin')
+    except BagError:
+        pass  # no travel topic, or one without the wheel joints
+    return tuple(found)
+
+
+def _corner_rows(path, decoded: Decoded, names, segments, what: str):
+    """Four corners' (n, 3) values of ``decoded`` on the segments: [(12, n) per segment]."""
+    per_topic = []
+    for topic in names:
+        stamp, values, _ = order_by_stamp(path, topic, decoded.stamp_ns[topic],
+                                          decoded.values[topic])
+        per_topic.append(_on_segments(path, topic, stamp, values, segments, what))
+    return [np.ascontiguousarray(np.concatenate([p[i] for p in per_topic]))
+            for i in range(len(segments))]
 
 
 def _with_travel(path, topic: str, decoded: Decoded, imu, wft, reordered):
@@ -371,5 +506,5 @@ def read_string_topic(path, topic: str, *, bulk: bool = True) -> Tuple[Tuple[int
     return tuple((int(s), str(t)) for s, t in decoded.strings[topic])
 
 
-__all__ = ['Recording', 'jazzy_typestore', 'read_imu_topic', 'read_recording',
-           'read_string_topic', 'read_wrench_topics']
+__all__ = ['EXTRAS', 'Recording', 'available_extras', 'jazzy_typestore', 'read_imu_topic',
+           'read_recording', 'read_string_topic', 'read_wrench_topics']

@@ -36,6 +36,7 @@ _SECTION_NAMES = (WILDCARD_SECTION, NODE_SECTION, '/' + NODE_SECTION)
 # importable): an unknown key is reported as a typo.
 NODE_ONLY_KEYS = frozenset({
     'model_path', 'imu_frame_ids', 'block_size', 'live_look_ahead_s', 'sn_slope',
+    'sn_slope_moment',
     'damage_publish_period_s', 'damage_budget', 'stale_timeout_samples', 'input_qos_depth',
     'input_reliability', 'output_qos_depth', 'flush_timeout_s', 'sample_rate_hz',
     'unknown_torque', 'use_sim_time', 'sync_tolerance_s', 'autostart', 'damage_per_event',

@@ -24,35 +24,51 @@ TRAVEL_TYPE = 'sensor_msgs/msg/JointState'
 JOINT_NAMES = tuple(f'{c}_suspension' for c in CORNERS)
 #: Channel names of the travel signals (rows of ``Segment.travel_m``).
 TRAVEL_CHANNELS = tuple(f'{c}_travel' for c in CORNERS)
+#: Joints whose ``velocity`` is the wheel spin rate [rad/s] (six components, issue 33).
+WHEEL_JOINT_NAMES = tuple(f'{c}_wheel' for c in CORNERS)
+
+
+@dataclasses.dataclass(frozen=True)
+class JointField:
+    """Which JointState joints and field to read: travel (default) or wheel spin."""
+
+    joints: Tuple[str, ...] = JOINT_NAMES
+    field: str = 'position'
+
+
+SPIN_FIELD = JointField(WHEEL_JOINT_NAMES, 'velocity')
 _NS_PER_S = 1_000_000_000
 
 
-def _positions(path, topic: str, msg) -> np.ndarray:
-    """Return the four compressions of one message in corner order (names checked)."""
+def _positions(path, topic: str, msg, which: JointField = JointField()) -> np.ndarray:
+    """Return the four values of one message in corner order (names checked)."""
     names = tuple(msg.name)
-    position = np.asarray(msg.position, np.float64).reshape(-1)
-    if sorted(names) != sorted(JOINT_NAMES) or len(set(names)) != len(names):
+    position = np.asarray(getattr(msg, which.field), np.float64).reshape(-1)
+    if not set(which.joints) <= set(names) or len(set(names)) != len(names):
         raise BagError(f'{path}: {topic}: joint names {list(names)} do not match the corners; '
-                       f'expected {list(JOINT_NAMES)} (any order)')
+                       f'expected {list(which.joints)} (any order, other joints allowed)')
     if position.size != len(names):
-        raise BagError(f'{path}: {topic}: {position.size} positions for joints {list(names)}')
-    return position[[names.index(n) for n in JOINT_NAMES]]
+        raise BagError(f'{path}: {topic}: {position.size} {which.field} values for joints '
+                       f'{list(names)}')
+    return position[[names.index(n) for n in which.joints]]
 
 
 def _stamp(msg) -> int:
     return int(msg.header.stamp.sec) * _NS_PER_S + int(msg.header.stamp.nanosec)
 
 
-def decode_messages(path, topic: str, msgs) -> Tuple[np.ndarray, np.ndarray]:
-    """Return ``(stamp_ns (n,), travel_m (n, 4))`` of deserialised JointState messages."""
+def decode_messages(path, topic: str, msgs,
+                    which: JointField = JointField()) -> Tuple[np.ndarray, np.ndarray]:
+    """Return ``(stamp_ns (n,), values (n, 4))`` of deserialised JointState messages."""
     msgs = list(msgs)
     stamp = np.fromiter((_stamp(m) for m in msgs), np.int64, len(msgs))
-    travel = np.array([_positions(path, topic, m) for m in msgs], np.float64).reshape(-1, 4)
+    travel = np.array([_positions(path, topic, m, which) for m in msgs],
+                      np.float64).reshape(-1, 4)
     return stamp, travel
 
 
 def decode_rows(path, topic: str, groups, n: int, deserialize,
-                serialize) -> Tuple[np.ndarray, np.ndarray]:
+                serialize, which: JointField = JointField()) -> Tuple[np.ndarray, np.ndarray]:
     """
     Decode a raw topic's payload groups (``storage.RawTopic.groups``) in bulk.
 
@@ -63,23 +79,29 @@ def decode_rows(path, topic: str, groups, n: int, deserialize,
     travel = np.empty((n, 4))
     for pos, rows in groups:
         first = deserialize(rows[0].tobytes())
-        values = _positions(path, topic, first)
-        at = _position_offset(first, serialize, rows[0])
+        values = _positions(path, topic, first, which)
+        at = _position_offset(first, serialize, rows[0], which.field)
+        width = len(getattr(first, which.field))
         same = None
         if at is not None and rows[0][:2].tobytes() == b'\x00\x01':  # little-endian CDR
             mask = np.ones(rows.shape[1], bool)
             mask[4:12] = False
-            mask[at:at + 8 * len(JOINT_NAMES)] = False
+            # every float array of the message may vary (travel and spin share messages)
+            for name in ('position', 'velocity', 'effort'):
+                other = (at if name == which.field
+                         else _position_offset(first, serialize, rows[0], name))
+                if other is not None:
+                    mask[other:other + 8 * len(getattr(first, name))] = False
             same = (rows[:, mask] == rows[0, mask]).all()
         if not same:
-            part = decode_messages(path, topic, (deserialize(r.tobytes()) for r in rows))
+            part = decode_messages(path, topic, (deserialize(r.tobytes()) for r in rows), which)
             stamp[pos], travel[pos] = part
             continue
         sec = rows[:, 4:8].copy().view('<i4')[:, 0].astype(np.int64)
         nsec = rows[:, 8:12].copy().view('<u4')[:, 0].astype(np.int64)
         stamp[pos] = sec * _NS_PER_S + nsec
-        raw = rows[:, at:at + 8 * len(JOINT_NAMES)].copy().view('<f8')
-        order = [list(first.name).index(name) for name in JOINT_NAMES]
+        raw = rows[:, at:at + 8 * width].copy().view('<f8')
+        order = [list(first.name).index(name) for name in which.joints]
         travel[pos] = raw[:, order]
         if not np.array_equal(travel[pos[0]], values, equal_nan=True):
             raise BagError(f'{path}: {topic}: bulk JointState decoding disagrees with the '
@@ -90,11 +112,13 @@ def decode_rows(path, topic: str, groups, n: int, deserialize,
 _PROBE = np.array([1.0000000000000002, -3.0e-300, 7.5e200, -12345.678901234567])
 
 
-def _position_offset(msg, serialize, row: np.ndarray):
-    """Byte offset of ``position[0]`` in ``row``, found with a distinctive probe, or None."""
-    if len(msg.position) != _PROBE.size:
+def _position_offset(msg, serialize, row: np.ndarray, field: str = 'position'):
+    """Byte offset of ``field[0]`` in ``row``, found with a distinctive probe, or None."""
+    width = len(getattr(msg, field))
+    if width < _PROBE.size:
         return None
-    probe = np.frombuffer(bytes(serialize(dataclasses.replace(msg, position=_PROBE.copy()))),
+    marker = np.concatenate([_PROBE, np.arange(1, width - _PROBE.size + 1) * -7.25e-101])
+    probe = np.frombuffer(bytes(serialize(dataclasses.replace(msg, **{field: marker}))),
                           np.uint8)
     if probe.size != row.size:
         return None
@@ -164,5 +188,6 @@ def usable(travel_m: np.ndarray) -> np.ndarray:
     return np.isfinite(travel_m).all(axis=0)
 
 
-__all__: List[str] = ['JOINT_NAMES', 'TRAVEL_CHANNELS', 'TRAVEL_TYPE', 'decode_messages',
-                      'decode_rows', 'on_clock', 'usable']
+__all__: List[str] = ['JOINT_NAMES', 'JointField', 'SPIN_FIELD', 'TRAVEL_CHANNELS',
+                      'TRAVEL_TYPE', 'WHEEL_JOINT_NAMES', 'decode_messages', 'decode_rows',
+                      'on_clock', 'usable']

@@ -25,11 +25,16 @@ import numpy as np
 
 from wheel_force_estimator import CORNERS
 from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator import RATE_CHANNELS
+from wheel_force_estimator import SPIN_CHANNELS
 from wheel_force_estimator.bagio.blocks import BlockWindow
 from wheel_force_estimator.bagio.blocks import RowSource
 from wheel_force_estimator.bagio.blocks import SignalBlocks
+from wheel_force_estimator.bagio.cdr import IMU_RATE
 from wheel_force_estimator.bagio.cdr import payload_length
+from wheel_force_estimator.bagio.cdr import WRENCH_TORQUE
 from wheel_force_estimator.bagio.fastcdr import body_offset
 from wheel_force_estimator.bagio.fastcdr import IMU
 from wheel_force_estimator.bagio.fastcdr import Layout
@@ -42,6 +47,7 @@ from wheel_force_estimator.bagio.topics import default_topic_config
 from wheel_force_estimator.bagio.travel import JOINT_NAMES
 from wheel_force_estimator.bagio.travel import TRAVEL_CHANNELS
 from wheel_force_estimator.bagio.travel import TRAVEL_TYPE
+from wheel_force_estimator.bagio.travel import WHEEL_JOINT_NAMES
 from wheel_force_estimator.core.errors import BagError
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.validation import as_signals
@@ -179,7 +185,14 @@ def _frame_ids(given, default_suffix: str, name: str):
     return given
 
 
-def _make_imu(store, frame_id: str):
+def _make_imu(store, frame_id: str, rate_variance: Optional[float] = None):
+    """
+    Return ``make(stamp_ns, accel[, rate])`` building Imu messages.
+
+    Without ``rate_variance`` the angular velocity is flagged as not measured (REP-145:
+    ``covariance[0] = -1``); with it the rates are written and the covariance is
+    ``diag(rate_variance)`` [(rad/s)^2].
+    """
     types = store.types
     time_t = types['builtin_interfaces/msg/Time']
     header_t = types['std_msgs/msg/Header']
@@ -189,14 +202,18 @@ def _make_imu(store, frame_id: str):
     no_estimate[0] = -1.0  # REP-145: covariance[0] = -1 means "this field is not measured"
     unknown = np.zeros(9)
     zero = vec3(x=0.0, y=0.0, z=0.0)
+    rate_cov = no_estimate if rate_variance is None else np.diag([float(rate_variance)] * 3
+                                                                 ).reshape(-1)
 
-    def make(stamp_ns, xyz):
+    def make(stamp_ns, xyz, rate=None):
         return types['sensor_msgs/msg/Imu'](
             header=header_t(stamp=time_t(sec=int(stamp_ns // _NS_PER_S),
                                          nanosec=int(stamp_ns % _NS_PER_S)),
                             frame_id=frame_id),
             orientation=quat, orientation_covariance=no_estimate,
-            angular_velocity=zero, angular_velocity_covariance=no_estimate,
+            angular_velocity=zero if rate is None else vec3(
+                x=float(rate[0]), y=float(rate[1]), z=float(rate[2])),
+            angular_velocity_covariance=rate_cov,
             linear_acceleration=vec3(x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2])),
             linear_acceleration_covariance=unknown)
     return make
@@ -209,42 +226,73 @@ def _make_wrench(store, frame_id: str):
     vec3 = types['geometry_msgs/msg/Vector3']
     zero = vec3(x=0.0, y=0.0, z=0.0)
 
-    def make(stamp_ns, xyz):
+    def make(stamp_ns, xyz, torque=None):
         return types['geometry_msgs/msg/WrenchStamped'](
             header=header_t(stamp=time_t(sec=int(stamp_ns // _NS_PER_S),
                                          nanosec=int(stamp_ns % _NS_PER_S)),
                             frame_id=frame_id),
             wrench=types['geometry_msgs/msg/Wrench'](
-                force=vec3(x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2])), torque=zero))
+                force=vec3(x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2])),
+                torque=zero if torque is None else vec3(
+                    x=float(torque[0]), y=float(torque[1]), z=float(torque[2]))))
     return make
 
 
-def _travel_topic(stamp_fields, travel: np.ndarray) -> DenseTopic:
-    """Describe JointState ``{corner}_suspension`` positions as a dense topic (rosbags-checked)."""
+def _travel_topic(stamp_fields, travel: Optional[np.ndarray],
+                  spin: Optional[np.ndarray] = None) -> DenseTopic:
+    """
+    Describe the ``suspension/joint_states`` JointState as a dense topic (rosbags-checked).
+
+    ``travel`` (n, 4): ``{corner}_suspension`` positions; ``spin`` (n, 4): ``{corner}_wheel``
+    velocities [rad/s] (their positions, the wheel angles, are not logged: NaN).  With both,
+    the suspension velocities are NaN (not measured) as JointState needs one per name.
+    """
     store = jazzy_typestore()
     types = store.types
     time_t = types['builtin_interfaces/msg/Time']
     header_t = types['std_msgs/msg/Header']
+    names = (list(JOINT_NAMES) if travel is not None else []) + (
+        list(WHEEL_JOINT_NAMES) if spin is not None else [])
+    n_travel = 4 if travel is not None else 0
 
-    def serialize(stamp_ns, values):
+    def serialize(stamp_ns, position, velocity):
         msg = types[TRAVEL_TYPE](
             header=header_t(stamp=time_t(sec=int(stamp_ns // _NS_PER_S),
                                          nanosec=int(stamp_ns % _NS_PER_S)), frame_id=''),
-            name=list(JOINT_NAMES), position=np.asarray(values, np.float64),
-            velocity=np.zeros(0), effort=np.zeros(0))
+            name=list(names), position=np.asarray(position, np.float64),
+            velocity=np.asarray(velocity, np.float64), effort=np.zeros(0))
         return np.frombuffer(bytes(store.serialize_cdr(msg, TRAVEL_TYPE)), np.uint8)
 
+    def rows(i, pos_marker=None, vel_marker=None):
+        pos = np.full(len(names), np.nan)
+        vel = np.full(len(names) if spin is not None else 0, np.nan)
+        if travel is not None:
+            pos[:4] = travel[i] if pos_marker is None else pos_marker
+        if spin is not None:
+            vel[n_travel:] = spin[i] if vel_marker is None else vel_marker
+        return pos, vel
+
     marker = np.array([1.0000000000000002, -3.0e-300, 7.5e200, -12345.678901234567])
-    probe = serialize(0, marker)
     pattern = np.frombuffer(marker.tobytes(), np.uint8)
-    at = next(i for i in range(4, probe.size, 4)
-              if np.array_equal(probe[i:i + pattern.size], pattern))
+
+    def offset_of(probe):
+        return next(i for i in range(4, probe.size, 4)
+                    if np.array_equal(probe[i:i + pattern.size], pattern))
     sec, nanosec = stamp_fields
-    topic = DenseTopic(serialize(0, np.zeros(4)), (
-        (4, np.dtype('<i4'), sec), (8, np.dtype('<u4'), nanosec), (at, np.dtype('<f8'), travel)))
-    for i in sorted({0, len(travel) - 1}) if len(travel) else ():
+    fields = [(4, np.dtype('<i4'), sec), (8, np.dtype('<u4'), nanosec)]
+    zeros = np.zeros(4)
+    if travel is not None:
+        fields.append((offset_of(serialize(0, *rows(0, marker, zeros))), np.dtype('<f8'),
+                       travel))
+    if spin is not None:
+        pos, vel = rows(0, zeros, marker)
+        fields.append((offset_of(serialize(0, pos, vel)), np.dtype('<f8'), spin))
+    template = serialize(0, *rows(0, zeros, zeros))
+    topic = DenseTopic(template, tuple(fields))
+    n = len(travel) if travel is not None else len(spin)
+    for i in sorted({0, n - 1}) if n else ():
         stamp_ns = int(sec[i]) * _NS_PER_S + int(nanosec[i])
-        if not np.array_equal(serialize(stamp_ns, travel[i]), topic.payloads(i, i + 1)[0]):
+        if not np.array_equal(serialize(stamp_ns, *rows(i)), topic.payloads(i, i + 1)[0]):
             raise BagError(f'{TRAVEL_TYPE}: bulk CDR encoding differs from rosbags at sample {i}')
     return topic
 
@@ -262,26 +310,31 @@ def _connection(topic: str, msgtype: str) -> Connection:
     return Connection(topic, msgtype, msgdef, rihs01)
 
 
-def _dense_topic(layout: Layout, make_msg, stamp_fields, values) -> DenseTopic:
+def _dense_topic(layout: Layout, make_msg, stamp_fields, values, extra=()) -> DenseTopic:
     """
     Describe one Imu / WrenchStamped topic as template + fields, checked against rosbags.
 
     ``values`` is (n, 3) float64 or a streamed :class:`.blocks.RowSource`; ``stamp_fields``
-    the shared (sec int32, nanosec uint32).
+    the shared (sec int32, nanosec uint32); ``extra`` more ``(offset in the float64 tail
+    [bytes], (n, 3) values)`` vectors that ``make_msg`` takes after ``values`` (the torque
+    of a wrench, the angular velocity of an Imu).
     """
     store = jazzy_typestore()
 
-    def serialize(stamp_ns, xyz):
-        return bytes(store.serialize_cdr(make_msg(stamp_ns, xyz), layout.msgtype))
+    def serialize(stamp_ns, xyz, *more):
+        return bytes(store.serialize_cdr(make_msg(stamp_ns, xyz, *more), layout.msgtype))
 
-    template = np.frombuffer(serialize(0, (0.0, 0.0, 0.0)), np.uint8)
+    zero = (0.0, 0.0, 0.0)
+    template = np.frombuffer(serialize(0, zero, *[zero for _ in extra]), np.uint8)
     strlen = int(template[12:16].view('<u4')[0])  # frame_id length, NUL included
     if template.size != payload_length(layout, strlen):
         raise BagError(f'{layout.msgtype}: unexpected serialised length {template.size}')
     sec, nanosec = stamp_fields
+    body = body_offset(strlen)
     topic = DenseTopic(template, (
         (4, np.dtype('<i4'), sec), (8, np.dtype('<u4'), nanosec),
-        (body_offset(strlen) + layout.value_offset, np.dtype('<f8'), values)))
+        (body + layout.value_offset, np.dtype('<f8'), values)) + tuple(
+            (body + at, np.dtype('<f8'), vals) for at, vals in extra))
     # First and last sample against rosbags' serialiser (a streamed source is checked with
     # stand-in values at those stamps: it cannot be read ahead)
     rows = sorted({0, len(values) - 1}) if len(values) else []
@@ -289,12 +342,16 @@ def _dense_topic(layout: Layout, make_msg, stamp_fields, values) -> DenseTopic:
         probe_values = values[rows]
     else:
         probe_values = np.array([[1.5, -2.25, 3.0e5]] * len(rows))
+    probe_extra = [vals[rows] for _, vals in extra]
     probe = DenseTopic(template, ((4, np.dtype('<i4'), sec[rows]),
                                   (8, np.dtype('<u4'), nanosec[rows]),
-                                  (topic.fields[2][0], np.dtype('<f8'), probe_values)))
+                                  (topic.fields[2][0], np.dtype('<f8'), probe_values)) + tuple(
+        (field[0], np.dtype('<f8'), vals) for field, vals in zip(topic.fields[3:],
+                                                                 probe_extra)))
     for j, i in enumerate(rows):
         stamp_ns = int(sec[i]) * _NS_PER_S + int(nanosec[i])
-        if serialize(stamp_ns, tuple(probe_values[j])) != probe.payloads(j, j + 1).tobytes():
+        if serialize(stamp_ns, tuple(probe_values[j]), *[tuple(v[j]) for v in probe_extra]) \
+                != probe.payloads(j, j + 1).tobytes():
             raise BagError(f'{layout.msgtype}: bulk CDR encoding differs from rosbags at '
                            f'sample {i}')
     return topic
@@ -321,7 +378,8 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
                     imu_frame_ids: Optional[Sequence[str]] = None,
                     wrench_frame_ids: Optional[Sequence[str]] = None,
                     output: bool = False, compression: str = '',
-                    travel_m=None) -> Path:
+                    travel_m=None, torque_nm=None, rate_radps=None,
+                    rate_variance: Optional[float] = None, spin_radps=None) -> Path:
     """
     Write accelerations / forces on one sample clock as a new rosbag2.
 
@@ -355,6 +413,18 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
     travel_m : array_like, shape (4, n), optional
         Suspension compression per corner [m], positive in bump; written as
         sensor_msgs/JointState (``{corner}_suspension``) on ``topics.travel_topic``.
+    torque_nm : array_like, shape (12, n), optional
+        Wheel moments in ``MOMENT_CHANNELS`` order [N m]: ``wrench.torque`` of the force
+        messages (zero when not given); needs ``force_n`` as an array.
+    rate_radps : array_like, shape (12, n), optional
+        Spindle angular rates in ``RATE_CHANNELS`` order [rad/s]: ``Imu.angular_velocity``
+        with covariance ``diag(rate_variance)`` (REP-145); without them the covariance says
+        "not provided" (element 0 = -1).
+    rate_variance : float, optional
+        Gyro noise variance [(rad/s)^2] (default 0: known, not estimated).
+    spin_radps : array_like, shape (4, n), optional
+        Wheel spin rates [rad/s]: ``velocity`` of the ``{corner}_wheel`` joints on
+        ``topics.travel_topic`` (with the suspension joints when ``travel_m`` is given).
 
     Returns
     -------
@@ -390,10 +460,17 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
         accel = as_signals(accel_mps2, f'{path}: accel_mps2', INPUT_CHANNELS)
         _check_length(path, 'accel_mps2', accel, stamp)
         frames = _frame_ids(imu_frame_ids, 'spindle', 'imu_frame_ids')
+        rate = None
+        if rate_radps is not None:
+            rate = as_signals(rate_radps, f'{path}: rate_radps', RATE_CHANNELS)
+            _check_length(path, 'rate_radps', rate, stamp)
+            rate_variance = 0.0 if rate_variance is None else float(rate_variance)
         for i, topic in enumerate(topics.imu_topics):
             connections.append(_connection(topic, IMU.msgtype))
-            dense.append(_dense_topic(IMU, _make_imu(store, frames[i]), stamp_fields,
-                                      accel[3 * i:3 * i + 3].T))
+            extra = () if rate is None else ((IMU_RATE.value_offset, rate[3 * i:3 * i + 3].T),)
+            dense.append(_dense_topic(
+                IMU, _make_imu(store, frames[i], None if rate is None else rate_variance),
+                stamp_fields, accel[3 * i:3 * i + 3].T, extra))
     if isinstance(force_n, SignalBlocks):
         if tuple(force_n.channels) != tuple(OUTPUT_CHANNELS) or force_n.n_samples != stamp.size:
             raise BagError(f'{path}: streamed force_n has {force_n.n_samples} samples of '
@@ -412,15 +489,32 @@ def write_recording(path, stamp_ns, accel_mps2=None, force_n=None, topics=None,
         else:
             frames = _frame_ids(wrench_frame_ids, 'wheel', 'wrench_frame_ids')
         names = topics.output_topics if output else topics.wft_topics
+        torque = None
+        if torque_nm is not None:
+            if isinstance(force_n, SignalBlocks):
+                raise ConfigError(f'{path}: torque_nm needs force_n as an array, not a stream')
+            torque = as_signals(torque_nm, f'{path}: torque_nm', MOMENT_CHANNELS)
+            _check_length(path, 'torque_nm', torque, stamp)
         for i, topic in enumerate(names):
             connections.append(_connection(topic, WRENCH.msgtype))
+            extra = () if torque is None else (
+                (WRENCH_TORQUE.value_offset, torque[3 * i:3 * i + 3].T),)
             dense.append(_dense_topic(WRENCH, _make_wrench(store, frames[i]), stamp_fields,
-                                      force[i]))
-    if travel_m is not None:
-        travel = as_signals(travel_m, f'{path}: travel_m', TRAVEL_CHANNELS)
-        _check_length(path, 'travel_m', travel, stamp)
+                                      force[i], extra))
+    elif torque_nm is not None:
+        raise ConfigError(f'{path}: torque_nm needs force_n')
+    if travel_m is not None or spin_radps is not None:
+        travel = spin = None
+        if travel_m is not None:
+            travel = as_signals(travel_m, f'{path}: travel_m', TRAVEL_CHANNELS)
+            _check_length(path, 'travel_m', travel, stamp)
+            travel = np.ascontiguousarray(travel.T)
+        if spin_radps is not None:
+            spin = as_signals(spin_radps, f'{path}: spin_radps', SPIN_CHANNELS)
+            _check_length(path, 'spin_radps', spin, stamp)
+            spin = np.ascontiguousarray(spin.T)
         connections.append(_connection(topics.travel_topic, TRAVEL_TYPE))
-        dense.append(_travel_topic(stamp_fields, np.ascontiguousarray(travel.T)))
+        dense.append(_travel_topic(stamp_fields, travel, spin))
     event_list = _check_events(path, events)
     sparse = []
     if event_list:

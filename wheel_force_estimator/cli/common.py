@@ -63,6 +63,70 @@ def default_config_path() -> Optional[Path]:
     return cfg if cfg.is_file() else None
 
 
+#: Keys of the fit section choosing the model's channels (six components, issue 33).
+_CHANNEL_KEYS = ('inputs', 'moments')
+#: Input groups a spindle model may declare beyond the 12 accelerations.
+INPUT_GROUPS = ('rates', 'spin')
+
+
+@dataclasses.dataclass(frozen=True)
+class FitChannels:
+    """
+    The channels ``fit`` gives a spindle model (params file, ``wheel_force_fit`` section).
+
+    ``inputs``: ``"auto"`` (default: the angular rates and the spin where every training
+    recording carries them) or a list among ``rates``, ``spin`` (``[]`` = the 12
+    accelerations only); a declared group that a recording lacks is an error naming its
+    topic.  ``moments``: ``"auto"`` (fitted when every recording's WFT messages carry a
+    torque), ``true`` (required) or ``false``.
+    """
+
+    inputs: Optional[Tuple[str, ...]] = None       # None = auto
+    moments: Optional[bool] = None                 # None = auto
+
+    def extras(self, available) -> Tuple[str, ...]:
+        """Return the reader's extras for recordings that all carry ``available``."""
+        groups = [g for g in INPUT_GROUPS
+                  if (g in available if self.inputs is None else g in self.inputs)]
+        if self.moments or (self.moments is None and 'moments' in available):
+            groups.insert(0, 'moments')
+        return tuple(groups)
+
+
+def fit_channels(path) -> FitChannels:
+    """
+    Read the ``inputs`` and ``moments`` keys of the params file's fit section.
+
+    Raises
+    ------
+    ConfigError
+        A value of the wrong type or an unknown input group (file and key named).
+
+    """
+    if path is None:
+        return FitChannels()
+    try:
+        doc = yaml.safe_load(Path(path).read_text()) or {}
+    except (OSError, yaml.YAMLError) as err:
+        raise ConfigError(f'{path}: cannot read params file: {err}') from err
+    section = (doc.get(FIT_SECTION) or {}).get('ros__parameters') or {}
+    inputs, moments = section.get('inputs', 'auto'), section.get('moments', 'auto')
+    if inputs == 'auto':
+        inputs = None
+    elif not isinstance(inputs, list) or any(g not in INPUT_GROUPS for g in inputs):
+        raise ConfigError(f'{path}: {FIT_SECTION}.inputs must be "auto" or a list among '
+                          f'{list(INPUT_GROUPS)} (the 12 accelerations are always inputs), '
+                          f'got {inputs!r}')
+    else:
+        inputs = tuple(inputs)
+    if moments == 'auto':
+        moments = None
+    elif not isinstance(moments, bool):
+        raise ConfigError(f'{path}: {FIT_SECTION}.moments must be "auto", true or false, '
+                          f'got {moments!r}')
+    return FitChannels(inputs, moments)
+
+
 def _fit_section(path) -> dict:
     """Return the typed values of the params file's ``wheel_force_fit`` section."""
     values = {}
@@ -74,6 +138,8 @@ def _fit_section(path) -> dict:
         raise ConfigError(f'{path}: cannot read params file: {err}') from err
     section = (doc.get(FIT_SECTION) or {}).get('ros__parameters') or {}
     for key, value in section.items():
+        if key in _CHANNEL_KEYS:
+            continue  # the model's channels (fit_channels), not a FitConfig setting
         if key not in _FIT_KEYS:
             raise ConfigError(f'{path}: unknown key {FIT_SECTION}.{key} '
                               f'(known: {", ".join(sorted(_FIT_KEYS))})')
@@ -144,11 +210,12 @@ def progress(iterable: Iterable, desc: str, total: Optional[int] = None):
 
 
 def read_recordings(paths, topics, require_wft: bool, expected_fs_hz: Optional[float] = None,
-                    travel: bool = False):
+                    travel: bool = False, extras: Tuple[str, ...] = ()):
     """
     Read every recording (with a progress bar); return a list of ``Recording``.
 
-    ``travel`` also reads the optional suspension travel topic (``bagio.read_recording``).
+    ``travel`` also reads the optional suspension travel topic, ``extras`` the six-component
+    groups (``bagio.read_recording``).
 
     Raises
     ------
@@ -162,7 +229,8 @@ def read_recordings(paths, topics, require_wft: bool, expected_fs_hz: Optional[f
     recordings = []
     for path in progress(paths, 'reading', total=len(paths)):
         recordings.append(read_recording(path, topics, require_wft=require_wft,
-                                         expected_fs_hz=expected_fs_hz, travel=travel))
+                                         expected_fs_hz=expected_fs_hz, travel=travel,
+                                         extras=tuple(extras)))
     rates = [r.fs_hz for r in recordings]
     if rates and max(rates) > min(rates) * (1 + 1e-3):
         detail = ', '.join(f'{r.path}: {r.fs_hz:g} Hz' for r in recordings)

@@ -108,6 +108,7 @@ def _bags(args):
 
 def command(args: argparse.Namespace) -> int:
     """Run ``diagnose``; return the exit code."""
+    from wheel_force_estimator import OUTPUT_CHANNELS
     from wheel_force_estimator.cli.common import generic_request
     request = generic_request(args, args.real, args.sim, args.holdout)
 
@@ -122,6 +123,10 @@ def command(args: argparse.Namespace) -> int:
     reference = None
     if args.model:
         reference = load_model(args.model)
+        if request is None and len(reference.output_channels) > len(OUTPUT_CHANNELS):
+            # a six-component model: the diagnosis (force physics) works on its forces
+            from wheel_force_estimator.core.model import select_outputs
+            reference = select_outputs(reference, OUTPUT_CHANNELS)
         if request is not None:
             from wheel_force_estimator.cli.evaluate import check_generic_model
             check_generic_model(reference, args.model, request)

@@ -41,6 +41,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--config', metavar='YAML', help='params file (topic names, sn_slope)')
     add_namespace_argument(p)
     p.add_argument('--sn-slope', type=float, default=5.0, help='Basquin exponent k')
+    p.add_argument('--sn-slope-moment', type=float, default=None, metavar='K',
+                   help='Basquin exponent of the wheel moments (torsion; default: --sn-slope)')
     p.add_argument('--samples', metavar='A..B[,C..D...]',
                    help='judge only these samples of the one RECORDING (0-based, half-open, '
                         'counted over its gap-free segments in order) on the prediction of '
@@ -127,12 +129,15 @@ def command(args: argparse.Namespace) -> int:
     if request is None:
         from wheel_force_estimator.cli.common import check_bag_model
         from wheel_force_estimator.cli.common import read_recordings
+        from wheel_force_estimator.offline import bag_extras
         check_bag_model(model, args.model)
         recordings = read_recordings(args.recordings, topic_config(args),
-                                     require_wft=True, expected_fs_hz=model.fs_hz)
+                                     require_wft=True, expected_fs_hz=model.fs_hz,
+                                     extras=bag_extras(model, args.model))
 
         def run(d):
-            return evaluate_recordings(model, recordings, args.sn_slope, d, ranges)
+            return evaluate_recordings(model, recordings, args.sn_slope, d, ranges,
+                                       args.sn_slope_moment)
     else:
         check_generic_model(model, args.model, request)
         generic = request.read(args.recordings)

@@ -26,6 +26,7 @@ from typing import Tuple
 from wheel_force_estimator.cli.common import add_generic_arguments
 from wheel_force_estimator.cli.common import add_namespace_argument
 from wheel_force_estimator.cli.common import explicit_fit_keys
+from wheel_force_estimator.cli.common import fit_channels
 from wheel_force_estimator.cli.common import generic_request
 from wheel_force_estimator.cli.common import load_fit_config
 from wheel_force_estimator.cli.common import nominal_fs_hz
@@ -80,17 +81,28 @@ class _TrainingData:
 
 
 def _bag_data(args) -> _TrainingData:
-    from wheel_force_estimator import INPUT_CHANNELS
-    from wheel_force_estimator import OUTPUT_CHANNELS
+    from wheel_force_estimator.bagio import available_extras
     from wheel_force_estimator.core.pipeline import TrainingSegment
+    from wheel_force_estimator.core.spindle import declared_inputs
+    from wheel_force_estimator.core.spindle import declared_outputs
 
-    recordings = read_recordings(args.recordings, topic_config(args),
-                                 require_wft=True)
-    segments = [TrainingSegment(seg.accel_mps2, seg.force_n, f'{rec.path}#{i}')
+    topics = topic_config(args)
+    channels = fit_channels(args.config)
+    if channels.inputs is None or channels.moments is None:
+        # "auto": what every training recording carries (fit only what is there)
+        found = [set(available_extras(b, topics)) for b in args.recordings]
+        available = set.intersection(*found) if found else set()
+    else:
+        available = set()
+    extras = channels.extras(available)
+    recordings = read_recordings(args.recordings, topics, require_wft=True, extras=extras)
+    inputs = declared_inputs('rates' in extras, 'spin' in extras)
+    outputs = declared_outputs('moments' in extras)
+    segments = [TrainingSegment(seg.signals(inputs), seg.signals(outputs), f'{rec.path}#{i}')
                 for rec in recordings for i, seg in enumerate(rec.segments)]
     return _TrainingData(segments, sum(s.accel_mps2.shape[1] for s in segments),
-                         len(recordings), nominal_fs_hz(recordings), INPUT_CHANNELS,
-                         OUTPUT_CHANNELS, 'acceleration',
+                         len(recordings), nominal_fs_hz(recordings), inputs, outputs,
+                         'acceleration',
                          {'bags': [str(Path(b)) for b in args.recordings]})
 
 
@@ -198,6 +210,7 @@ def _print_summary(model, summary, fitted, data: _TrainingData) -> None:
         text = ', '.join(f'{a:.1f}-{b:.1f}' for a, b in bands[:6]) or '-'
         more = f' (+{len(bands) - 6} more)' if len(bands) > 6 else ''
         print(f'  {name:6s} {summary["mean_coherence"][name]:.3f}   low: {text}{more}')
+    _print_moment_inputs(model, summary)
     worst = ', '.join(f'{c:.3g} @ {f:.2f} Hz' for f, c in summary['worst_cond'][:3])
     print(f'worst condition numbers of Sxx: {worst}')
     if model.live:
@@ -208,6 +221,13 @@ def _print_summary(model, summary, fitted, data: _TrainingData) -> None:
               f'({1e3 * first.look_ahead_samples / model.fs_hz:.1f} ms), '
               f'{first.info["method"]}, history {first.history_samples / model.fs_hz:.2f} s; '
               f'also stored: {others or "-"} ms')
+
+
+def _print_moment_inputs(model, summary) -> None:
+    """Say which inputs the moments were given and whether the coherence supports them."""
+    from wheel_force_estimator.report.builders import moment_input_lines
+    for line in moment_input_lines(model, summary):
+        print(line)
 
 
 def _print_design(model) -> None:

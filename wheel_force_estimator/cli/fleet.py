@@ -41,6 +41,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         '`predict` does')
     p.add_argument('--config', metavar='YAML', help='params file (topic names)')
     p.add_argument('--sn-slope', type=float, default=5.0, help='Basquin exponent k')
+    p.add_argument('--sn-slope-moment', type=float, default=None, metavar='K',
+                   help='Basquin exponent of the wheel moments (torsion; default: --sn-slope)')
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     return p
 
@@ -98,7 +100,7 @@ def command(args: argparse.Namespace) -> int:
     outcome = run_fleet(
         args.model, args.paths, args.out, reference_paths=args.reference,
         scheduler=args.scheduler, workers=args.workers, write_forces=args.write_forces,
-        config_path=args.config, sn_slope=args.sn_slope,
+        config_path=args.config, sn_slope=args.sn_slope, sn_slope_moment=args.sn_slope_moment,
         target_hours=(DEFAULT_TARGET_HOURS if args.target_hours is None
                       else args.target_hours),
         on_result=_progress())

@@ -36,7 +36,13 @@ def command(args: argparse.Namespace) -> int:
     from wheel_force_estimator.cli.common import announce
     from wheel_force_estimator.cli.common import causal_delay
     from wheel_force_estimator.core.model import load_model
+    import numpy as np
+
+    from wheel_force_estimator import OUTPUT_CHANNELS
+    from wheel_force_estimator.offline import bag_extras
     from wheel_force_estimator.offline import input_storage
+    from wheel_force_estimator.offline import predict_recording
+    from wheel_force_estimator.offline import split_loads
     from wheel_force_estimator.offline import stream_recording
 
     model = load_model(args.model)
@@ -44,12 +50,21 @@ def command(args: argparse.Namespace) -> int:
     delay = causal_delay(args, model.fs_hz)
     announce(model, args.model, delay)
     topics = topic_config(args)
+    extras = bag_extras(model, args.model, with_wft=False)
     (recording,) = read_recordings([args.bag], topics, require_wft=False,
-                                   expected_fs_hz=model.fs_hz)
-    stamps, force = stream_recording(model, recording, delay)
+                                   expected_fs_hz=model.fs_hz, extras=extras)
     storage = args.storage or input_storage(args.bag)
+    torque = None
+    if len(model.output_channels) > len(OUTPUT_CHANNELS):
+        # six components: forces and moments written together (not streamed)
+        parts = predict_recording(model, recording, delay)
+        stamps = np.concatenate([p[0] for p in parts])
+        force, torque = split_loads(np.concatenate([p[1] for p in parts], axis=1))
+    else:
+        stamps, force = stream_recording(model, recording, delay)
     write_recording(args.output, stamps, force_n=force, topics=topics, storage=storage,
-                    output=True, compression=args.compression.replace('none', ''))
+                    output=True, compression=args.compression.replace('none', ''),
+                    torque_nm=torque)
     print(f'predicted {stamps.size} samples in {len(recording.segments)} segment(s) of '
           f'{args.bag} -> {args.output} ({storage})')
     return 0

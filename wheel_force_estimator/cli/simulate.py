@@ -43,6 +43,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help='also write the suspension compression (m, + in bump) as '
                         'sensor_msgs/JointState on suspension/joint_states (travel_topic), '
                         'as string potentiometers would record it')
+    p.add_argument('--six', action='store_true',
+                   help='six components: also write the wheel moments (N m, wrench.torque), '
+                        'the spindle angular rates (rad/s, Imu.angular_velocity) and the wheel '
+                        'spin rates (rad/s, velocity of the {corner}_wheel joints on '
+                        'suspension/joint_states)')
+    p.add_argument('--no-spin', dest='spin', action='store_false',
+                   help='with --six: leave the wheel spin rates out (a logger without '
+                        'wheel speeds)')
     add_namespace_argument(p)
     return p
 
@@ -51,6 +59,7 @@ def command(args: argparse.Namespace) -> int:
     """Run ``simulate``; return the exit code."""
     import numpy as np
 
+    from wheel_force_estimator import MOMENT_CHANNELS
     from wheel_force_estimator import OUTPUT_CHANNELS
     from wheel_force_estimator.core.errors import BagError
     from wheel_force_estimator.sim.api import simulate
@@ -79,11 +88,16 @@ def command(args: argparse.Namespace) -> int:
         raise BagError(f'{out}: exists already, not overwriting')
     result = simulate(args.course, effects.names, args.seed, args.duration_scale, args.fs_hz,
                       vehicle, effect_params, progress=True)
-    write_result(out, result, args.storage, topics, travel=args.travel)
+    write_result(out, result, args.storage, topics, travel=args.travel, six=args.six,
+                 spin=args.spin)
     print(f'wrote {out} ({args.storage}): {result.stamp_ns.size} samples, '
           f'{result.duration_s:.1f} s at {result.fs_hz:g} Hz, {len(result.events)} events')
     print(f'course: {args.course}   seed: {args.seed}   physics: {physics}')
     rms = np.std(result.force_n, axis=1)
     print('dynamic force RMS [N]: ' + ', '.join(
         f'{c} {v:.0f}' for c, v in zip(OUTPUT_CHANNELS, rms)))
+    if args.six:
+        rms = np.std(result.moment_nm, axis=1)
+        print('dynamic moment RMS [N m]: ' + ', '.join(
+            f'{c} {v:.0f}' for c, v in zip(MOMENT_CHANNELS, rms)))
     return 0

@@ -29,12 +29,11 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from wheel_force_estimator.core.crossval import blend_weight
-from wheel_force_estimator.core.crossval import held_out_power
+from wheel_force_estimator.core.crossval import BlendScorer
 from wheel_force_estimator.core.crossval import HeldOutPower
 from wheel_force_estimator.core.crossval import hp_power_weight
 from wheel_force_estimator.core.crossval import Piece
 from wheel_force_estimator.core.crossval import response_on_grid
-from wheel_force_estimator.core.crossval import splice
 from wheel_force_estimator.core.live_estimator import CausalEstimator
 from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import Correlations
@@ -218,6 +217,9 @@ def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
     """
     Score every candidate (and every live ridge) of one fold on its held-out block.
 
+    Each distinct response is a base of one :class:`.crossval.BlendScorer`, and a spliced
+    candidate is scored from its two bases' terms (no response per candidate).
+
     Parameters
     ----------
     h1 : dict
@@ -238,16 +240,27 @@ def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
 
     """
     f = held_out.f_hz
-    hpw = hp_power_weight(f, held_out.config.fs_hz)
+    scorer = BlendScorer(held_out, hp_power_weight(f, held_out.config.fs_hz))
+    for key, h in h1.items():
+        scorer.add(('h1',) + key, h)
+    same = {}
+    for key, h in ls.items():
+        scorer.add(('ls',) + key, h)
+        same[id(h)] = ('ls',) + key
+    live_keys = []
+    for key, h in live.items():
+        if id(h) not in same:                 # the live FIR is an LS candidate too
+            same[id(h)] = ('live', key)
+            scorer.add(same[id(h)], h)
+        live_keys.append(same[id(h)])
     offline = []
     for c in cands:
-        w = blend_weight(f, c.crossover_hz)
+        h1_key = ('h1', c.segment_length, c.long_regularisation)
+        ls_key = ('ls', c.ls_regularisation, c.ls_look_ahead_s)
         if c.family == 'h1':
-            h = h1[(c.segment_length, c.long_regularisation)]
+            offline.append(scorer.power(h1_key))
         elif c.family == 'ls':
-            h = ls[(c.ls_regularisation, c.ls_look_ahead_s)]
+            offline.append(scorer.power(ls_key))
         else:
-            h = splice(ls[(c.ls_regularisation, c.ls_look_ahead_s)],
-                       h1[(c.segment_length, c.long_regularisation)], w)
-        offline.append(held_out_power(h, held_out, hpw))
-    return offline, [held_out_power(h, held_out, hpw) for h in live.values()]
+            offline.append(scorer.power(ls_key, h1_key, blend_weight(f, c.crossover_hz)))
+    return offline, [scorer.power(key) for key in live_keys]

@@ -39,6 +39,7 @@ from wheel_force_estimator.core.resolution import choose_segment_length
 from wheel_force_estimator.core.search import fit_chosen
 from wheel_force_estimator.core.search import MIN_SCORING_SEGMENT
 from wheel_force_estimator.core.search import search
+from wheel_force_estimator.core.spindle import CHANNEL_UNITS
 from wheel_force_estimator.core.validation import as_signals
 
 
@@ -391,12 +392,28 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
     if model is None:
         model = fit_model(used, fs_hz, config, input_channels, output_channels,
                           fit_info=fit_info, input_quantity=input_quantity)
-    model = dataclasses.replace(model, units={'input': INPUT_UNITS[input_quantity],
-                                              'output': 'N'})
+    model = dataclasses.replace(model, units=model_units(input_channels, output_channels,
+                                                         input_quantity))
     if warning:
         model = dataclasses.replace(model, fit=dict(model.fit, design={
             'method': 'defaults', 'reason': warning}))
     return DesignedFit(model, config, tuple(used), tuple(skipped), note, warning, chosen)
+
+
+def model_units(input_channels, output_channels, input_quantity: str) -> dict:
+    """
+    Return a model's ``units``: one per side, plus one per channel for spindle channels.
+
+    Spindle models (every channel a package channel: accelerations, angular rates, spin,
+    forces, moments) list each channel's unit (schema 3), so a model with rates or moments
+    says so channel by channel; generic models keep one unit per side.
+    """
+    units = {'input': INPUT_UNITS[input_quantity], 'output': 'N'}
+    names = tuple(input_channels) + tuple(output_channels)
+    if all(n in CHANNEL_UNITS for n in names):
+        units['input_channels'] = [CHANNEL_UNITS[n] for n in input_channels]
+        units['output_channels'] = [CHANNEL_UNITS[n] for n in output_channels]
+    return units
 
 
 def _too_short_note(used, fs_hz: float, config: FitConfig) -> str:

@@ -22,6 +22,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.fatigue import damage_bands_hz
 from wheel_force_estimator.core.fatigue import pseudo_damage
@@ -76,6 +77,7 @@ class Evaluation:
     asd_prediction: np.ndarray
     asd_error: np.ndarray
     events: Dict[str, Dict[str, np.ndarray]]
+    sn_slope_moment: Optional[float] = None
 
     @property
     def damage_ratio(self) -> np.ndarray:
@@ -126,6 +128,7 @@ class Evaluation:
             },
             'sn_slope': self.sn_slope,
             'sample_rate_hz': self.fs_hz,
+            **({} if self.sn_slope_moment is None else {'sn_slope_moment': self.sn_slope_moment}),
         }
 
 
@@ -216,8 +219,9 @@ def damage_figures(signals: Sequence[np.ndarray], fs_hz: float, sn_slope: float,
         Load histories of the segments, e.g. force_n.
     fs_hz : float
         Sample rate [Hz].
-    sn_slope : float
-        Basquin exponent ``k`` [-].
+    sn_slope : float or numpy.ndarray, shape (n_channels,)
+        Basquin exponent ``k`` [-], one for all channels or one per channel (moments have
+        their own, ``sn_slope_moment``).
     bands_hz : sequence of (lo_hz, hi_hz)
         Bands of the relative damage spectrum [Hz].
 
@@ -229,16 +233,40 @@ def damage_figures(signals: Sequence[np.ndarray], fs_hz: float, sn_slope: float,
         Pseudo damage per band.
 
     """
-    damage = sum(pseudo_damage(x, sn_slope) for x in signals)
-    rds = sum(relative_damage_spectrum(x, fs_hz, sn_slope, bands_hz=bands_hz) for x in signals)
+    slopes = np.broadcast_to(np.asarray(sn_slope, np.float64),
+                             (np.asarray(signals[0]).shape[0],))
+    damage, rds = 0.0, 0.0
+    for k in np.unique(slopes):  # each Basquin exponent on its rows (forces, moments)
+        rows = np.flatnonzero(slopes == k)
+        part_d = sum(pseudo_damage(np.asarray(x)[rows], k) for x in signals)
+        part_r = sum(relative_damage_spectrum(np.asarray(x)[rows], fs_hz, k, bands_hz=bands_hz)
+                     for x in signals)
+        if np.ndim(damage) == 0:
+            damage = np.zeros(slopes.size)
+            rds = np.zeros((slopes.size,) + np.shape(part_r)[1:])
+        damage[rows], rds[rows] = part_d, part_r
     return np.asarray(damage), np.asarray(rds)
+
+
+def channel_sn_slopes(channels: Sequence[str], sn_slope: float,
+                      sn_slope_moment: Optional[float] = None) -> np.ndarray:
+    """
+    Return the Basquin exponent of every channel: ``sn_slope_moment`` for the wheel moments.
+
+    Bending (forces) and torsion (moments) have S-N curves of their own; the one rule that
+    ``evaluate``, ``fleet`` and the node share.
+    """
+    moment = sn_slope if sn_slope_moment is None else sn_slope_moment
+    return np.array([float(moment) if c in MOMENT_CHANNELS else float(sn_slope)
+                     for c in channels])
 
 
 def evaluate_segments(segments: Sequence[EvalSegment], fs_hz: float, channels: Sequence[str],
                       sn_slope: float = 5.0,
                       events: Sequence[Tuple[int, str]] = (),
                       asd_segment_length: int = 1024,
-                      end_stamp_ns: Optional[int] = None) -> Evaluation:
+                      end_stamp_ns: Optional[int] = None,
+                      sn_slope_moment: Optional[float] = None) -> Evaluation:
     """
     Compute RMSE %, pseudo damage, relative damage spectrum, ASD and per-event RMSE.
 
@@ -258,6 +286,8 @@ def evaluate_segments(segments: Sequence[EvalSegment], fs_hz: float, channels: S
         Welch segment length of the ASD [samples] (shortened to the shortest segment).
     end_stamp_ns : int, optional
         End of the last event (default: last sample stamp).
+    sn_slope_moment : float, optional
+        Basquin exponent of the moment channels (``MOMENT_CHANNELS``); default ``sn_slope``.
 
     Returns
     -------
@@ -275,8 +305,9 @@ def evaluate_segments(segments: Sequence[EvalSegment], fs_hz: float, channels: S
     preds = [np.asarray(s.prediction_n, dtype=np.float64) for s in segments]
     raw, hp = rmse_figures(targets, preds, fs_hz, channels)
     bands = tuple(tuple(b) for b in damage_bands_hz(fs_hz))
-    dmg_t, rds_t = damage_figures(targets, fs_hz, sn_slope, bands)
-    dmg_p, rds_p = damage_figures(preds, fs_hz, sn_slope, bands)
+    slopes = channel_sn_slopes(channels, sn_slope, sn_slope_moment)
+    dmg_t, rds_t = damage_figures(targets, fs_hz, slopes, bands)
+    dmg_p, rds_p = damage_figures(preds, fs_hz, slopes, bands)
     nperseg = int(min(asd_segment_length, min(t.shape[1] for t in targets)))
     cfg = WelchConfig(fs_hz=fs_hz, segment_length=nperseg)
     weights = np.array([t.shape[1] for t in targets], dtype=np.float64)
@@ -294,7 +325,9 @@ def evaluate_segments(segments: Sequence[EvalSegment], fs_hz: float, channels: S
         rmse_pct=raw, rmse_hp1_pct=hp, damage_target=dmg_t,
         damage_prediction=dmg_p, bands_hz=bands, rds_target=rds_t,
         rds_prediction=rds_p, f_hz=f_hz, asd_target=asd_t,
-        asd_prediction=asd_p, asd_error=asd_e, events=per_event)
+        asd_prediction=asd_p, asd_error=asd_e, events=per_event,
+        sn_slope_moment=(float(sn_slope_moment) if sn_slope_moment is not None
+                         and any(c in MOMENT_CHANNELS for c in channels) else None))
 
 
 def _event_figures(segments, targets, preds, fs_hz, channels, events, end_stamp_ns):

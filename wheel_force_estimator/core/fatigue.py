@@ -165,6 +165,60 @@ class StreamingDamage:
                             self._sn_slope, self._half)
 
 
+class ChannelDamage:
+    """
+    :class:`StreamingDamage` with one Basquin exponent per channel (forces and moments).
+
+    Channels sharing an exponent are counted by one :class:`StreamingDamage`; ``update``,
+    ``damage`` and ``reset`` behave as its, channel by channel.
+
+    Parameters
+    ----------
+    sn_slopes : array_like, shape (n_channels,)
+        Basquin exponent of every channel [-].
+
+    Raises
+    ------
+    ConfigError
+        An exponent not finite and > 0, or no channels.
+
+    """
+
+    def __init__(self, sn_slopes):
+        slopes = np.asarray(sn_slopes, dtype=np.float64).reshape(-1)
+        if slopes.size < 1:
+            raise ConfigError('ChannelDamage needs at least one channel')
+        self._groups = [(np.flatnonzero(slopes == k), StreamingDamage(int((slopes == k).sum()),
+                                                                      float(k)))
+                        for k in np.unique(slopes)]
+        self._n = slopes.size
+
+    @property
+    def n_channels(self) -> int:
+        """Return the number of channels."""
+        return self._n
+
+    def reset(self):
+        """Forget everything counted so far."""
+        for _, stream in self._groups:
+            stream.reset()
+
+    def update(self, chunk):
+        """Count a chunk ``(n_channels, m)`` (any length, chunked == batch)."""
+        chunk = np.asarray(chunk, dtype=np.float64)
+        for rows, stream in self._groups:
+            stream.update(chunk[rows] if len(self._groups) > 1 else chunk)
+
+    def damage(self) -> np.ndarray:
+        """Return the pseudo damage per channel so far, ``(n_channels,)``."""
+        if len(self._groups) == 1:
+            return self._groups[0][1].damage()
+        out = np.zeros(self._n)
+        for rows, stream in self._groups:
+            out[rows] = stream.damage()
+        return out
+
+
 def pseudo_damage(x, sn_slope: float = 5.0, residue: str = 'half') -> np.ndarray:
     """
     Return the rainflow pseudo damage of every channel.

@@ -26,7 +26,10 @@ Arrays (``nf`` frequency lines, ``no`` outputs, ``ni`` inputs, ``nt`` FIR taps):
 ========================  ==================  ===========================================
 
 Schema 1 files (no live estimators) still load; the predictor then cuts the offline FIR for
-a short look-ahead and says so (:func:`.predict.live_fallback`).
+a short look-ahead and says so (:func:`.predict.live_fallback`).  Schema 3 (six components,
+issue 33) is schema 2 plus optional per-channel units in ``meta.units`` (``input_channels``,
+``output_channels``: lists as long as the channel lists); schema 2 files load unchanged and
+every channel of a side then has that side's unit (:func:`.spindle.channel_units`).
 """
 import dataclasses
 import datetime
@@ -48,9 +51,10 @@ from wheel_force_estimator.core.live_estimator import live_from_contents
 from wheel_force_estimator.core.live_estimator import live_meta
 from wheel_force_estimator.core.physics_terms import PhysicsTerm
 
-SCHEMA_VERSION = 2
-# Versions this code reads: 1 has no live estimators.
-READABLE_SCHEMA_VERSIONS = (1, 2)
+SCHEMA_VERSION = 3
+# Versions this code reads: 1 has no live estimators; 2 has one unit per side (3 may add
+# ``units.input_channels`` / ``units.output_channels``: one unit per channel, issue 33).
+READABLE_SCHEMA_VERSIONS = (1, 2, 3)
 
 _ARRAYS = ('f_hz', 'h', 'coherence_ordinary', 'coherence_multiple', 'cond_sxx', 'fir_taps',
            'static_force_n', 'static_accel_mps2')
@@ -196,6 +200,14 @@ class FrfModel:
             if not isinstance(getattr(self, name), Mapping):
                 raise ModelFileError(f'model field {name!r}: expected an object')
             object.__setattr__(self, name, dict(getattr(self, name)))
+        for key, n in (('input_channels', ni), ('output_channels', no)):
+            listed = self.units.get(key)
+            if listed is not None and (isinstance(listed, str) or len(listed) != n or not all(
+                    isinstance(u, str) and u for u in listed)):
+                raise ModelFileError(f"model field 'units.{key}': expected {n} unit names, "
+                                     f'got {listed!r}')
+            if listed is not None:
+                self.units[key] = list(listed)
         physics = self.physics
         if isinstance(physics, (str, bytes, Mapping)) or not all(
                 isinstance(p, (Mapping, PhysicsTerm)) for p in physics):
@@ -266,6 +278,37 @@ class FrfModel:
             'physics': [dict(p) for p in self.physics],
             'live_estimators': live_meta(self.live),
         }
+
+
+def select_outputs(model: FrfModel, channels) -> FrfModel:
+    """
+    Return ``model`` restricted to the output ``channels`` (in the order given).
+
+    Every output row is its own estimate (FRF, FIR, live estimators), so a subset is exact:
+    e.g. the forces of a six-component model, which the force diagnosis works on.
+
+    Raises
+    ------
+    ModelFileError
+        A channel the model does not have.
+
+    """
+    missing = [c for c in channels if c not in model.output_channels]
+    if missing:
+        raise ModelFileError(f'output channel(s) {missing} not in the model '
+                             f'{list(model.output_channels)}')
+    rows = [model.output_channels.index(c) for c in channels]
+    units = dict(model.units)
+    if 'output_channels' in units:
+        units['output_channels'] = [units['output_channels'][r] for r in rows]
+    live = tuple(dataclasses.replace(e, fine_taps=e.fine_taps[rows],
+                                     coarse_taps=e.coarse_taps[rows]) for e in model.live)
+    return dataclasses.replace(
+        model, output_channels=tuple(channels), h=model.h[:, rows],
+        coherence_ordinary=model.coherence_ordinary[:, rows],
+        coherence_multiple=model.coherence_multiple[:, rows], fir_taps=model.fir_taps[rows],
+        static_force_n=model.static_force_n[rows], units=units, live=live,
+        physics=tuple(p for p in model.physics if set(p.get('channels', ())) <= set(channels)))
 
 
 def save_model(model: FrfModel, path) -> Path:

@@ -1,9 +1,11 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-The design search of ``wheel-force fit``: candidates, held-out scores, the chosen design.
+The fit of ``wheel-force fit``, read top to bottom: scores, design, estimate, FIR, live.
 
-Read top to bottom, :func:`search` is the whole search:
+:func:`search` then :func:`fit_chosen` are the whole sequence (the bag path and the
+generic-recording path both reach them through :func:`.design.fit_design`, which adds the
+fallbacks for records too short to search and builds the model):
 
 1. **blocks** (:func:`scoring_blocks`): the longest scoring resolution (long Welch segment
    first) whose windows every block holds twice; the data cut into chunks dealt to
@@ -17,11 +19,14 @@ Read top to bottom, :func:`search` is the whole search:
    blocks' statistics and scored on the held-out block (:mod:`.crossval`), both figures.
    The live estimator's ridge is scored on the same folds from the same factorisations.
 5. **the chosen design**: per output row, the candidate with the lowest held-out error
-   (relative MSE, unfiltered plus 1 Hz high-passed), and per row the live ridge.
-
-:func:`fit_chosen` then fits the chosen design on all the data: the H1 estimates it uses,
-the LS factorisations it uses (one per ridge, serving the offline FIR and every live
-look-ahead), the rows composed into one FRF and realised as one FIR.
+   (relative MSE, unfiltered plus 1 Hz high-passed) among those no worse than that row's
+   live estimator, and per row the live ridge.
+6. **the estimate** (:func:`fit_chosen`): the chosen H1 variants and LS factorisations on
+   all the data (one factorisation per ridge serves the offline FIR and every live
+   look-ahead).
+7. **the FIR**: the rows composed into one FRF and realised exactly (:func:`_realised`).
+8. **the live estimators**: every stored look-ahead, each row with its chosen ridge; the
+   caller builds the model (:func:`.pipeline.build_model`) with ``fit.design``.
 """
 import dataclasses
 from typing import Dict, List, Optional, Sequence, Tuple

@@ -1,19 +1,26 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-The model-compatibility rule: which models turn spindle accelerations into wheel loads.
+The model-compatibility rule: which models turn spindle sensors into wheel loads.
 
 One predicate, :func:`spindle_layout`, for every place that applies a model to the four
-spindle accelerometers: the live node and the offline ``predict`` / ``evaluate`` of bags.  A
+spindle sensors: the live node and the offline ``predict`` / ``evaluate`` of bags.  A
 model fits when
 
 * its inputs are the 12 spindle accelerations in the package's order (``lf_ax`` ... ``rr_az``;
   ``wheel-force fit`` writes them so; a model in another order is refused rather than guessed
-  at),
+  at), optionally followed by all 12 spindle angular rates (``lf_wx`` ... ``rr_wz``) and then
+  by the four wheel spin accelerations (``lf_spin_accel`` ... ``rr_spin_accel``, derived
+  from the recorded spin rates: :mod:`.derived`) (six components, issue 33),
 * its outputs are the 12 wheel forces in that order, optionally followed by all 12 wheel
   moments (``lf_mx`` ... ``rr_mz``), never some of them,
-* its units are ``m/s^2`` in and ``N`` out: Imu messages carry m/s²; a model fitted on
-  displacement or velocity (a generic DAQ fit) would give forces off by orders of magnitude.
+* its units are those the messages carry: ``m/s^2`` (Imu linear acceleration), ``rad/s``
+  (Imu angular velocity), ``rad/s^2`` (JointState velocity, differentiated), ``N`` (wrench
+  force), ``N*m`` (wrench torque).
+  Schema 1-2 files state one unit per side (``units.input``, ``units.output``); schema 3
+  adds one per channel (``units.input_channels``, ``units.output_channels``).  A model
+  fitted on displacement or velocity (a generic DAQ fit) would give forces off by orders of
+  magnitude, so it is refused with both units named.
 
 Everything else (a generic DAQ model, another channel set) is refused with the fault named.
 """
@@ -22,13 +29,61 @@ from typing import Optional, Tuple
 
 from wheel_force_estimator import CORNERS
 from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator import RATE_CHANNELS
+from wheel_force_estimator import SPIN_ACCEL_CHANNELS
 from wheel_force_estimator.core.errors import ModelFileError
 
-#: Wheel moments a model may add after the forces (published as the wrench torque).
-MOMENT_CHANNELS = tuple(f'{c}_m{ax}' for c in CORNERS for ax in 'xyz')
-#: Units a spindle model must carry.
+__all__ = ['CHANNEL_UNITS', 'MOMENT_CHANNELS', 'SPINDLE_UNITS', 'SpindleLayout',
+           'channel_units', 'declared_inputs', 'declared_outputs', 'spindle_layout']
+#: Units a spindle model must carry (the first channel group of each side).
 SPINDLE_UNITS = {'input': 'm/s^2', 'output': 'N'}
+#: The unit of every channel group, as the messages carry it (REP-103 SI).
+GROUP_UNITS = ((INPUT_CHANNELS, 'm/s^2'), (RATE_CHANNELS, 'rad/s'),
+               (SPIN_ACCEL_CHANNELS, 'rad/s^2'),
+               (OUTPUT_CHANNELS, 'N'), (MOMENT_CHANNELS, 'N*m'))
+#: Channel name -> unit of the messages.
+CHANNEL_UNITS = {name: unit for group, unit in GROUP_UNITS for name in group}
+#: Where each group comes from, for messages.
+_SOURCES = {'m/s^2': 'Imu linear_acceleration', 'N': 'WrenchStamped force',
+            'N*m': 'WrenchStamped torque', 'rad/s': 'Imu angular_velocity',
+            'rad/s^2': 'JointState wheel velocity (differentiated)'}
+
+
+def declared_inputs(rates: bool, spin: bool) -> Tuple[str, ...]:
+    """Return the input channels of a spindle model with or without rates and spin."""
+    return (INPUT_CHANNELS + (RATE_CHANNELS if rates else ())
+            + (SPIN_ACCEL_CHANNELS if spin else ()))
+
+
+def declared_outputs(moments: bool) -> Tuple[str, ...]:
+    """Return the output channels of a spindle model with or without the moments."""
+    return OUTPUT_CHANNELS + (MOMENT_CHANNELS if moments else ())
+
+
+def channel_units(model) -> Tuple[Tuple[str, ...], Tuple[str, ...]]:
+    """
+    Return the declared unit of every input and output channel of ``model``.
+
+    Schema 3 files list them (``units.input_channels`` / ``units.output_channels``).  A
+    file with one unit per side states the unit of its first group (accelerations, forces);
+    its other spindle groups (rates and spin, moments: schema 2 already allowed moments) are
+    read in the units of the messages when that first unit is the messages' own, since
+    nothing else could have been meant; any other channel shares its side's unit.
+    """
+    units = dict(model.units)
+
+    def side(names, key, first_group):
+        listed = units.get(f'{key}_channels')
+        if listed:
+            return tuple(listed)
+        unit = units.get(key)
+        primary = CHANNEL_UNITS.get(first_group[0])
+        return tuple(CHANNEL_UNITS[n] if unit == primary and n in CHANNEL_UNITS else unit
+                     for n in names)
+    return (side(model.input_channels, 'input', INPUT_CHANNELS),
+            side(model.output_channels, 'output', OUTPUT_CHANNELS))
 
 
 @dataclass(frozen=True)
@@ -42,11 +97,22 @@ class SpindleLayout:
         Per corner (lf, rf, lr, rr), the output rows of force x, y, z.
     torque_rows : tuple of tuple of int or None
         Per corner, the rows of moment x, y, z; ``None`` when the model has no moments.
+    rates, spin : bool
+        The model's inputs include the spindle angular rates / the wheel spin rates.
 
     """
 
     force_rows: Tuple[Tuple[int, int, int], ...]
     torque_rows: Optional[Tuple[Tuple[int, int, int], ...]]
+    rates: bool = False
+    spin: bool = False
+
+    @property
+    def extras(self) -> Tuple[str, ...]:
+        """Return the six-component groups a bag must carry for this model (reader names)."""
+        return tuple(name for name, needed in (('moments', self.torque_rows is not None),
+                                               ('rates', self.rates), ('spin', self.spin))
+                     if needed)
 
 
 def spindle_layout(model, where: str) -> SpindleLayout:
@@ -72,10 +138,14 @@ def spindle_layout(model, where: str) -> SpindleLayout:
     """
     inputs = tuple(model.input_channels)
     outputs = tuple(model.output_channels)
-    if inputs != INPUT_CHANNELS:
+    variants = {declared_inputs(r, sp): (r, sp) for r in (False, True) for sp in (False, True)}
+    if inputs not in variants:
         raise ModelFileError(
             f'{where}: model inputs {list(inputs)} are not the spindle accelerations '
-            f'{INPUT_CHANNELS[0]} ... {INPUT_CHANNELS[-1]} in that order; a model fitted on '
+            f'{INPUT_CHANNELS[0]} ... {INPUT_CHANNELS[-1]} (optionally followed by all of the '
+            f'angular rates {RATE_CHANNELS[0]} ... {RATE_CHANNELS[-1]}, then the spin rates '
+            f'{SPIN_ACCEL_CHANNELS[0]} ... {SPIN_ACCEL_CHANNELS[-1]}) in that order; a model '
+            f'fitted on '
             f'generic recordings is applied to them with --input, --output and --fs')
     if outputs not in (OUTPUT_CHANNELS, OUTPUT_CHANNELS + MOMENT_CHANNELS):
         raise ModelFileError(
@@ -88,8 +158,20 @@ def spindle_layout(model, where: str) -> SpindleLayout:
             f'{where}: model units {units}: spindle Imu messages carry linear accelerations '
             f"in m/s^2 and the loads are in N; a model with units input 'm/s^2', output 'N' "
             f'is needed')
+    in_units, out_units = channel_units(model)
+    for names, declared in ((inputs, in_units), (outputs, out_units)):
+        if len(declared) != len(names):
+            raise ModelFileError(f'{where}: model units list {len(declared)} units for '
+                                 f'{len(names)} channels')
+        for name, unit in zip(names, declared):
+            if unit != CHANNEL_UNITS[name]:
+                source = _SOURCES.get(CHANNEL_UNITS[name], 'the recorded rate')
+                raise ModelFileError(
+                    f"{where}: model unit of {name} is {unit!r} but the bag's {source} is in "
+                    f'{CHANNEL_UNITS[name]!r}; nothing is converted')
     n = len(OUTPUT_CHANNELS)
     force_rows = tuple(tuple(range(3 * c, 3 * c + 3)) for c in range(len(CORNERS)))
     torque_rows = None if len(outputs) == n else tuple(
         tuple(range(n + 3 * c, n + 3 * c + 3)) for c in range(len(CORNERS)))
-    return SpindleLayout(force_rows, torque_rows)
+    rates, spin = variants[inputs]
+    return SpindleLayout(force_rows, torque_rows, rates, spin)

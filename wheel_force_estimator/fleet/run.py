@@ -80,7 +80,7 @@ def run_fleet(model_path, paths: Sequence, out_dir, *, reference_paths: Sequence
               write_forces: bool = False, config_path=None, sn_slope: float = 5.0,
               target_hours: float = DEFAULT_TARGET_HOURS,
               on_result: Optional[Callable[[BagResult, int, int], None]] = None,
-              task=process_bag) -> FleetOutcome:
+              task=process_bag, sn_slope_moment: Optional[float] = None) -> FleetOutcome:
     """
     Process every bag under ``paths`` and write ``fleet.csv`` and ``fleet.json``.
 
@@ -110,6 +110,8 @@ def run_fleet(model_path, paths: Sequence, out_dir, *, reference_paths: Sequence
         Called as ``on_result(result, n_done, n_total)`` after each bag (cached ones too).
     task : callable
         The per-bag function run on the workers (default :func:`.task.process_bag`).
+    sn_slope_moment : float, optional
+        Basquin exponent of the wheel moments (default ``sn_slope``).
 
     Returns
     -------
@@ -139,7 +141,8 @@ def run_fleet(model_path, paths: Sequence, out_dir, *, reference_paths: Sequence
         model_path=str(Path(model_path).resolve()), model_sha256=file_sha256(model_path),
         sn_slope=float(sn_slope),
         config_path=None if config_path is None else str(Path(config_path).resolve()),
-        forces_dir=str((out / FORCES_DIR).resolve()) if write_forces else None)
+        forces_dir=str((out / FORCES_DIR).resolve()) if write_forces else None,
+        sn_slope_moment=None if sn_slope_moment is None else float(sn_slope_moment))
     store = ResultStore(out, settings.key())
     everything = fleet + references
     keys = {r.path: store.key(r) for r in everything}

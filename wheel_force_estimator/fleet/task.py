@@ -55,6 +55,8 @@ class FleetSettings:
         Params file with the topic names.
     forces_dir : str or None
         Directory for the predicted-force bags (``--write-forces``), or None.
+    sn_slope_moment : float or None
+        Basquin exponent of the wheel moments (None: ``sn_slope``).
 
     """
 
@@ -63,17 +65,25 @@ class FleetSettings:
     sn_slope: float
     config_path: Optional[str] = None
     forces_dir: Optional[str] = None
+    sn_slope_moment: Optional[float] = None
 
     def __post_init__(self):
         """Check the Basquin exponent."""
         if not (np.isfinite(self.sn_slope) and self.sn_slope > 0):
             raise ValueError(f'sn_slope must be finite and > 0, got {self.sn_slope!r}')
+        if self.sn_slope_moment is not None and not (
+                np.isfinite(self.sn_slope_moment) and self.sn_slope_moment > 0):
+            raise ValueError(f'sn_slope_moment must be finite and > 0, got '
+                             f'{self.sn_slope_moment!r}')
 
     def key(self) -> dict:
         """Return what a stored result depends on besides the bag (JSON-able)."""
-        return {'model_sha256': self.model_sha256, 'sn_slope': self.sn_slope,
-                'config': _config_text(self.config_path),
-                'write_forces': self.forces_dir is not None}
+        key = {'model_sha256': self.model_sha256, 'sn_slope': self.sn_slope,
+               'config': _config_text(self.config_path),
+               'write_forces': self.forces_dir is not None}
+        if self.sn_slope_moment is not None:  # stores of earlier runs keep their keys
+            key['sn_slope_moment'] = self.sn_slope_moment
+        return key
 
 
 def _config_text(path: Optional[str]) -> Optional[str]:
@@ -138,8 +148,10 @@ def process_bag(ref: BagRef, settings: FleetSettings) -> BagResult:
 
 def _process(ref: BagRef, settings: FleetSettings) -> BagResult:
     from wheel_force_estimator.bagio import read_recording
+    from wheel_force_estimator.core.evaluation import channel_sn_slopes
     from wheel_force_estimator.core.evaluation import damage_figures
     from wheel_force_estimator.core.fatigue import damage_bands_hz
+    from wheel_force_estimator.offline import bag_extras
     from wheel_force_estimator.offline import evaluate_recordings
     from wheel_force_estimator.offline import predict_recording
 
@@ -147,11 +159,13 @@ def _process(ref: BagRef, settings: FleetSettings) -> BagResult:
     topics = _topics(settings.config_path)
     with_wft = has_topics(ref.path, topics.wft_topics)
     recording = read_recording(ref.path, topics, require_wft=with_wft,
-                               expected_fs_hz=model.fs_hz)
+                               expected_fs_hz=model.fs_hz,
+                               extras=bag_extras(model, str(ref.path), with_wft))
     channels = tuple(model.output_channels)
     rmse = rmse_hp1 = None
     if with_wft:
-        evaluation, segments = evaluate_recordings(model, [recording], settings.sn_slope)
+        evaluation, segments = evaluate_recordings(model, [recording], settings.sn_slope,
+                                                   sn_slope_moment=settings.sn_slope_moment)
         stamps = [s.stamp_ns for s in segments]
         forces = [s.prediction_n for s in segments]
         damage, rds, bands = (evaluation.damage_prediction, evaluation.rds_prediction,
@@ -161,7 +175,8 @@ def _process(ref: BagRef, settings: FleetSettings) -> BagResult:
     else:
         stamps, forces = zip(*predict_recording(model, recording))
         bands = tuple(tuple(b) for b in damage_bands_hz(model.fs_hz))
-        damage, rds = damage_figures(forces, model.fs_hz, settings.sn_slope, bands)
+        damage, rds = damage_figures(forces, model.fs_hz, channel_sn_slopes(
+            channels, settings.sn_slope, settings.sn_slope_moment), bands)
     duration_s = recording.n_used / recording.fs_hz
     written = None
     if settings.forces_dir is not None:
@@ -187,14 +202,16 @@ def _write_forces(ref: BagRef, forces_dir: str, topics, stamps, forces) -> Path:
     """
     from wheel_force_estimator.bagio import write_recording
     from wheel_force_estimator.offline import input_storage
+    from wheel_force_estimator.offline import split_loads
 
     final = Path(forces_dir) / ref.bag_id
     scratch = Path(forces_dir) / _PARTIAL_DIR / uuid.uuid4().hex
     scratch.mkdir(parents=True)
     try:
-        write_recording(scratch / final.name, np.concatenate(stamps),
-                        force_n=np.concatenate(forces, axis=1), topics=topics,
-                        storage=input_storage(ref.path), output=True, compression='zstd')
+        force, torque = split_loads(np.concatenate(forces, axis=1))
+        write_recording(scratch / final.name, np.concatenate(stamps), force_n=force,
+                        topics=topics, storage=input_storage(ref.path), output=True,
+                        compression='zstd', torque_nm=torque)
         final.parent.mkdir(parents=True, exist_ok=True)
         if final.exists():
             shutil.rmtree(final)

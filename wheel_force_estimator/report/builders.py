@@ -14,6 +14,9 @@ from typing import List, Optional
 
 import numpy as np
 
+from wheel_force_estimator import MOMENT_CHANNELS
+from wheel_force_estimator import RATE_CHANNELS
+from wheel_force_estimator import SPIN_ACCEL_CHANNELS
 from wheel_force_estimator.report import tables
 from wheel_force_estimator.report.evaluation_plots import plot_damage_ratio
 from wheel_force_estimator.report.evaluation_plots import plot_relative_damage_spectrum
@@ -69,6 +72,40 @@ def output_units(model) -> List[str]:
     return [channel_unit(c) if channel_unit(c) != '-' else fallback for c in model.output_channels]
 
 
+#: Mean multiple coherence (0.5-50 Hz) below which a moment is reported as not identifiable
+#: from the inputs the recordings have: less than half its power is linearly explained.
+IDENTIFIABLE_COHERENCE = 0.5
+
+
+def moment_input_lines(model, summary) -> List[str]:
+    """
+    Say which inputs a six-component model's moments were given, and which they cannot explain.
+
+    A moment whose mean multiple coherence (0.5-50 Hz) is below
+    :data:`IDENTIFIABLE_COHERENCE` is named as not identifiable from these inputs (``My``
+    needs the wheel spin rate or drive/brake torque information).  Empty without moments.
+    """
+    moments = [c for c in model.output_channels if c in MOMENT_CHANNELS]
+    if not moments:
+        return []
+    groups = ['12 accelerations']
+    if any(c in RATE_CHANNELS for c in model.input_channels):
+        groups.append('12 angular rates')
+    if any(c in SPIN_ACCEL_CHANNELS for c in model.input_channels):
+        groups.append('4 spin accelerations (from the spin rates)')
+    lines = [f'moments fitted from: {", ".join(groups)}']
+    for name in moments:
+        coh = summary['mean_coherence'][name]
+        if coh < IDENTIFIABLE_COHERENCE:
+            need = (' (My needs the wheel spin rate or drive/brake torque information)'
+                    if name.endswith('_my') else '')
+            lines.append(f'  {name}: NOT identifiable from these inputs: mean multiple '
+                         f'coherence {coh:.2f} < {IDENTIFIABLE_COHERENCE}{need}')
+    if len(lines) == 1:
+        lines.append(f'  every moment has a mean multiple coherence >= {IDENTIFIABLE_COHERENCE}')
+    return lines
+
+
 def write_fit_report(directory, model, summary, extra=None) -> Path:
     """
     Write the fit report (coherence, FRF, condition number); return report.md.
@@ -98,6 +135,10 @@ def write_fit_report(directory, model, summary, extra=None) -> Path:
                      for n in model.output_channels)
     out.table('| output | mean multiple coherence 0.5-50 Hz | bands < 0.5 [Hz] |\n'
               '|---|---|---|\n' + rows)
+    moments = moment_input_lines(model, summary)
+    if moments:
+        out.heading('Moments: inputs and identifiability', 2)
+        out.paragraph('\n'.join(f'- {line.strip()}' for line in moments))
     if same_axis_pairs(model.input_channels, model.output_channels):
         out.heading('FRF diagonal', 2)
         out.image(plot_frf_diagonal(d / 'frf_diagonal.png', model.f_hz, model.h,

@@ -81,7 +81,11 @@ def channel_unit(channel: str) -> str:
     corner, _, quantity = channel.partition('_')
     if corner not in CORNERS:
         return '-'
-    return {'f': 'N', 'm': 'N·m', 'a': 'm/s²'}.get(quantity[:1], '-')
+    # w: spindle angular rate, spin / spin_accel: wheel spin (six components, issue 33)
+    if quantity == 'spin_accel':
+        return 'rad/s²'
+    return {'f': 'N', 'm': 'N·m', 'a': 'm/s²', 'w': 'rad/s', 's': 'rad/s'}.get(quantity[:1],
+                                                                               '-')
 
 
 def pretty_unit(unit: str) -> str:

@@ -26,7 +26,7 @@ WARN_THROTTLE_S = 5.0
 #: Pacing latencies kept for the percentiles.
 LATENCY_WINDOW = 4096
 #: Why a decoded message is dropped before alignment (per-corner counters).
-DROP_REASONS = ('malformed', 'wrong_frame', 'nonfinite')
+DROP_REASONS = ('malformed', 'wrong_frame', 'nonfinite', 'no_angular_rate')
 
 
 class NodeHealth:

@@ -280,8 +280,12 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         self._stream = stream
         self._fs_hz = model.fs_hz
         self._model = model
+        # with angular-rate inputs each corner's sample is 6 values: acceleration, then rates
+        self._rates = layout.rates
+        self._rate_error_s = {}           # corner -> when its missing rates were last logged
         self._aligner = CornerAligner(
-            len(CORNERS), 3, max(params.input_qos_depth, params.stale_timeout_samples, 64),
+            len(CORNERS), 6 if layout.rates else 3,
+            max(params.input_qos_depth, params.stale_timeout_samples, 64),
             tolerance_ns=layout.sync_tolerance_ns, period_ns=1e9 / model.fs_hz)
         self._stale_s = params.stale_timeout_samples / model.fs_hz
         self._check_frames = any(params.imu_frame_ids)
@@ -495,13 +499,13 @@ class WheelForceNode(NodeHealth, LifecycleNode):
             buf.clear()
         counts = [len(b) for b in batches]
         if self._check_frames:
-            decoded = [decode_imu(b, self._params.imu_frame_ids[c]) if b else None
+            decoded = [decode_imu(b, self._params.imu_frame_ids[c], self._rates) if b else None
                        for c, b in enumerate(batches)]
         else:
-            whole = decode_imu([raw for b in batches for raw in b])
+            whole = decode_imu([raw for b in batches for raw in b], rates=self._rates)
             decoded, lo = [], 0
             for n in counts:
-                decoded.append(_slice(whole, lo, lo + n) if n else None)
+                decoded.append(whole.sliced(lo, lo + n) if n else None)
                 lo += n
         for c, d in enumerate(decoded):
             if d is None:
@@ -511,12 +515,12 @@ class WheelForceNode(NodeHealth, LifecycleNode):
             valid = d.valid
             if not valid.all():
                 self._count_drops(c, d)
-                self._aligner.push(c, d.stamp_ns[valid], d.accel_mps2[:, valid])
+                self._aligner.push(c, d.stamp_ns[valid], d.values()[:, valid])
             else:
-                self._aligner.push(c, d.stamp_ns, d.accel_mps2)
+                self._aligner.push(c, d.stamp_ns, d.values())
         for event in self._aligner.drain():
             if isinstance(event, AlignedSamples):
-                self._stream.feed(event.stamp_ns, event.accel_mps2)
+                self._stream.feed(event.stamp_ns, self._model_inputs(event.accel_mps2))
                 self._last_input_s = now
             elif isinstance(event, OutOfTolerance):
                 self._on_out_of_tolerance(event)
@@ -584,12 +588,38 @@ class WheelForceNode(NodeHealth, LifecycleNode):
                 self.get_logger().info(f'{why}: estimates in flight completed; '
                                        f'{self.summary()}')
 
+    def _model_inputs(self, values: np.ndarray) -> np.ndarray:
+        """
+        Return the model's inputs from aligned corner values.
+
+        Corner-major rows: 3 accelerations per corner, or 3 accelerations and 3 angular
+        rates per corner for a model with rates, whose inputs are the 12 accelerations,
+        then the 12 rates.
+        """
+        if not self._rates:
+            return values
+        per = values.reshape(len(CORNERS), 6, -1)
+        return np.concatenate([per[:, :3].reshape(12, -1), per[:, 3:].reshape(12, -1)])
+
     def _count_drops(self, corner: int, decoded):
         topic = self._imu_names[corner]
         for reason in DROP_REASONS:
             mask = getattr(decoded, reason)
-            n = int(mask.sum())
-            if n:
+            n = 0 if mask is None else int(mask.sum())
+            if n and reason == 'no_angular_rate':
+                self._dropped[reason][corner] += n
+                # the model needs the rates: an error, never zeros (REP-145 "not provided");
+                # throttled per topic, so every corner at fault is named
+                now = time.monotonic()
+                last = self._rate_error_s.get(corner)
+                if last is None or now - last >= WARN_THROTTLE_S:
+                    self._rate_error_s[corner] = now
+                    self.get_logger().error(
+                        f'{topic}: {n} message(s) without angular velocity (covariance[0] = '
+                        f'-1, first stamped {int(decoded.stamp_ns[int(np.argmax(mask))])} ns);'
+                        ' the model needs the spindle angular rates: those samples are dropped'
+                        f' (total {int(self._dropped[reason][corner])})')
+            elif n:
                 self._dropped[reason][corner] += n
                 first = int(np.argmax(mask))
                 self.get_logger().warning(
@@ -698,7 +728,8 @@ def _make_stream(model, layout, params) -> ForceStream:
     # The live (causal) estimator for this look-ahead (the model's, else the cut FIR).
     predictor = Predictor(model, causal_delay_samples=layout.causal_delay_samples)
     return ForceStream(predictor, params.block_size, params.sn_slope,
-                       damage_period_s=params.damage_publish_period_s)
+                       damage_period_s=params.damage_publish_period_s,
+                       sn_slope_moment=params.sn_slope_moment)
 
 
 def _warm_up(model, layout, params):
@@ -722,13 +753,6 @@ def _warm_up(model, layout, params):
     out_stamps, force = stream.take()
     encode_wrench(out_stamps, force[list(layout.force_rows[0])], 'warm_up')
     stream.final_damage_report()
-
-
-def _slice(decoded, lo: int, hi: int):
-    """Messages ``lo:hi`` of a decoded batch."""
-    return type(decoded)(decoded.stamp_ns[lo:hi], decoded.accel_mps2[:, lo:hi],
-                         decoded.malformed[lo:hi], decoded.wrong_frame[lo:hi],
-                         decoded.nonfinite[lo:hi])
 
 
 def spin(node: Node, timeout_s: float = 0.1, stop: threading.Event = None):

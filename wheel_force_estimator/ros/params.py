@@ -96,6 +96,9 @@ PARAMETERS = (
                       "at most the offline FIR's look-ahead, fir_delay_samples / fs)"),
     _Spec('sn_slope', 5.0, 'Basquin exponent k of the pseudo damage [-]',
           float_range=(0.5, 50.0)),
+    _Spec('sn_slope_moment', 5.0,
+          'Basquin exponent k of the pseudo damage of the wheel moments (torsion) [-]',
+          float_range=(0.5, 50.0)),
     _Spec('damage_publish_period_s', 1.0,
           'period of the damage messages, in data time (sample stamps) [s]',
           float_range=(0.01, 3600.0)),
@@ -176,6 +179,7 @@ class NodeParams:
     block_size: int
     live_look_ahead_s: float
     sn_slope: float
+    sn_slope_moment: float
     damage_publish_period_s: float
     damage_budget: float
     stale_timeout_samples: int
@@ -222,7 +226,8 @@ class NodeParams:
                      'output_qos_depth'):
             if getattr(self, name) < 1:
                 raise ConfigError(f'parameter {name} must be >= 1, got {getattr(self, name)}')
-        for name in ('damage_publish_period_s', 'flush_timeout_s', 'sn_slope'):
+        for name in ('damage_publish_period_s', 'flush_timeout_s', 'sn_slope',
+                     'sn_slope_moment'):
             if not getattr(self, name) > 0.0:
                 raise ConfigError(f'parameter {name} must be > 0, got {getattr(self, name)}')
         for name in ('live_look_ahead_s', 'damage_budget', 'sample_rate_hz',
@@ -300,6 +305,7 @@ class ModelLayout:
     torque_rows: Optional[Tuple[Tuple[int, int, int], ...]]
     causal_delay_samples: int
     sync_tolerance_ns: int = 0
+    rates: bool = False
 
 
 def model_layout(model, params: NodeParams) -> ModelLayout:
@@ -319,6 +325,14 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
     """
     where = f'model {params.model_path}'
     layout = spindle_layout(model, where)
+    if layout.spin:
+        # the node feeds models from the Imu messages (accelerations, angular rates); the
+        # wheel spin of the joint_states topic is offline-only so far (issue 33)
+        raise ModelFileError(
+            f'{where}: its inputs include the wheel spin rates; the node feeds models from '
+            'the Imu messages only (linear accelerations, angular rates), so fit the live '
+            'model with wheel_force_fit inputs: ["rates"] or [] (moments are still fitted '
+            'and published)')
     fs = model.fs_hz
     if params.sample_rate_hz and abs(params.sample_rate_hz - fs) > 1e-6 * fs:
         raise ModelFileError(f'{where}: sample rate {fs:g} Hz differs from parameter '
@@ -337,7 +351,8 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
                              f'more than half its sample period ({half_period_ns * 1e-9:g} s '
                              f'at {fs:g} Hz): two samples of one corner could be taken for one')
     return ModelLayout(force_rows=layout.force_rows, torque_rows=layout.torque_rows,
-                       causal_delay_samples=delay, sync_tolerance_ns=tolerance_ns)
+                       causal_delay_samples=delay, sync_tolerance_ns=tolerance_ns,
+                       rates=layout.rates)
 
 
 def unknown_parameters(given: Iterable[str],

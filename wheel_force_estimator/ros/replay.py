@@ -121,6 +121,9 @@ class ReplayResult:
         Output messages received per corner.
     damage : DiagnosticArray or None
         The last damage message received.
+    output_torque_nm : numpy.ndarray, shape (12, m)
+        Their torques in ``MOMENT_CHANNELS`` order [N m] (what a model without moments
+        leaves zero or NaN, ``unknown_torque``).
 
     """
 
@@ -131,6 +134,7 @@ class ReplayResult:
     output_force_n: np.ndarray
     output_counts: Tuple[int, ...]
     damage: Optional[DiagnosticArray]
+    output_torque_nm: Optional[np.ndarray] = None
 
 
 class _Collector:
@@ -152,19 +156,22 @@ class _Collector:
     def on_damage(self, raw: bytes):
         self.damage = deserialize_message(raw, DiagnosticArray)
 
-    def outputs(self) -> Tuple[np.ndarray, np.ndarray]:
+    def outputs(self) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Complete output samples (stamp present on all four corners), by stamp."""
-        stamps, forces = [], []
+        stamps, wrenches = [], []
         for raws in self.raw:
             s, w, bad = decode_wrench(list(raws))
             s, idx = np.unique(s[~bad], return_index=True)
             stamps.append(s)
-            forces.append(w[:3, ~bad][:, idx])
+            wrenches.append(w[:, ~bad][:, idx])
         common = stamps[0]
         for s in stamps[1:]:
             common = np.intersect1d(common, s, assume_unique=True)
-        rows = [f[:, np.isin(s, common, assume_unique=True)] for s, f in zip(stamps, forces)]
-        return common, np.concatenate(rows, axis=0) if common.size else np.empty((12, 0))
+        rows = [f[:, np.isin(s, common, assume_unique=True)] for s, f in zip(stamps, wrenches)]
+        if not common.size:
+            return common, np.empty((12, 0)), np.empty((12, 0))
+        return (common, np.concatenate([r[:3] for r in rows], axis=0),
+                np.concatenate([r[3:] for r in rows], axis=0))
 
 
 def _check_samples(stamp_ns, accel_mps2) -> Tuple[np.ndarray, np.ndarray]:
@@ -181,7 +188,8 @@ def _check_samples(stamp_ns, accel_mps2) -> Tuple[np.ndarray, np.ndarray]:
 
 def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
                    events: Sequence[Tuple[int, str]] = (), ros_args=None,
-                   after_play: Optional[Callable[[], None]] = None) -> ReplayResult:
+                   after_play: Optional[Callable[[], None]] = None,
+                   rate_radps=None) -> ReplayResult:
     """
     Publish samples as the four Imu topics in (scaled) real time; collect the outputs.
 
@@ -201,6 +209,9 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
         Called once everything is published, before the outputs are awaited.  The node
         holds the estimates of its look-ahead until more data, a gap, deactivate or shutdown
         (a pause is not the end of the data): e.g. stop the node here to collect them.
+    rate_radps : array_like, shape (12, n), optional
+        Spindle angular rates in ``RATE_CHANNELS`` order [rad/s], published as the Imu
+        angular velocity (else flagged "not provided").
 
     Returns
     -------
@@ -213,6 +224,9 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
 
     """
     stamps, accel = _check_samples(stamp_ns, accel_mps2)
+    rate = None
+    if rate_radps is not None:
+        _, rate = _check_samples(stamps, rate_radps)
     context = Context()
     rclpy.init(args=ros_args, context=context)
     node = rclpy.create_node('wheel_force_replay', context=context)
@@ -240,16 +254,16 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
         if settings.record:
             _wait_for_publishers(node, topics.output_topics, settings.wait_subscribers_s)
         time.sleep(settings.match_delay_s)
-        wall_s, behind_s = _play(pubs, event_pub, stamps, accel, settings, events)
+        wall_s, behind_s = _play(pubs, event_pub, stamps, accel, settings, events, rate)
         if after_play is not None:
             after_play()
         if settings.record:
             _wait_for_outputs(collector, stamps.size, settings.settle_s)
-        out_stamps, out_force = collector.outputs()
+        out_stamps, out_force, out_torque = collector.outputs()
         counts = tuple(len(r) for r in collector.raw)
         del subs
         return ReplayResult(stamps.size, wall_s, behind_s, out_stamps, out_force, counts,
-                            collector.damage)
+                            collector.damage, out_torque)
     finally:
         stop.set()
         if spinner is not None:
@@ -285,7 +299,7 @@ def _wait_for_publishers(node, topics: Sequence[str], timeout_s: float):
 
 
 def _play(pubs, event_pub, stamps: np.ndarray, accel: np.ndarray, settings: ReplaySettings,
-          events) -> Tuple[float, float]:
+          events, rate: Optional[np.ndarray] = None) -> Tuple[float, float]:
     """Publish on schedule; return (wall time spent, largest delay behind schedule)."""
     due_s = (stamps - stamps[0]) * (1e-9 / settings.rate)
     pending_events = sorted((int(s), str(n)) for s, n in events)
@@ -295,7 +309,8 @@ def _play(pubs, event_pub, stamps: np.ndarray, accel: np.ndarray, settings: Repl
     start = time.monotonic()
     for lo in range(0, stamps.size, _ENCODE_CHUNK):
         hi = min(lo + _ENCODE_CHUNK, stamps.size)
-        blobs = [encode_imu(stamps[lo:hi], accel[3 * c:3 * c + 3, lo:hi], frames[c])
+        blobs = [encode_imu(stamps[lo:hi], accel[3 * c:3 * c + 3, lo:hi], frames[c],
+                            None if rate is None else rate[3 * c:3 * c + 3, lo:hi])
                  for c in range(len(CORNERS))]
         i = lo
         while i < hi:
@@ -383,12 +398,19 @@ def replay_bag(path, settings: ReplaySettings, record_path=None, storage: str = 
     from wheel_force_estimator.bagio import write_recording
     from wheel_force_estimator.core.errors import BagError
 
-    recording = read_recording(path, settings.topics, require_wft=False)
+    from wheel_force_estimator.bagio import available_extras
+
+    # the angular rates are published when the recording has them (six-component models)
+    extras = tuple(e for e in available_extras(path, settings.topics) if e == 'rates')
+    recording = read_recording(path, settings.topics, require_wft=False, extras=extras)
     stamps = np.concatenate([s.stamp_ns for s in recording.segments])
     accel = np.concatenate([s.accel_mps2 for s in recording.segments], axis=1)
+    rate = (np.concatenate([s.rate_radps for s in recording.segments], axis=1)
+            if extras else None)
     if record_path is not None and not settings.record:
         settings = dataclasses.replace(settings, record=True)
-    result = replay_samples(stamps, accel, settings, recording.events, ros_args, after_play)
+    result = replay_samples(stamps, accel, settings, recording.events, ros_args, after_play,
+                            rate)
     if record_path is not None:
         if result.output_stamp_ns.size == 0:
             raise BagError(f'{record_path}: nothing to record: no output on '

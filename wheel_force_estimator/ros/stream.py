@@ -43,7 +43,8 @@ import numpy as np
 
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
-from wheel_force_estimator.core.fatigue import StreamingDamage
+from wheel_force_estimator.core.evaluation import channel_sn_slopes
+from wheel_force_estimator.core.fatigue import ChannelDamage
 from wheel_force_estimator.core.gaps import classify_steps
 from wheel_force_estimator.core.gaps import missing_samples
 from wheel_force_estimator.core.lag import LeadDrop
@@ -149,6 +150,8 @@ class ForceStream:
         Basquin exponent of the running pseudo damage.
     damage_period_s : float, optional
         Data time between two :class:`DamageReport` s [s]; ``None``: no reports.
+    sn_slope_moment : float, optional
+        Basquin exponent of the moment outputs (default ``sn_slope``).
 
     Raises
     ------
@@ -158,7 +161,8 @@ class ForceStream:
     """
 
     def __init__(self, predictor: Predictor, block_size: int, sn_slope: float,
-                 damage_period_s: Optional[float] = None):
+                 damage_period_s: Optional[float] = None,
+                 sn_slope_moment: Optional[float] = None):
         if isinstance(block_size, bool) or not isinstance(block_size, (int, np.integer)) \
                 or block_size < 1:
             raise ConfigError(f'block_size must be an integer >= 1, got {block_size!r}')
@@ -168,7 +172,8 @@ class ForceStream:
         self._n_in = predictor.n_inputs
         self._n_out = len(predictor.model.output_channels)
         self._period_ns = 1e9 / predictor.model.fs_hz
-        self._damage = StreamingDamage(self._n_out, sn_slope)
+        self._damage = ChannelDamage(channel_sn_slopes(
+            predictor.model.output_channels, sn_slope, sn_slope_moment))
         if damage_period_s is not None and not damage_period_s > 0.0:
             raise ConfigError(f'damage_period_s must be > 0, got {damage_period_s!r}')
         self._report_ns = None if damage_period_s is None else int(

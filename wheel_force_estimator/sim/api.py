@@ -40,6 +40,9 @@ DEFAULT_START_NS = 1_767_225_600 * 1_000_000_000
 _CHUNK_STEPS = 1 << 15
 # spawn key of the noise stream (roads use the children of SeedSequence(seed))
 _NOISE_KEY = 0x5E450
+# spawn key of the six-component sensors' noise (its own stream: the force and acceleration
+# noise samples stay what they were before the moments were simulated)
+_NOISE6_KEY = 0x5E456
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,6 +74,15 @@ class SimResult:
         Their parameters.
     vehicle : VehicleParams
         The simulated car (parameter-error effects applied).
+    moment_nm : numpy.ndarray, shape (12, n)
+        WFT moments, ``MOMENT_CHANNELS`` order (``lf_mx`` ... ``rr_mz``) [N m], same frame,
+        noise and stream delay as the forces (:func:`.dynamics._record_six` states the
+        physics).
+    rate_radps : numpy.ndarray, shape (12, n)
+        Spindle angular rates in the non-rotating wheel-centre frame, ``RATE_CHANNELS``
+        order (``lf_wx`` ... ``rr_wz``) [rad/s], with gyro noise.
+    spin_radps : numpy.ndarray, shape (4, n)
+        Wheel spin rate per corner (``SPIN_CHANNELS``) [rad/s], positive rolling forward.
 
     """
 
@@ -83,6 +95,9 @@ class SimResult:
     physics: Tuple[str, ...]
     effect_params: Mapping
     vehicle: VehicleParams
+    moment_nm: Optional[np.ndarray] = None
+    rate_radps: Optional[np.ndarray] = None
+    spin_radps: Optional[np.ndarray] = None
 
     @property
     def duration_s(self) -> float:
@@ -176,8 +191,10 @@ def simulate(course='proving_ground', physics=(), seed: int = 0, duration_scale:
     ax, ay = plan.accel_x_mps2, plan.accel_y_mps2
     if not car.horizontal_dynamics:
         ax, ay = np.zeros_like(ax), np.zeros_like(ay)
-    delay = DelayLine(int(round(effects.get('time_delay', 'delay_s') * fs_int))
-                      if 'time_delay' in effects else 0, 12)
+    lag = int(round(effects.get('time_delay', 'delay_s') * fs_int)) \
+        if 'time_delay' in effects else 0
+    delay = DelayLine(lag, 12)
+    moment_delay = DelayLine(lag, 12)  # the WFT stream: moments lag as the forces do
     state = np.zeros(dynamics.N_STATE)
     pieces = []
     bar = _progress_bar(progress, int(np.ceil(n_steps / fs_int)))
@@ -197,6 +214,8 @@ def simulate(course='proving_ground', physics=(), seed: int = 0, duration_scale:
         chunk = out[:n].copy()
         s = slice(dynamics.O_FORCE, dynamics.O_FORCE + 12)
         chunk[:, s] = delay.process(chunk[:, s])
+        s = slice(dynamics.O_MOMENT, dynamics.O_MOMENT + 12)
+        chunk[:, s] = moment_delay.process(chunk[:, s])
         pieces.append(dec.process(chunk))
         if bar is not None:
             bar.update(n / fs_int)
@@ -212,6 +231,13 @@ def simulate(course='proving_ground', physics=(), seed: int = 0, duration_scale:
     add_noise(noise_rng, accel, force, car.accel_noise_mps2, car.force_noise_n)
     if 'sensor_saturation' in effects:
         accel = saturate(accel, effects.get('sensor_saturation', 'limit_mps2'))
+    moment = rec[dynamics.O_MOMENT:dynamics.O_MOMENT + 12].copy()
+    rate = rec[dynamics.O_GYRO:dynamics.O_GYRO + 12].copy()
+    spin = rec[dynamics.O_SPIN:dynamics.O_SPIN + 4].copy()
+    rng6 = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(_NOISE6_KEY,)))
+    moment += rng6.normal(0.0, car.moment_noise_nm, moment.shape)
+    rate += rng6.normal(0.0, car.gyro_noise_radps, rate.shape)
+    spin += rng6.normal(0.0, car.spin_noise_radps, spin.shape)
     period_ns = 1e9 / fs
     stamp = int(start_ns) + np.round(np.arange(n_out) * period_ns).astype(np.int64)
     events = []
@@ -233,22 +259,31 @@ def simulate(course='proving_ground', physics=(), seed: int = 0, duration_scale:
     }
     return SimResult(stamp_ns=stamp, accel_mps2=accel, force_n=force, events=tuple(events),
                      fs_hz=fs, states=MappingProxyType(states), physics=effects.names,
-                     effect_params=MappingProxyType(effects.to_dict()), vehicle=car)
+                     effect_params=MappingProxyType(effects.to_dict()), vehicle=car,
+                     moment_nm=moment, rate_radps=rate, spin_radps=spin)
 
 
 def write_result(path, result: SimResult, storage: str = 'mcap', topics=None,
-                 travel: bool = False) -> Path:
+                 travel: bool = False, six: bool = False, spin: bool = True) -> Path:
     """
     Write a :class:`SimResult` as a rosbag2 (accelerations, WFT forces, events).
 
     With ``travel`` the suspension compression (``states['suspension_compression_m']``,
-    positive in bump) is written too, as the ``suspension/joint_states`` topic.
+    positive in bump) is written too, as the ``suspension/joint_states`` topic.  With ``six``
+    the WFT messages carry the moments (``wrench.torque``), the Imu messages the angular
+    rates (``angular_velocity``, covariance filled) and, with ``spin``, the
+    ``suspension/joint_states`` messages the wheel spin (``{corner}_wheel`` velocity).
     """
     from wheel_force_estimator.bagio import write_recording
     travel_m = result.states['suspension_compression_m'] if travel else None
+    extras = {}
+    if six:
+        extras = {'torque_nm': result.moment_nm, 'rate_radps': result.rate_radps,
+                  'rate_variance': result.vehicle.gyro_noise_radps ** 2,
+                  'spin_radps': result.spin_radps if spin else None}
     return write_recording(path, result.stamp_ns, result.accel_mps2, result.force_n,
                            topics=topics, events=result.events, storage=storage,
-                           travel_m=travel_m)
+                           travel_m=travel_m, **extras)
 
 
 def simulate_pair(outdir, physics, seed: int = 0, holdout_seed: Optional[int] = None,

@@ -78,8 +78,8 @@ from wheel_force_estimator.sim.vehicle import per_corner
 # corner parameter columns
 (CP_ROAD_OFFSET, CP_ROW, CP_SIDE, CP_MU, CP_MW, CP_KS, CP_CS, CP_KT, CP_CT, CP_FS0, CP_FT0,
  CP_KBX, CP_CBX, CP_KBY, CP_CBY, CP_KTX, CP_KTY, CP_SIGX, CP_SIGY, CP_IW, CP_TC, CP_BS,
- CP_STEER, CP_BRAKE, CP_DRIVE) = range(25)
-N_CP = 25
+ CP_STEER, CP_BRAKE, CP_DRIVE, CP_IOUT, CP_TRAIL, CP_KCY) = range(28)
+N_CP = 28
 # global parameters
 (GP_RIGID, GP_HORIZ, GP_MS, GP_HCG, GP_R, GP_G, GP_FRR, GP_MU, GP_ETA, GP_DRAG, GP_KP, GP_KI,
  GP_MEFF, GP_MTOT) = range(14)
@@ -90,19 +90,23 @@ S_VBX, S_VBY, S_IVBX, S_CORNER = 8, 9, 10, 11
 N_STATE = S_CORNER + 36
 STATE_NAMES = (('heave_m', 'pitch_rad', 'roll_rad', 'body_q3'),
                ('heave_mps', 'pitch_radps', 'roll_radps', 'body_q3_dot'))
-# outputs recorded per step
+# outputs recorded per step: sensors, states, then the six-component extras (issue 33):
+# WFT moments (12), spindle angular rates (12, non-rotating frame), wheel spin rates (4)
 O_ACC, O_FORCE, O_COMP, O_TYRE, O_ROAD, O_BODY, O_SPEED = 0, 12, 24, 28, 40, 44, 47
-N_OUT = 48
+O_MOMENT, O_GYRO, O_SPIN = 48, 60, 72
+N_OUT = 76
 # workspace columns
 (W_C, W_CD, W_FS, W_FT, W_R, W_SLOPE, W_CROSS, W_DEFL, W_FX, W_FY, W_FBX, W_FBY, W_G,
- W_XDD, W_YDD, W_ZDD) = range(16)
-N_W = 16
+ W_XDD, W_YDD, W_ZDD, W_ALPHA, W_SLIP) = range(18)
+N_W = 18
 # in-loop effects (order of effects.LOOP_EFFECTS)
 E_BUMP, E_REBOUND, E_CUBIC, E_DAMPER, E_COULOMB, E_BACKLASH, E_LIFTOFF, E_ARB = range(8)
 # an airborne tyre's deflection decays with this time constant [s]
 TAU_FREE_S = 0.01
 # brakes lock a standing wheel within this time constant [s]
 TAU_HOLD_S = 0.01
+# below this speed the path's yaw rate a_y / v is faded out (the curvature is undefined) [m/s]
+YAW_FADE_MPS = 0.5
 AIR_DENSITY_KGPM3 = 1.2
 
 
@@ -159,6 +163,9 @@ def pack(vehicle) -> Packed:
     fd = vehicle.drive_front_fraction
     cp[:, CP_BRAKE] = 0.5 * np.array([fb, fb, 1.0 - fb, 1.0 - fb])
     cp[:, CP_DRIVE] = 0.5 * np.array([fd, fd, 1.0 - fd, 1.0 - fd])
+    cp[:, CP_IOUT] = per_corner(vehicle, 'outboard_spin_inertia_{}_kgm2')
+    cp[:, CP_TRAIL] = vehicle.pneumatic_trail_m
+    cp[:, CP_KCY] = vehicle.tyre_lateral_stiffness_n_per_m
 
     rigid = vehicle.body_model == 'rigid'
     if rigid:
@@ -294,6 +301,8 @@ def _horizontal(s, v, axr, ayr, cp, gp, eon, ep, ds, wk):
         if nrm > 1.0:  # friction circle: |F| <= mu Fz (sliding)
             ux /= nrm
             uy /= nrm
+        # share of the sliding limit used laterally: the pneumatic trail falls to 0 at 1
+        wk[i, W_SLIP] = min(abs(uy) / uly, 1.0)
         ffx = cp[i, CP_KTX] * lam * ux
         ffy = cp[i, CP_KTY] * lam * uy
         wk[i, W_FX] = ffx - gp[GP_FRR] * fzp * rr_ramp - fzp * wk[i, W_SLOPE]
@@ -327,6 +336,8 @@ def _horizontal(s, v, axr, ayr, cp, gp, eon, ep, ds, wk):
             share = cp[i, CP_DRIVE] if f_dem >= 0.0 else cp[i, CP_BRAKE]
             torque = radius * share * f_dem
             ds[b + C_OM] = radius * (torque - radius * ffx) / cp[i, CP_IW] - axr
+        # spin acceleration of the wheel [rad/s^2]: circumferential acceleration / radius
+        wk[i, W_ALPHA] = (ds[b + C_OM] + axr) / radius
     f_aero = gp[GP_DRAG] * (v + vbx) * abs(v + vbx)
     vbx_dot = (sum_fbx - f_aero) / gp[GP_MS] - axr
     vby_dot = sum_fby / gp[GP_MS] - ayr
@@ -346,7 +357,7 @@ def derivatives(s, v, axr, ayr, xf, road, rx0, rinv, tm, mb, cp, gp, eon, ep, ds
         vbx_dot = vby_dot = sum_fbx = sum_fby = 0.0
         for i in range(4):
             b = S_CORNER + 9 * i
-            for k in (W_FX, W_FY, W_FBX, W_FBY, W_G):
+            for k in (W_FX, W_FY, W_FBX, W_FBY, W_G, W_ALPHA, W_SLIP):
                 wk[i, k] = 0.0
             for k in (C_OM, C_UX, C_UY):
                 ds[b + k] = 0.0
@@ -385,11 +396,11 @@ def derivatives(s, v, axr, ayr, xf, road, rx0, rinv, tm, mb, cp, gp, eon, ep, ds
     ds[S_VBY] = vby_dot
     ds[S_IVBX] = s[S_VBX]
     if record:
-        _record(s, v, rigid, cp, gp, wk, out)
+        _record(s, v, ayr, rigid, cp, gp, wk, out)
 
 
 @njit(cache=True)
-def _record(s, v, rigid, cp, gp, wk, out):
+def _record(s, v, ayr, rigid, cp, gp, wk, out):
     th = s[1] if rigid else 0.0
     ph = s[2] if rigid else 0.0
     ct, st, cf, sf = np.cos(th), np.sin(th), np.cos(ph), np.sin(ph)
@@ -418,10 +429,54 @@ def _record(s, v, rigid, cp, gp, wk, out):
         out[O_TYRE + 3 * i + 1] = fy
         out[O_TYRE + 3 * i + 2] = fz
         out[O_ROAD + i] = wk[i, W_R]
+        _record_six(s, v, ayr, rigid, i, cp, gp, wk, out, (xb0, 0.0, xb2), (yb0, yb1, yb2),
+                    (zb0, zb1, zb2))
     out[O_BODY] = s[0]
     out[O_BODY + 1] = th
     out[O_BODY + 2] = ph
     out[O_SPEED] = v + s[S_VBX]
+
+
+@njit(cache=True)
+def _record_six(s, v, ayr, rigid, i, cp, gp, wk, out, xb, yb, zb):
+    """
+    Six-component extras of corner ``i``: WFT moments, spindle angular rates, spin rate.
+
+    Moments about the wheel centre of the tyre force acting at the contact patch, which lies
+    ``r_l`` below the centre (loaded radius: the static radius less the dynamic tyre
+    deflection), ``y_p = F_y / k_cy`` to the side (lateral carcass deflection) and the
+    pneumatic trail ``t`` behind it, minus the spin inertia of the outboard part::
+
+        M_x = r_l F_y + y_p F_z         lateral force lever + tyre overturning moment
+        M_y = -r_l F_x - I_out alpha    drive / brake torque reaching the road + spin inertia
+        M_z = -t F_y - y_p F_x          aligning moment, t = t_0 (1 - |u_y| / u_y,slide)
+
+    As for the forces, the WFT reads the load the wheel puts on the hub, in the body-aligned
+    frame.  The spindle gyro (non-rotating knuckle) reads the body rates (roll, pitch, the
+    path's yaw rate a_y / v faded below ``YAW_FADE_MPS``) plus the bump-steer rate about z;
+    the spin rate is the wheel's circumferential speed over the radius [rad/s].
+    """
+    b = S_CORNER + 9 * i
+    radius = gp[GP_R]
+    fx, fy, fz = wk[i, W_FX], wk[i, W_FY], wk[i, W_FT]
+    r_l = radius - wk[i, W_DEFL]
+    y_p = fy / cp[i, CP_KCY]
+    trail = cp[i, CP_TRAIL] * (1.0 - wk[i, W_SLIP])
+    mx = r_l * fy + y_p * fz
+    my = -r_l * fx - cp[i, CP_IOUT] * wk[i, W_ALPHA]
+    mz = -trail * fy - y_p * fx
+    out[O_MOMENT + 3 * i] = xb[0] * mx + xb[1] * my + xb[2] * mz
+    out[O_MOMENT + 3 * i + 1] = yb[0] * mx + yb[1] * my + yb[2] * mz
+    out[O_MOMENT + 3 * i + 2] = zb[0] * mx + zb[1] * my + zb[2] * mz
+    roll_rate = s[6] if rigid else 0.0
+    pitch_rate = s[5] if rigid else 0.0
+    yaw_rate = ayr * v / (v * v + YAW_FADE_MPS * YAW_FADE_MPS)
+    ph = s[2] if rigid else 0.0
+    steer_rate = -cp[i, CP_SIDE] * cp[i, CP_BS] * wk[i, W_CD]
+    out[O_GYRO + 3 * i] = roll_rate + xb[2] * yaw_rate
+    out[O_GYRO + 3 * i + 1] = pitch_rate * np.cos(ph) + yb[2] * yaw_rate
+    out[O_GYRO + 3 * i + 2] = -pitch_rate * np.sin(ph) + zb[2] * yaw_rate + steer_rate
+    out[O_SPIN + i] = (v + s[b + C_OM]) / radius
 
 
 @njit(cache=True)

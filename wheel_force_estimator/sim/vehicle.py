@@ -34,6 +34,7 @@ _NON_NEGATIVE = frozenset({
     'tyre_contact_length_m', 'rolling_resistance_coefficient', 'rolling_radius_coupling',
     'track_change_front_m_per_m', 'track_change_rear_m_per_m', 'drag_area_m2',
     'driver_speed_integral_per_s2', 'accel_noise_mps2', 'force_noise_n',
+    'moment_noise_nm', 'gyro_noise_radps', 'spin_noise_radps',
     'hub_long_damping_front_ns_per_m', 'hub_long_damping_rear_ns_per_m',
     'hub_lat_damping_front_ns_per_m', 'hub_lat_damping_rear_ns_per_m',
 })
@@ -61,6 +62,9 @@ class VehicleParams:
         The WFT reads the tyre force minus the inertia force of this mass.
     wheel_spin_inertia_front_kgm2, wheel_spin_inertia_rear_kgm2 : float
         Spin inertia of a wheel (front includes half a drive shaft).
+    outboard_spin_inertia_front_kgm2, outboard_spin_inertia_rear_kgm2 : float
+        Part of the spin inertia outboard of the WFT (rim, tyre): the WFT's ``My`` is the
+        tyre's moment minus this inertia times the spin acceleration.
     wheelbase_m, cg_to_front_axle_m, cg_height_m, track_front_m, track_rear_m : float
         Geometry; the centre of gravity is that of the sprung mass, on the centre line.
     wheel_radius_m : float
@@ -88,6 +92,13 @@ class VehicleParams:
         C_alpha / Fz [1/rad], also load-proportional.
     relaxation_length_long_m, relaxation_length_lat_m : float
         Transient tyre: first-order lag over this rolled distance (stiffness C/sigma at rest).
+    pneumatic_trail_m : float
+        Distance the lateral force acts behind the wheel centre at small slip; it falls
+        linearly to 0 as the lateral deflection reaches the sliding limit (aligning moment).
+    tyre_lateral_stiffness_n_per_m : float
+        Lateral carcass stiffness: the contact patch moves ``F_y / k`` sideways, so the
+        vertical load gives an overturning moment and the longitudinal force an aligning
+        moment.
     rolling_radius_coupling : float
         Change of effective rolling radius per tyre compression (about 1/3): couples
         vertical tyre deflection into longitudinal slip.
@@ -99,6 +110,8 @@ class VehicleParams:
         Driver's speed tracking (PI on speed error, per kg of vehicle mass).
     accel_noise_mps2, force_noise_n : float
         White sensor noise standard deviation at the output rate.
+    moment_noise_nm, gyro_noise_radps, spin_noise_radps : float
+        The same for the WFT moments, the spindle gyros and the wheel speed sensors.
     body_model : {'rigid', 'quarter_car'}
         ``quarter_car`` replaces the rigid body by one independent sprung mass per corner
         (its static corner mass): the paper's quarter-car model, used to check eq. (8).
@@ -117,6 +130,8 @@ class VehicleParams:
     outboard_mass_rear_kg: float = 20.0
     wheel_spin_inertia_front_kgm2: float = 1.1
     wheel_spin_inertia_rear_kgm2: float = 0.9
+    outboard_spin_inertia_front_kgm2: float = 0.8
+    outboard_spin_inertia_rear_kgm2: float = 0.75
     wheelbase_m: float = 2.60
     cg_to_front_axle_m: float = 1.08
     cg_height_m: float = 0.55
@@ -149,6 +164,8 @@ class VehicleParams:
     cornering_stiffness_rear_per_rad: float = 18.0
     relaxation_length_long_m: float = 0.15
     relaxation_length_lat_m: float = 0.45
+    pneumatic_trail_m: float = 0.03
+    tyre_lateral_stiffness_n_per_m: float = 150000.0
     rolling_radius_coupling: float = 0.3
     front_brake_fraction: float = 0.70
     drive_front_fraction: float = 1.0
@@ -157,6 +174,9 @@ class VehicleParams:
     driver_speed_integral_per_s2: float = 0.1
     accel_noise_mps2: float = 0.02
     force_noise_n: float = 8.0
+    moment_noise_nm: float = 0.5
+    gyro_noise_radps: float = 0.002
+    spin_noise_radps: float = 0.01
     body_model: str = 'rigid'
     horizontal_dynamics: bool = True
 
@@ -204,6 +224,11 @@ class VehicleParams:
             if mo >= mu:
                 raise ConfigError(f'vehicle outboard_mass_{axle}_kg ({mo}) must be less than '
                                   f'unsprung_mass_{axle}_kg ({mu})')
+            io = getattr(self, f'outboard_spin_inertia_{axle}_kgm2')
+            iw = getattr(self, f'wheel_spin_inertia_{axle}_kgm2')
+            if io >= iw:
+                raise ConfigError(f'vehicle outboard_spin_inertia_{axle}_kgm2 ({io}) must be '
+                                  f'less than wheel_spin_inertia_{axle}_kgm2 ({iw})')
 
     @property
     def total_mass_kg(self) -> float:
