@@ -16,6 +16,8 @@ from support.ros_testing import synthetic_model
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator import RATE_CHANNELS
+from wheel_force_estimator import SPIN_ACCEL_CHANNELS
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ModelFileError
 from wheel_force_estimator.core.model import save_model
@@ -127,6 +129,10 @@ def test_cli_and_node_apply_one_compatibility_rule(tmp_path):
     candidates = {
         'canonical': synthetic_model(),
         'moments': synthetic_model(output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS),
+        # issue 33: the node runs spin models too (it refused them while predict took them)
+        'rates and spin': synthetic_model(
+            input_channels=INPUT_CHANNELS + RATE_CHANNELS + SPIN_ACCEL_CHANNELS,
+            output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS),
         'reordered': synthetic_model(input_channels=tuple(reversed(INPUT_CHANNELS))),
         'some moments': synthetic_model(output_channels=OUTPUT_CHANNELS + ('lf_mx',)),
         'generic': synthetic_model(input_channels=tuple(f'x{i}' for i in range(12))),
@@ -144,7 +150,8 @@ def test_cli_and_node_apply_one_compatibility_rule(tmp_path):
                 outcomes.append(False)
         assert outcomes[0] == outcomes[1], name
         verdicts[name] = outcomes[0]
-    assert verdicts == {'canonical': True, 'moments': True, 'reordered': False,
+    assert verdicts == {'canonical': True, 'moments': True, 'rates and spin': True,
+                        'reordered': False,
                         'some moments': False, 'generic': False, 'displacement': False}
 
 
