@@ -117,36 +117,39 @@ def test_bad_joint_state_messages_are_counted_dropped_and_the_node_keeps_running
     proc = start_node(path, ros_env, {'live_look_ahead_s': DELAY / FS_HZ,
                                       'input_reliability': 'reliable',
                                       'input_qos_depth': 5000}, log_path=log)
-    peer = SpinInjector()
     try:
-        assert wait_until(lambda: all(p.get_subscription_count() for p in peer.pubs)
-                          and peer.joints.get_subscription_count(), 30.0), log.read_text()
-        time.sleep(0.5)                                # let the node's readers see us too
-        peer.publish(stamps, accel, msgs)
-        # three samples without spin: dropped on every stream, two gaps, three segments; the
-        # look-ahead and the held spin sample of the last stay in flight (a pause; bug
-        # caught: the spin's extra sample not counted in flight, or lost)
-        expected = n - 3 - (DELAY + 1)
+        peer = SpinInjector()
+        try:
+            assert wait_until(lambda: all(p.get_subscription_count() for p in peer.pubs)
+                              and peer.joints.get_subscription_count(), 30.0), log.read_text()
+            time.sleep(0.5)                            # let the node's readers see us too
+            peer.publish(stamps, accel, msgs)
+            # three samples without spin: dropped on every stream, two gaps, three segments;
+            # the look-ahead and the held spin sample of the last stay in flight (a pause;
+            # bug caught: the spin's extra sample not counted in flight, or lost)
+            expected = n - 3 - (DELAY + 1)
 
-        def settled():
-            return bool(peer.health) and (
-                node_values(peer.health[-1])['published'] == str(expected))
-        assert wait_until(settled, 20.0), (str(node_values(peer.health[-1])) if peer.health
-                                           else log.read_text()[-2000:])
-        values = node_values(peer.health[-1])
-        corner = next(status_values(s) for s in peer.health[-1].status
-                      if s.name.endswith(': rf'))
+            def settled():
+                return bool(peer.health) and (
+                    node_values(peer.health[-1])['published'] == str(expected))
+            assert wait_until(settled, 20.0), (str(node_values(peer.health[-1]))
+                                               if peer.health else log.read_text()[-2000:])
+            values = node_values(peer.health[-1])
+            corner = next(status_values(s) for s in peer.health[-1].status
+                          if s.name.endswith(': rf'))
+        finally:
+            peer.close()
+        assert values['joint_states_topic'] == '/suspension/joint_states'
+        assert values['joint_states_received'] == str(n)
+        assert values['joint_states_dropped_malformed'] == '2'
+        assert values['joint_states_dropped_nonfinite'] == '1'
+        assert values['joint_states_dropped'] == '3'
+        assert values['gaps'] == '2' and values['look_ahead_samples'] == str(DELAY + 1)
+        assert corner['in_flight'] == str(DELAY + 1) and corner['dropped_incomplete'] == '3'
+        assert proc.poll() is None                     # still running after all of it
+        assert stop_node(proc) == 0
     finally:
-        peer.close()
-    assert values['joint_states_topic'] == '/suspension/joint_states'
-    assert values['joint_states_received'] == str(n)
-    assert values['joint_states_dropped_malformed'] == '2'
-    assert values['joint_states_dropped_nonfinite'] == '1'
-    assert values['joint_states_dropped'] == '3'
-    assert values['gaps'] == '2' and values['look_ahead_samples'] == str(DELAY + 1)
-    assert corner['in_flight'] == str(DELAY + 1) and corner['dropped_incomplete'] == '3'
-    assert proc.poll() is None                         # still running after all of it
-    assert stop_node(proc) == 0
+        stop_node(proc)
     text = log.read_text()
     assert '/suspension/joint_states: dropped 2 malformed message(s)' in text, text[-3000:]
     # (the warnings are throttled: the NaN one, 0.4 s later, is in the counters only)

@@ -484,10 +484,9 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         raws[-1].append(msg)
         self.messages_taken += 1
         self._input_since_tick = True
+        # not paced here: the pacing credits a quarter sample per Imu message
         if self._queued + min(map(len, raws)) >= self._params.block_size:
             self._process(time.monotonic())
-        if self._n_unpublished:
-            self._pace(time.monotonic())
 
     def _on_event(self, msg: String):
         self._event = msg.data
@@ -508,7 +507,8 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         had_input, self._input_since_tick = self._input_since_tick, False
         if any(self._raw):
             self._process(now)
-        self._pacer.measure(now, int(self._received.sum()))
+        # the Imu messages set the output rhythm (four per sample; not the JointState ones)
+        self._pacer.measure(now, int(self._received[:len(CORNERS)].sum()))
         if (self._last_input_s is not None and now - self._last_input_s > self._stale_s
                 and self._paused_at != self._stream.counts['samples_in']):
             self._on_pause(now - self._last_input_s)
