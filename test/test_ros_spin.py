@@ -143,7 +143,7 @@ def test_bad_joint_state_messages_are_counted_dropped_and_the_node_keeps_running
         assert values['joint_states_received'] == str(n)
         assert values['joint_states_dropped_malformed'] == '2'
         assert values['joint_states_dropped_nonfinite'] == '1'
-        assert values['joint_states_dropped'] == '3'
+        assert values['joint_states_dropped'] == '3' and values['single_samples'] == '0'
         assert values['gaps'] == '2' and values['look_ahead_samples'] == str(DELAY + 1)
         assert corner['in_flight'] == str(DELAY + 1) and corner['dropped_incomplete'] == '3'
         assert proc.poll() is None                     # still running after all of it

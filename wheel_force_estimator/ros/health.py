@@ -234,6 +234,8 @@ class NodeHealth:
         if joints:
             values += [('joint_states_topic', self._input_names[-1])]
             values += [(f'joint_states_{key}', value) for key, value in joints.items()]
+            # gap-free stretches of one sample: no spin derivative, no estimate
+            values += [('single_samples', stream['single_samples'])]
         self._health_pub.publish(build_health_array(
             self.get_fully_qualified_name(), self._health_stamp_ns(), corners,
             (node_level, node_text, values)))
