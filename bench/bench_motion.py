@@ -18,8 +18,8 @@ from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.motion import motion_findings
 from wheel_force_estimator.diagnosis.recording import MotionRecording
-from wheel_force_estimator.diagnosis.run import _fit_linear
 from wheel_force_estimator.diagnosis.run import DiagnosisConfig
+from wheel_force_estimator.diagnosis.run import fit_linear
 from wheel_force_estimator.sim.api import simulate
 
 
@@ -40,7 +40,7 @@ def main():
     for label, run in (('motion_findings (clip + lift-off)',
                         lambda: motion_findings([real], [sim], sources)),
                        ('baseline: FRF fit on the sim',
-                        lambda: _fit_linear([sim], DiagnosisConfig(), 'sim', sim))):
+                        lambda: fit_linear([sim], DiagnosisConfig(), 'sim', sim))):
         best = float('inf')
         for _ in range(3):
             t0 = time.perf_counter()

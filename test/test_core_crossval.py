@@ -12,6 +12,8 @@ from wheel_force_estimator.core.candidates import block_stats
 from wheel_force_estimator.core.candidates import Candidate
 from wheel_force_estimator.core.candidates import candidates
 from wheel_force_estimator.core.candidates import combine_correlations
+from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
+from wheel_force_estimator.core.candidates import LsSolutions
 from wheel_force_estimator.core.crossval import blend_weight
 from wheel_force_estimator.core.crossval import BlendScorer
 from wheel_force_estimator.core.crossval import block_pieces
@@ -26,6 +28,7 @@ from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import design_causal
 from wheel_force_estimator.core.live_estimator import LagOrderedFactor
 from wheel_force_estimator.core.live_estimator import LiveDesign
+from wheel_force_estimator.core.live_estimator import look_ahead_samples
 from wheel_force_estimator.core.live_estimator import NormalEquations
 from wheel_force_estimator.core.metrics import rmse_hp_pct
 from wheel_force_estimator.core.metrics import rmse_pct
@@ -123,6 +126,40 @@ def test_one_factorisation_serves_every_look_ahead():
     np.testing.assert_allclose(other.fine_taps, rebuilt.fine_taps, rtol=1e-7, atol=1e-9)
 
 
+def test_least_squares_solutions_reuse_a_factor_only_for_the_same_inputs():
+    """
+    Same inputs, other outputs: the stored factor solves the new outputs exactly.
+
+    Bugs caught: a factor served for another training set's inputs (a stale cache), or the
+    right-hand side of the first outputs kept.  Known answer: a fresh factorisation.
+    """
+    x = coloured(2, 20000, 14)
+    y1 = np.vstack([np.roll(x[0], -3) + 0.5 * x[1], x[1] - np.roll(x[0], 2)])
+    y2 = np.vstack([0.3 * np.roll(x[1], 1), np.roll(x[0], -5)])
+    design = LiveDesign(look_aheads_s=(8 / FS_HZ,), history_s=0.25, fine_s=0.05,
+                        blocks_per_octave=4, regularisation=1e-3)
+
+    def corr_of(xx, yy):
+        acc = CorrelationAccumulator(2, 2, int(round((LS_LOOK_AHEAD_S + 0.25) * FS_HZ)) + 3)
+        acc.add(xx, yy)
+        return acc.result(FS_HZ)
+
+    def fresh(corr):
+        d = look_ahead_samples(LS_LOOK_AHEAD_S, FS_HZ)
+        eq = NormalEquations(corr, d, dataclasses.replace(
+            design, look_aheads_s=(LS_LOOK_AHEAD_S,)))
+        return LagOrderedFactor(eq, 1e-3).estimator(d).fine_taps
+
+    d = look_ahead_samples(LS_LOOK_AHEAD_S, FS_HZ)
+    for xx, yy in ((x, y1), (x, y2), (x[:, :15000], y2[:, :15000]), (x, y1)):
+        corr = corr_of(xx, yy)
+        got = LsSolutions(corr, design, (1e-3,)).estimator(1e-3, d).fine_taps
+        np.testing.assert_allclose(got, fresh(corr), rtol=1e-9, atol=1e-12)
+    a = LsSolutions(corr_of(x, y1), design, (1e-3,)).estimator(1e-3, d).fine_taps
+    b = LsSolutions(corr_of(x, y2), design, (1e-3,)).estimator(1e-3, d).fine_taps
+    assert not np.allclose(a, b)
+
+
 def test_block_sums_equal_the_statistics_of_the_whole():
     """A fold is a sum of blocks: chunked correlations == direct sums over the chunks."""
     x, y = coloured(2, 4000, 5), coloured(1, 4000, 6)
@@ -196,6 +233,26 @@ def test_an_imposed_estimator_keeps_the_h1_family(explicit):
     design = fitted.model.fit['design']
     assert design['imposed'] == ['estimator']
     assert {c['family'] for c in design['candidates']} == {'h1'}
+
+
+def test_refit_with_the_chosen_design_reproduces_the_fit_and_keeps_its_rows():
+    # Bugs caught: a refit that searches again or falls back to the default design (the
+    # diagnosis's held-out blocks would judge another FIR than the one `fit` writes), or
+    # that drops the chosen rows.  Known answer: the same segments give the same model.
+    x, y = _known_system(60000, 11)
+    cfg = FitConfig(segment_length=512, long_segment_length=0,
+                    live=LiveDesign(look_aheads_s=(0.05,), history_s=0.5))
+    segments = [TrainingSegment(x, y, 'train')]
+    fitted = fit_design(segments, FS_HZ, cfg, ('a', 'b'), ('f', 'g'))
+    assert fitted.chosen is not None
+    again = fitted.refit(segments)
+    np.testing.assert_allclose(again.fir_taps, fitted.model.fir_taps, rtol=0, atol=1e-12)
+    assert again.fit['design']['rows'] == fitted.model.fit['design']['rows']
+    # on other data it keeps the chosen rows (no new search) and fits that data
+    x2, y2 = _known_system(40000, 12)
+    other = fitted.refit([TrainingSegment(x2, y2, 'other')])
+    assert other.fit['design']['rows'] == fitted.model.fit['design']['rows']
+    assert not np.allclose(other.fir_taps, fitted.model.fir_taps)
 
 
 def test_blend_scorer_equals_the_score_of_the_blended_response():

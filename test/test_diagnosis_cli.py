@@ -48,10 +48,9 @@ def test_generic_sim_diagnosis_writes_json_and_report(generic_files, tmp_path, c
     assert doc['fit']['data'] == 'holdout'
     # The static-law reference (--linear regression) is not an FRF and cannot be written:
     # the written model and `after` are built on the FIR fitted on the real data (whole, or
-    # per channel: the named channel may take the rows with the term, the other the plain fit).
-    assert doc['fit']['model'] in ('real_frf+physics', 'real_linear', 'per_channel')
-    if doc['fit']['model'] == 'per_channel':
-        assert doc['fit']['rows_from'] == {'fa': 'real_frf+physics', 'fb': 'real_linear'}
+    # per channel).  Bug caught: a candidate built on a reference that has no FRF.
+    sources = set(doc['fit'].get('rows_from', {}).values()) or {doc['fit']['model']}
+    assert sources and not any(s.startswith('sim_frf') for s in sources), sources
     assert (tmp_path / 'rep' / 'report.md').is_file()
     assert list((tmp_path / 'rep').glob('regime_*.png'))
     assert 'rebound damping differ' in capsys.readouterr().out
@@ -116,18 +115,23 @@ def test_bags_from_the_simulator_and_augmented_model(tmp_path):
     assert rc == 0
     doc = json.loads(out.read_text())
     assert doc['fit']['metric'] == 'rmse_hp1_pct'
-    assert [f['physics'] for f in doc['findings']][:1] == ['damper_asymmetry']
+    # The effect is named (on Fz).  Its first place is not asserted: this 1-minute pair also
+    # names a left-right coupling (anti_roll_bar) that ranks first as a whole-vehicle
+    # finding; the gate half of the holdout finds its term harmful, which used to drop the
+    # name with --holdout only (the holdout judges models, not names: a false finding of the
+    # coupling stage, now named on both paths - see issue 30's notes).
+    named = {f['physics']: f['channels'] for f in doc['findings']}
+    assert set(named.get('damper_asymmetry', ['none'])) <= {'lf_fz', 'rf_fz', 'lr_fz', 'rr_fz'}
     physics = load_model(model).physics
     # The written model is the one the gate half preferred; JSON and file agree on it.
     # (or rows of several, each named in rows_from, with the terms of the rows it took)
     sources = set(doc['fit'].get('rows_from', {}).values()) or {doc['fit']['model']}
-    assert doc['fit']['model'] in ('sim_frf+physics', 'real_frf+physics', 'real_linear',
-                                   'sim_frf', 'per_channel'), doc['fit']['model']
-    assert sources <= {'sim_frf+physics', 'real_frf+physics', 'real_linear', 'sim_frf'}
     if not physics:
         assert not any(s.endswith('+physics') for s in sources)
-    if physics:
-        assert physics[0]['physics'] == 'damper_asymmetry'
+    # a term the gate rejected is not in the written model
+    rejected = {p for p in named if any(f'{p} fitted the real data but its term' in r
+                                        for r in doc['rejected'])}
+    assert not rejected & {p['physics'] for p in physics}, (rejected, physics)
     # Like `fit`, the written model carries live estimators (configured 50 ms first), so the
     # node runs it without cutting the offline FIR.
     written = load_model(model)
@@ -135,3 +139,39 @@ def test_bags_from_the_simulator_and_augmented_model(tmp_path):
     assert looks[0] == round(0.05 * written.fs_hz) and len(looks) == 5
     _, fallback = select_filter(written, looks[0])
     assert fallback is None
+
+
+def _evaluated(model, bag, path):
+    """Mean over all channels of ``evaluate --json``: (unfiltered, 1 Hz high-passed) RMSE %."""
+    assert main(['evaluate', str(model), str(bag), '--json', str(path)]) == 0
+    channels = json.loads(path.read_text())['channels'].values()
+    return tuple(float(np.mean([c[k] for c in channels])) for k in ('rmse_pct', 'rmse_hp1_pct'))
+
+
+@pytest.mark.slow
+def test_without_holdout_the_written_model_is_no_worse_than_a_plain_fit(tmp_path, capsys):
+    # Bug caught: without --holdout the simulation's FRF + terms written unconditionally,
+    # worse than a plain `fit` on the real bags on every lateral channel (issue 30).  Judged
+    # where the user would judge it: `evaluate` of both models on a bag neither saw, both
+    # figures, mean over the 12 channels; 0.5 % is the issue's bar for "no worse".
+    from wheel_force_estimator.sim.api import simulate_pair
+    paths = simulate_pair(tmp_path / 'pair', ('damper_asymmetry',), seed=7,
+                          duration_scale=0.1)
+    out, written, plain = tmp_path / 'd.json', tmp_path / 'w.npz', tmp_path / 'p.npz'
+    assert main(['diagnose', '--real', str(paths['real']), '--sim', str(paths['sim']),
+                 '--json', str(out), '--out-model', str(written)]) == 0
+    assert main(['fit', str(paths['real']), '-o', str(plain)]) == 0
+    capsys.readouterr()
+    fit = json.loads(out.read_text())['fit']
+    assert fit['data'] == 'cross_validation'
+    # both figures of all three models, per channel, on the held-out blocks
+    for key in ('before', 'real_linear', 'after'):
+        for figure in ('unfiltered', 'hp1'):
+            assert len(fit[f'{key}_{figure}']) == 12, key
+    assert fit['after'] == fit['after_hp1']
+    for c in fit['after']:
+        assert fit['after_hp1'][c] <= fit['real_linear_hp1'][c] + 1e-9, c
+        assert fit['after_unfiltered'][c] <= fit['real_linear_unfiltered'][c] + 1e-9, c
+    w = _evaluated(written, paths['holdout'], tmp_path / 'w.json')
+    p = _evaluated(plain, paths['holdout'], tmp_path / 'p.json')
+    assert w[0] <= 1.005 * p[0] and w[1] <= 1.005 * p[1], (w, p)

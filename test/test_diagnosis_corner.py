@@ -12,6 +12,7 @@ from wheel_force_estimator.diagnosis.corner import sharper_lowpass_hz
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 
+
 FS_HZ = 256.0
 
 
@@ -98,10 +99,10 @@ def test_a_linear_rig_names_nothing_with_either_corner(quantity):
 
 
 def test_a_model_reference_gets_both_corners_a_simulation_one():
-    from wheel_force_estimator.diagnosis.run import _real_linear
+    from wheel_force_estimator.diagnosis.run import real_linear_fit
     real = [_rig('coulomb_friction', 1), _rig('coulomb_friction', 2)]
     holdout = [_rig('coulomb_friction', 3), _rig('coulomb_friction', 4)]
-    model = _real_linear(real, DiagnosisConfig()).model
+    model = real_linear_fit(real, DiagnosisConfig()).model
     with_model = diagnose(real, model, holdout)
     note, = [n for n in with_model.fit.notes if n.startswith('Differentiator low-pass')]
     assert '102 Hz' in note and '32 Hz' in note
@@ -114,8 +115,8 @@ def test_a_model_reference_gets_both_corners_a_simulation_one():
 
 def test_a_second_corner_that_cannot_run_leaves_the_first_with_a_note(monkeypatch):
     from wheel_force_estimator.core.errors import DiagnosisError
-    from wheel_force_estimator.diagnosis import run
-    once = run._diagnose_once
+    from wheel_force_estimator.diagnosis import pipeline
+    once = pipeline.diagnose_once
     corners = []
 
     def refuse_sharp(real, sim, holdout, config):
@@ -124,7 +125,7 @@ def test_a_second_corner_that_cannot_run_leaves_the_first_with_a_note(monkeypatc
             raise DiagnosisError('rig3: too short (test)')
         return once(real, sim, holdout, config)
 
-    monkeypatch.setattr(run, '_diagnose_once', refuse_sharp)
+    monkeypatch.setattr(pipeline, 'diagnose_once', refuse_sharp)
     real = [_rig('none', 1), _rig('none', 2)]
     holdout = [_rig('none', 3), _rig('none', 4)]
     result = diagnose(real, None, holdout)

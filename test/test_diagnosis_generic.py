@@ -298,4 +298,8 @@ def test_a_lightly_damped_structure_gets_its_resolution_and_no_finding():
         assert not result.findings
         assert result.fit.model == 'real_linear'
         assert result.fit.after == result.fit.real_linear
-    assert chosen.fit.real_linear['f'] < 0.5 * paper.fit.real_linear['f']
+    # The real-data linear model is fitted with `fit`'s cross-validated design either way
+    # (issue 29), whose least-squares FIR and segment grid resolve the mode: both runs are
+    # below half the unresolved paper FIR's 22.7 % (measured before the design search).
+    assert chosen.fit.real_linear['f'] < 0.5 * 22.7
+    assert paper.fit.real_linear['f'] < 0.5 * 22.7

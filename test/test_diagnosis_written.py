@@ -98,11 +98,6 @@ def test_hardening_rig_is_named_and_evaluate_reproduces_every_reported_figure(tm
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 30: the diagnosis's real-data linear model keeps the single design while "
-    '`wheel-force fit` chooses its design by cross-validation (issue 29); measured 64.29 % '
-    '(diagnosis) vs 64.42 % (fit) on the report half. Aligning them moves the noise floor '
-    'the concealed effect sizes were measured against.'))
 def test_fit_and_evaluate_reproduce_the_diagnosis_real_linear_figure(tmp_path):
     # Bug caught: `real_linear` fitted with a design other than `wheel-force fit`'s.
     real1, real2, _, report = _hardening_files(tmp_path, ('r1', 'r2', 'g', 'h'))
@@ -386,7 +381,7 @@ def test_backfitting_never_ends_worse_on_its_own_data_than_it_started():
     # 18 -> 349 -> 6908, training RMSE 183 % -> 47956 %).  The alternation now keeps its best
     # pair on the objective it minimises.
     from wheel_force_estimator.diagnosis.features import settle_samples
-    from wheel_force_estimator.diagnosis.run import _real_linear
+    from wheel_force_estimator.diagnosis.run import real_linear_fit
     from wheel_force_estimator.diagnosis.run import DiagnosisConfig
     from wheel_force_estimator.diagnosis.written import backfitted_model
     n = int(60 * FS_HZ)
@@ -408,7 +403,7 @@ def test_backfitting_never_ends_worse_on_its_own_data_than_it_started():
         return total
     findings = [f for f in result.findings if f.terms]
     assert any(t.state == 'load' for f in findings for t in f.terms)
-    refit = lambda recs: _real_linear(recs, config).model    # noqa: E731
+    refit = lambda recs: real_linear_fit(recs, config).model    # noqa: E731
     start, _ = backfitted_model(findings, real, result.baseline.model, refit, hp, skip, 0)
     joint, _ = backfitted_model(findings, real, result.baseline.model, refit, hp, skip, 2)
     assert objective(joint) <= objective(start) * (1 + 1e-9)
@@ -445,7 +440,7 @@ def test_backfit_strength_is_the_joint_fixed_point_in_one_step(start_fraction):
     from wheel_force_estimator.diagnosis import written
     from wheel_force_estimator.diagnosis.features import settle_samples
     from wheel_force_estimator.diagnosis.result import Finding
-    from wheel_force_estimator.diagnosis.run import _real_linear
+    from wheel_force_estimator.diagnosis.run import real_linear_fit
     from wheel_force_estimator.diagnosis.run import DiagnosisConfig
     rng = np.random.default_rng(11)
     real = []
@@ -454,7 +449,7 @@ def test_backfit_strength_is_the_joint_fixed_point_in_one_step(start_fraction):
         real.append(MotionRecording(f'hard{k}', FS_HZ, x[None], _rig_force(x, rng)[None],
                                     ('x',), ('f',), input_quantity='displacement'))
     config = DiagnosisConfig()
-    refit = lambda recs: _real_linear(recs, config).model    # noqa: E731
+    refit = lambda recs: real_linear_fit(recs, config).model    # noqa: E731
     term = PhysicsTerm('cubic_stiffness', ('f',), {'stiffness_n_per_m3': start_fraction * K3},
                        sources=('x',), input_quantity='displacement', highpass_hz=0.0,
                        lowpass_hz=FS_HZ / 8)
@@ -470,3 +465,29 @@ def test_backfit_strength_is_the_joint_fixed_point_in_one_step(start_fraction):
     # The fixed point itself sits 13 % below the true k3: the H1 design (Hann windows, the
     # two-resolution splice, coherence fade) is not exactly least squares in time.
     assert 0.8 < beta * start_fraction < 1.05
+
+
+def test_term_strengths_are_fitted_on_both_figures():
+    # Bug caught: strengths fitted on the 1 Hz high-passed residual alone.  Known answer: a
+    # term whose shape carries a slow part (0.2 Hz) and a fast part (5 Hz) where the data
+    # hold the slow part at strength 1 and the fast part at strength 2.  The high-passed
+    # figure alone wants 2 (doubling the slow error the unfiltered figure scores); both
+    # figures together settle between, and the unfiltered error there is smaller.
+    from wheel_force_estimator.diagnosis import written
+    fs = 64.0
+    t = np.arange(int(120 * fs)) / fs
+    slow, fast = np.sin(2 * np.pi * 0.2 * t)[None], np.sin(2 * np.pi * 5.0 * t)[None]
+    rec = MotionRecording('r', fs, np.zeros((1, t.size)), slow + 2.0 * fast, ('a',), ('f',))
+    units = [[slow + fast]]
+    base = [np.zeros((1, t.size))]
+    both = written._strengths(units, [True], [rec], base, 1.0, 0)[0]
+    # equal-power sines: the unfiltered figure alone wants (1 + 2 * 2) / 2 = 1.5 ...
+    unfiltered_only = written._strengths(units, [True], [rec], base, 0.0, 0)[0]
+    assert abs(unfiltered_only - 1.5) < 0.01
+    # ... the high-passed one 2 (0.2 Hz is >20 dB down at a 1 Hz high-pass); the analytic
+    # optimum of the two weighted by each figure's force RMS is 2.2 / 1.3 = 1.69
+    assert abs(both - 2.2 / 1.3) < 0.05
+
+    def unfiltered_error(beta):
+        return np.sqrt(np.mean((rec.outputs - beta * units[0][0]) ** 2))
+    assert unfiltered_error(both) < unfiltered_error(2.0)

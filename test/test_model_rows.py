@@ -10,8 +10,11 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.model_rows import compatible
 from wheel_force_estimator.core.model_rows import compose_rows
 from wheel_force_estimator.core.predict import predict_forces
-from wheel_force_estimator.diagnosis.written import compose
-from wheel_force_estimator.diagnosis.written import linked_channels
+from wheel_force_estimator.diagnosis.choice import combine
+from wheel_force_estimator.diagnosis.choice import linked_channels
+from wheel_force_estimator.diagnosis.choice import plain_names
+from wheel_force_estimator.diagnosis.choice import touched_channels
+from wheel_force_estimator.diagnosis.crossval import pick_rows
 
 from test_core_model import small_model  # noqa: I100  (the tests' own helper)
 
@@ -73,31 +76,60 @@ def _term(channels, partners=()):
     return term
 
 
+def _both(per_channel, hp=None):
+    """Scores in both figures (the high-passed one equal to the unfiltered unless given)."""
+    return {'rmse_pct': per_channel, 'rmse_hp1_pct': hp or per_channel}
+
+
+def _pick(candidates, scores, channels, fixed=()):
+    return pick_rows(scores, linked_channels(candidates, channels),
+                     touched_channels(candidates), 'real_linear', 'rmse_hp1_pct',
+                     plain_names(candidates), fixed)
+
+
 def test_channels_a_term_spans_or_couples_are_chosen_together():
     a, b = _pair()
     with_terms = a.with_physics([_term(['out0', 'out1'])])
     groups = linked_channels({'a': with_terms, 'b': b}, a.output_channels)
     assert sorted(map(sorted, groups)) == [['out0', 'out1'], ['out2']]
-    # the group goes to the lower mean gate score (here b, although out0 alone prefers a)
-    gate = {'a': {'out0': 10.0, 'out1': 30.0, 'out2': 5.0},
-            'b': {'out0': 12.0, 'out1': 20.0, 'out2': 6.0}}
+    # the group goes to the lower mean score (here b, although out0 alone prefers a)
     plain = a.with_physics([])
-    three = {'a': with_terms, 'b': b, 'c': plain}
-    gate['c'] = {'out0': 50.0, 'out1': 50.0, 'out2': 4.0}
-    model, pick, note = compose(three, gate, a.output_channels)
-    assert pick == {'out0': 'b', 'out1': 'b', 'out2': 'c'} and note == ''
+    three = {'a': with_terms, 'b': b, 'real_linear': plain}
+    scores = {'a': _both({'out0': 10.0, 'out1': 30.0, 'out2': 5.0}),
+              'b': _both({'out0': 12.0, 'out1': 20.0, 'out2': 6.0}),
+              'real_linear': _both({'out0': 50.0, 'out1': 50.0, 'out2': 4.0})}
+    pick = _pick(three, scores, a.output_channels)
+    assert pick == {'out0': 'b', 'out1': 'b', 'out2': 'real_linear'}
+    model, name, note = combine(three, pick, a.output_channels)
+    assert name == 'per_channel' and note == ''
     assert model.physics == ()     # the term's rows went to another model
     assert model.fit['rows_from'] == pick
     # a row no term touches comes from a model without terms, even when one with terms
     # scores lower there; a term's rows bring the term along
-    gate['a'] = {'out0': 1.0, 'out1': 1.0, 'out2': 1.0}
-    model, pick, _ = compose(three, gate, a.output_channels)
-    assert pick == {'out0': 'a', 'out1': 'a', 'out2': 'c'}
+    scores['a'] = _both({'out0': 1.0, 'out1': 1.0, 'out2': 1.0})
+    pick = _pick(three, scores, a.output_channels)
+    assert pick == {'out0': 'a', 'out1': 'a', 'out2': 'real_linear'}
+    model, _, _ = combine(three, pick, a.output_channels)
     assert [p['physics'] for p in model.physics] == ['coulomb_friction']
-    # unanimous: nothing to combine, the caller writes that candidate whole
-    gate['a'] = {'out0': 90.0, 'out1': 90.0, 'out2': 1.0}
-    model, pick, _ = compose({'a': with_terms, 'b': b}, gate, a.output_channels)
-    assert model is None and set(pick.values()) == {'b'}
+    # unanimous: nothing to combine, that candidate is written whole
+    model, name, _ = combine(three, dict.fromkeys(a.output_channels, 'b'), a.output_channels)
+    assert model is b and name == 'b'
+
+
+def test_a_candidate_worse_than_the_plain_fit_in_either_figure_is_not_written():
+    # Bug caught: a model chosen on the high-passed figure alone while its unfiltered error
+    # is worse than the plain fit's (an asymmetric damper term spoiling the quasi-static band).
+    a, b = _pair()
+    with_terms = a.with_physics([_term(['out0'])])
+    candidates = {'real_frf+physics': with_terms, 'real_linear': b}
+    scores = {'real_frf+physics': _both({'out0': 20.0, 'out1': 9.0, 'out2': 9.0},
+                                        {'out0': 5.0, 'out1': 9.0, 'out2': 9.0}),
+              'real_linear': _both({'out0': 10.0, 'out1': 9.0, 'out2': 9.0},
+                                   {'out0': 8.0, 'out1': 9.0, 'out2': 9.0})}
+    assert _pick(candidates, scores, a.output_channels)['out0'] == 'real_linear'
+    # better in both: written
+    scores['real_frf+physics']['rmse_pct']['out0'] = 9.5
+    assert _pick(candidates, scores, a.output_channels)['out0'] == 'real_frf+physics'
 
 
 def test_motion_channels_no_term_touches_take_the_plain_fit():
@@ -105,14 +137,33 @@ def test_motion_channels_no_term_touches_take_the_plain_fit():
     # half preferred them by less than it can resolve (worse on the report half).
     a, b = _pair()
     sim, plain = a.with_physics([]), b
-    gate = {'sim_frf': {'out0': 5.0, 'out1': 5.0, 'out2': 5.0},
-            'real_linear': {'out0': 5.1, 'out1': 5.1, 'out2': 4.0}}
+    scores = {'sim_frf': _both({'out0': 5.0, 'out1': 5.0, 'out2': 5.0}),
+              'real_linear': _both({'out0': 5.1, 'out1': 5.1, 'out2': 4.0})}
     candidates = {'sim_frf': sim, 'real_linear': plain}
-    _, pick, _ = compose(candidates, gate, a.output_channels, motion_channels=['out1'])
+    # out0 is no motion channel, but sim_frf is worse than the plain fit nowhere else there
+    scores['sim_frf']['rmse_pct']['out0'] = 5.1
+    pick = _pick(candidates, scores, a.output_channels, fixed=['out1'])
     assert pick == {'out0': 'sim_frf', 'out1': 'real_linear', 'out2': 'real_linear'}
-    # a motion channel a term touches still chooses on the gate half (the clip term's rows)
+    # a motion channel a term touches still chooses on the scores (the clip term's rows)
     with_terms = sim.with_physics([_term(['out1'])])
-    gate['sim_frf+physics'] = {'out0': 9.0, 'out1': 3.0, 'out2': 9.0}
-    _, pick, _ = compose({'sim_frf+physics': with_terms, **candidates}, gate,
-                         a.output_channels, motion_channels=['out1'])
+    scores['sim_frf+physics'] = _both({'out0': 9.0, 'out1': 3.0, 'out2': 9.0})
+    pick = _pick({'sim_frf+physics': with_terms, **candidates},
+                 {'sim_frf+physics': scores.pop('sim_frf+physics'), **scores},
+                 a.output_channels, fixed=['out1'])
     assert pick['out1'] == 'sim_frf+physics'
+
+
+def test_terms_that_make_their_own_base_worse_are_not_written():
+    # Bug caught: the simulation's FRF + terms written because it beats a plain fit that the
+    # training blocks fit on less data, while the terms make the simulation's FRF worse.
+    a, b = _pair()
+    sim = a.with_physics([])
+    with_terms = sim.with_physics([_term(['out0'])])
+    candidates = {'sim_frf+physics': with_terms, 'sim_frf': sim, 'real_linear': b}
+    scores = {'sim_frf+physics': _both({'out0': 9.0, 'out1': 9.0, 'out2': 9.0}),
+              'sim_frf': _both({'out0': 8.0, 'out1': 9.0, 'out2': 9.0}),
+              'real_linear': _both({'out0': 20.0, 'out1': 20.0, 'out2': 20.0})}
+    pick = pick_rows(scores, linked_channels(candidates, a.output_channels),
+                     touched_channels(candidates), 'real_linear', 'rmse_hp1_pct',
+                     plain_names(candidates), bases={'sim_frf+physics': 'sim_frf'})
+    assert pick['out0'] == 'sim_frf'

@@ -231,8 +231,7 @@ def test_two_resolution_model_streams_and_round_trips(lf_fits, tmp_path):
 
 def test_fit_on_band_limited_accelerations_predicts_new_data_within_the_noise():
     # Known answer: F = F0 + k x + c v + m a seen through accelerations excited at 0.5-25 Hz
-    # (test/support/diagnosis_synthetic.py), 5 % force noise.  The product fit damps the
-    # unexcited lines
+    # (support.diagnosis_synthetic), 5 % force noise.  The product fit damps the unexcited lines
     # (water level); without that their leakage/noise gain (1.7e5 N per m/s² at 0.06 Hz)
     # rang from the records' ends and the holdout RMSE was 240 % and 5772 %.
     import dataclasses

@@ -4,7 +4,13 @@
 
 __version__ = '0.1.0'
 
+#: Corners in channel order (DESIGN.md), and the axles they form, left corner first.
 CORNERS = ('lf', 'rf', 'lr', 'rr')
+AXLES = (('lf', 'rf'), ('lr', 'rr'))
+#: Each corner's partner on the same axle.
+PARTNER_CORNER = {c: a[1 - a.index(c)] for a in AXLES for c in a}
+#: Standard gravity [m/s^2] (ISO 80000-3): what an accelerometer at rest reads on z.
+GRAVITY_MPS2 = 9.80665
 INPUT_CHANNELS = tuple(f'{c}_a{ax}' for c in CORNERS for ax in 'xyz')
 OUTPUT_CHANNELS = tuple(f'{c}_f{ax}' for c in CORNERS for ax in 'xyz')
 # Six components (issue 33): wheel moments after the forces; the extra inputs a model may

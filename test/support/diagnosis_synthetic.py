@@ -14,6 +14,7 @@ from typing import Dict, Tuple
 
 import numpy as np
 
+from wheel_force_estimator import GRAVITY_MPS2
 from wheel_force_estimator.core import physics as ph
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.diagnosis.recording import MotionRecording
@@ -25,7 +26,6 @@ EFFECTS = ('none', 'offset_drift', 'bump_stop', 'rebound_stop', 'cubic_stiffness
            'anti_roll_bar', 'time_delay', 'sensor_saturation', 'mass_error',
            'stiffness_error', 'damping_error')
 MASS_KG, DAMPING_NS_PER_M, STIFFNESS_N_PER_M, STATIC_N = 30.0, 1500.0, 2.0e4, 3000.0
-GRAVITY_MPS2 = 9.81
 SATURATION_LIMIT_MPS2 = 105.0
 
 

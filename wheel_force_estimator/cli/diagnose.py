@@ -20,9 +20,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     'locate the residual (bands, time windows, operating regime), rank '
                     'candidate physics by the residual they explain on held-out data against a '
                     'time-shifted-feature null, and score the reference, the plain fit on the '
-                    'real data and the written model on the report half of the holdout exactly '
-                    'as `evaluate` does.  Generic recordings (CSV/MAT/NPZ/JSON) are read with '
-                    '--input/--output role specs and --fs.')
+                    'real data and the written model on the report half of the holdout (without '
+                    '--holdout: on held-out blocks of the real recordings, each model fitted on '
+                    'the other blocks) exactly as `evaluate` does, unfiltered and 1 Hz '
+                    'high-passed.  Generic recordings (CSV/MAT/NPZ/JSON) are read with '
+                    '--input/--output role specs and --fs.  The method: docs/diagnosis.md.')
     p.add_argument('--real', nargs='+', required=True, metavar='FILE',
                    help='real recordings (bags, or generic files with --input/--output)')
     ref = p.add_mutually_exclusive_group()
@@ -39,8 +41,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument('--json', required=True, metavar='FILE', help='write the diagnosis here')
     p.add_argument('--out-model', metavar='MODEL',
                    help='write the best model: reference or real-data FRF + fitted physics '
-                        'terms, or the plain real-data fit, as the gate half prefers '
-                        '(fit.model in the JSON says which)')
+                        'terms, the reference, or the plain real-data fit, per group of '
+                        'channels, as the gate half of the holdout (without one: held-out '
+                        'blocks of the real recordings) prefers, never worse than the plain fit '
+                        'there in either figure (fit.model in the JSON says which)')
     p.add_argument('--report', metavar='DIR', help='write report.md and plots here')
     p.add_argument('--config', metavar='YAML', help='params file (topic names, fit settings)')
     add_namespace_argument(p)
@@ -113,7 +117,7 @@ def command(args: argparse.Namespace) -> int:
     from wheel_force_estimator.core.model import load_model
     from wheel_force_estimator.core.model import save_model
     from wheel_force_estimator.diagnosis.features import FeatureConfig
-    from wheel_force_estimator.diagnosis.run import diagnose
+    from wheel_force_estimator.diagnosis.pipeline import diagnose
     from wheel_force_estimator.diagnosis.run import DiagnosisConfig
 
     reference = None
@@ -154,6 +158,9 @@ def command(args: argparse.Namespace) -> int:
         print(line)
     for line in result.rejected:
         print(f'  not accepted: {line}')
+    if result.fit.data == 'too_short':
+        for note in result.fit.notes:
+            print(f'warning: {note}', file=sys.stderr)
     if args.out_model:
         from wheel_force_estimator.core.errors import DiagnosisError
         if result.model is None:

@@ -22,8 +22,11 @@ least-squares problems, so a row's choice does not change another row):
 Scores: :mod:`.crossval` (frequency-domain held-out error of the realised FIR response, both
 figures).  The defaults below only bound the search.
 """
+import collections
 import dataclasses
+import hashlib
 import math
+import threading
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -186,15 +189,61 @@ def combine_correlations(items: Sequence[Correlations]) -> Correlations:
     return Correlations(rxx, rxy, items[0].fs_hz, int(total))
 
 
+class _RecentFactors:
+    """
+    The Cholesky factors of the last few normal matrices, by what determines them.
+
+    The normal matrix of the least-squares FIR depends on the inputs' correlations, the
+    look-ahead, the basis and the ridge, never on the outputs.  The diagnosis refits one
+    design on the same input records with other outputs many times (the backfit's
+    alternation, the Frisch-Waugh-Lovell columns, one per term group), and each refit
+    factorised the same 4224-unknown matrix again (0.6 s each on a quiet 2-core machine, the
+    largest part of a refit).  Keyed on a digest of ``rxx`` and the rest of the matrix's
+    inputs, so another training set can never be served a stale factor; bounded (each
+    factor of the car's basis is ~140 MB).
+    """
+
+    def __init__(self, max_entries: int = 4):
+        self._items: 'collections.OrderedDict[tuple, np.ndarray]' = collections.OrderedDict()
+        self._max = int(max_entries)
+        self._lock = threading.Lock()       # fleet workers may fit in threads
+
+    @staticmethod
+    def key(corr: Correlations, d_max: int, design: LiveDesign, ridge: float) -> tuple:
+        digest = hashlib.blake2b(np.ascontiguousarray(corr.rxx).tobytes(),
+                                 digest_size=20).hexdigest()
+        return (digest, corr.rxx.shape, float(corr.fs_hz), int(d_max), design, float(ridge))
+
+    def factor(self, key: tuple, eq: NormalEquations, ridge: float) -> LagOrderedFactor:
+        """Return ``eq``'s factorisation at ``ridge``, reusing the factor stored at ``key``."""
+        with self._lock:
+            known = self._items.get(key)
+            if known is not None:
+                self._items.move_to_end(key)
+        if known is not None:
+            return LagOrderedFactor(eq, ridge, cholesky=known)
+        out = LagOrderedFactor(eq, ridge)
+        with self._lock:
+            self._items[key] = out.cholesky
+            while len(self._items) > self._max:
+                self._items.popitem(last=False)
+        return out
+
+
+_FACTORS = _RecentFactors()
+
+
 class LsSolutions:
     """The least-squares FIRs of one training set: one factorisation per ridge."""
 
     def __init__(self, corr: Correlations, design: LiveDesign, ridges: Sequence[float]):
         self.fs_hz = corr.fs_hz
         self.d_max = look_ahead_samples(LS_LOOK_AHEAD_S, corr.fs_hz)
-        eq = NormalEquations(corr, self.d_max, dataclasses.replace(
-            design, look_aheads_s=(LS_LOOK_AHEAD_S,), regularisation=float(ridges[0])))
-        self.factors = {r: LagOrderedFactor(eq, r) for r in ridges}
+        design = dataclasses.replace(design, look_aheads_s=(LS_LOOK_AHEAD_S,),
+                                     regularisation=float(ridges[0]))
+        eq = NormalEquations(corr, self.d_max, design)
+        self.factors = {r: _FACTORS.factor(_FACTORS.key(corr, self.d_max, design, r), eq, r)
+                        for r in ridges}
         self._estimators: Dict[Tuple[float, int], CausalEstimator] = {}
 
     def estimator(self, ridge: float, look_ahead: int) -> CausalEstimator:

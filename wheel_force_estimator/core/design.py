@@ -79,6 +79,9 @@ class DesignedFit:
     warning : str
         Why the design was not cross-validated (records too short, named), for stderr and
         the report; empty when it was (or was not asked for).
+    chosen : ChosenDesign or None
+        The design the cross-validation chose (None when it did not run), so other records
+        can be fitted with it (:meth:`refit`).
 
     """
 
@@ -88,6 +91,87 @@ class DesignedFit:
     skipped: Tuple[str, ...]
     note: str
     warning: str = ''
+    chosen: Optional['ChosenDesign'] = None
+
+    def refit(self, segments: Sequence[TrainingSegment],
+              fit_info: Optional[Mapping] = None) -> FrfModel:
+        """
+        Fit ``segments`` with this fit's design: its settings and, when chosen, its rows.
+
+        The design is not searched again: the rows the cross-validation chose on the whole
+        data (H1 variant, FIR ridge, crossover per output) are fitted on the segments
+        given, as :func:`fit_design` fits them on the whole data.  For a caller that fits
+        pieces of the same recordings many times (the diagnosis's held-out blocks and its
+        joint fits of the FIR with physics terms), so every piece gets the design ``fit``
+        writes without a search per piece.  The refitted model carries no live estimators
+        (a caller that writes it designs them, as the diagnosis does).
+
+        Raises
+        ------
+        InsufficientDataError
+            A segment shorter than one Welch segment of the design, or none usable.
+
+        """
+        model = self.model
+        used = [s for s in segments if s.accel_mps2.shape[1] >= self.config.segment_length]
+        if not used:
+            raise InsufficientDataError(
+                f'no piece holds one Welch segment of {self.config.segment_length} samples')
+        # pieces too short for the long segment, or holding no more of its windows than
+        # inputs, fall back to one resolution as fit_design does (an H1 estimate from that
+        # few windows fits them exactly); the chosen rows need the resolutions chosen
+        config, _ = _short_record_fallback(self.config, used, model.fs_hz)
+        config, _ = _few_long_windows_fallback(config, used, model.fs_hz,
+                                               len(model.input_channels))
+        info = dict(fit_info or {})
+        if self.chosen is None or config != self.config:
+            out = fit_model(used, model.fs_hz, config, model.input_channels,
+                            model.output_channels, fit_info=info,
+                            input_quantity=self.input_quantity)
+        else:
+            out = self.chosen.fit(used, model.fs_hz, config, model.input_channels,
+                                  model.output_channels, info, live_estimators=False)
+        return dataclasses.replace(out, units=model.units)
+
+    @property
+    def input_quantity(self) -> str:
+        """Return the input quantity of the fitted model (from its ``units``)."""
+        unit = self.model.units.get('input', 'm/s^2')
+        return {v: k for k, v in INPUT_UNITS.items()}[unit]
+
+
+@dataclasses.dataclass(frozen=True)
+class ChosenDesign:
+    """
+    What a search chose, to fit other data with it (:meth:`DesignedFit.refit`).
+
+    Attributes
+    ----------
+    choice : Choice
+        Per output the chosen candidate, and the live ridges.
+    welch : dict
+        The Welch configurations of the search.
+    lags : int
+        Correlation lags of the least-squares FIRs.
+    order : int
+        Input quantity index (``QUANTITIES``).
+
+    """
+
+    choice: object
+    welch: dict
+    lags: int
+    order: int
+
+    def fit(self, used, fs_hz: float, config: FitConfig, input_channels, output_channels,
+            fit_info, live_estimators: bool = True) -> FrfModel:
+        """Fit the chosen rows on ``used`` (:func:`core.search.fit_chosen`)."""
+        est, h, fir, live, extra, static_x, static_y = fit_chosen(
+            used, self.choice, self.welch, self.lags, fs_hz, config, self.order,
+            input_channels, live_estimators)
+        extra = dict(extra, design=self.choice.record(output_channels))
+        return build_model(used, fs_hz, config, input_channels, output_channels,
+                           (est, h, fir, live, extra, static_x, static_y), fit_info)
 
 
 def _short_record_fallback(config: FitConfig, segments, fs_hz: float) -> Tuple[FitConfig, str]:
@@ -210,7 +294,8 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
                choose_resolution: bool = False,
                long_window_fallback: Optional[bool] = None,
                cross_validate: bool = True,
-               imposed: Iterable[str] = ()) -> DesignedFit:
+               imposed: Iterable[str] = (),
+               show_progress: bool = True) -> DesignedFit:
     """
     Fit a model as ``wheel-force fit`` does.
 
@@ -249,6 +334,9 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
         alone, and ``note`` says so naming them.
     imposed : iterable of str
         Fit settings the user chose (params file or command line): the search keeps them.
+    show_progress : bool
+        The search's progress bars on a terminal (:func:`progress`); False for a library
+        caller that prints nothing by default (the diagnosis).
 
     Returns
     -------
@@ -293,10 +381,11 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
         skipped.extend(f'{s.source}: {s.accel_mps2.shape[1]} samples < segment length '
                        f'{config.segment_length}' for s in short)
         used = [s for s in used if s.accel_mps2.shape[1] >= config.segment_length]
-    model, warning = None, ''
+    model, warning, chosen = None, '', None
     if cross_validate:
-        model = _cross_validated_model(used, fs_hz, config, input_channels, output_channels,
-                                       input_quantity, fit_info, frozenset(imposed))
+        model, chosen = _cross_validated_model(used, fs_hz, config, input_channels,
+                                               output_channels, input_quantity, fit_info,
+                                               frozenset(imposed), show_progress)
         if model is None:
             warning = _too_short_note(used, fs_hz, config)
     note = '\n'.join(n for n in notes if n)
@@ -308,7 +397,7 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
     if warning:
         model = dataclasses.replace(model, fit=dict(model.fit, design={
             'method': 'defaults', 'reason': warning}))
-    return DesignedFit(model, config, tuple(used), tuple(skipped), note, warning)
+    return DesignedFit(model, config, tuple(used), tuple(skipped), note, warning, chosen)
 
 
 def model_units(input_channels, output_channels, input_quantity: str) -> dict:
@@ -340,21 +429,22 @@ def _too_short_note(used, fs_hz: float, config: FitConfig) -> str:
 
 
 def _cross_validated_model(used, fs_hz, config, input_channels, output_channels,
-                           input_quantity, fit_info, imposed) -> Optional[FrfModel]:
-    """Return the cross-validated model (``None`` when the records are too short)."""
+                           input_quantity, fit_info, imposed, show_progress=True):
+    """Return the cross-validated model and its design (``None``: records too short)."""
     for seg in used:
         as_signals(seg.accel_mps2, f'accelerations of {seg.source}', input_channels)
         as_signals(seg.force_n, f'forces of {seg.source}', output_channels)
     order = QUANTITIES.index(input_quantity)
-    searched = search(used, fs_hz, config, input_channels, order, imposed, progress)
+    searched = search(used, fs_hz, config, input_channels, order, imposed,
+                      progress if show_progress else _silent)
     if searched is None:
-        return None
-    choice, welch, lags = searched
-    est, h, fir, live, extra, static_x, static_y = fit_chosen(
-        used, choice, welch, lags, fs_hz, config, order, input_channels)
-    extra = dict(extra, design=choice.record(output_channels))
-    return build_model(used, fs_hz, config, input_channels, output_channels,
-                       (est, h, fir, live, extra, static_x, static_y), fit_info)
+        return None, None
+    chosen = ChosenDesign(*searched, order)
+    return chosen.fit(used, fs_hz, config, input_channels, output_channels, fit_info), chosen
+
+
+def _silent(iterable, desc: str):
+    return iterable
 
 
 def progress(iterable, desc: str):

@@ -58,6 +58,7 @@ resolution); ridge 1e-3 instead of 1e-4 (the FRF's own default) 29.6 / 13.8 / 10
 2 s 30.6 / 14.4 / 9.5, 8 s 28.6 / 13.5 / 8.0 (30 % dearer fit), so 4 s.
 """
 import dataclasses
+import functools
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
@@ -67,6 +68,7 @@ import scipy.linalg
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.errors import ModelFileError
+from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filtering import FirFilter
 
 # The look-ahead the node and `predict --causal` use when nothing else is configured [s]
@@ -395,6 +397,32 @@ class NormalEquations:
         rxy = corr.rxy[:, :, lo_t:corr.rxy.shape[2] - lo_t]
         n_in, n_out = rxx.shape[0], rxy.shape[1]
         n_b = edges.size - 1
+        c1 = np.cumsum(rxy, axis=-1)                                          # (j, o, τ)
+        b = c1[:, :, edges[1:] - 1 + t_max] - c1[:, :, edges[:-1] - 1 + t_max]  # (j, o, q)
+        width = np.diff(edges).astype(np.float64)
+        power = rxx[np.arange(n_in), np.arange(n_in), t_max]
+        # the ridge per unit of regularisation (so another ridge needs no second build)
+        self.ridge_unit = (power[:, None] * width[None, :]).ravel()
+        self.rhs = b.transpose(0, 2, 1).reshape(n_in * n_b, n_out)
+        self.edges, self.n_in, self.n_out = edges, n_in, n_out
+        self.info = {'method': METHOD, 'history_s': history / fs, 'fine_s': design.fine_s,
+                     'blocks_per_octave': design.blocks_per_octave,
+                     'regularisation': design.regularisation,
+                     'n_training_samples': int(corr.n_samples)}
+        self.fs_hz = fs
+        self._rxx, self._t_max = rxx, t_max
+
+    @functools.cached_property
+    def a(self) -> np.ndarray:
+        """
+        Return the regularised normal matrix, shape (n_in n_basis, n_in n_basis).
+
+        Built on first use: a caller holding the Cholesky factor of the same matrix (the same
+        inputs, another output) needs only :attr:`rhs`, and the build costs about as much as
+        the factorisation.
+        """
+        rxx, t_max, edges, n_in = self._rxx, self._t_max, self.edges, self.n_in
+        n_b = edges.size - 1
         # sum_{l in p} sum_{m in q} r(l - m) from C2, the double cumulative sum of r:
         # with C1(t) = sum_{τ <= t} r(τ), sum_{m in q} r(l - m) = C1(l - a_q) - C1(l - e_q),
         # and summing that over l in [a_p, e_p) gives four values of C2 (index 0 = lag
@@ -407,32 +435,18 @@ class NormalEquations:
         pp = (c2_at(end[:, None] - 1 - start[None, :]), c2_at(start[:, None] - 1 - start[None, :]),
               c2_at(end[:, None] - 1 - end[None, :]), c2_at(start[:, None] - 1 - end[None, :]))
         a = np.empty((n_in, n_b, n_in, n_b))
-        zeros = np.zeros((n_in, 2 * t_max + 2))
+        zeros = np.zeros((n_in, 1))
         for i in range(n_in):
             # r_ij(τ) for τ in -2 t_max .. 2 t_max (0 beyond t_max: never reached)
             r = np.zeros((n_in, 4 * t_max + 1))
             r[:, t_max:3 * t_max + 1] = rxx[i]
-            c2 = np.concatenate([zeros[:, :1], np.cumsum(np.cumsum(r, axis=-1), axis=-1)],
-                                axis=-1)
+            c2 = np.concatenate([zeros, np.cumsum(np.cumsum(r, axis=-1), axis=-1)], axis=-1)
             a[i] = (c2[:, pp[0]] - c2[:, pp[1]] - c2[:, pp[2]] + c2[:, pp[3]]).transpose(1, 0, 2)
         # A[(i,p),(j,q)] uses r_ij(l - m) summed over l in p and m in q.
-        del zeros
-        c1 = np.cumsum(rxy, axis=-1)                                          # (j, o, τ)
-        b = c1[:, :, edges[1:] - 1 + t_max] - c1[:, :, edges[:-1] - 1 + t_max]  # (j, o, q)
         a = a.reshape(n_in * n_b, n_in * n_b)
-        self.a = 0.5 * (a + a.T)
-        width = np.diff(edges).astype(np.float64)
-        power = rxx[np.arange(n_in), np.arange(n_in), t_max]
-        # the ridge per unit of regularisation (so another ridge needs no second build)
-        self.ridge_unit = (power[:, None] * width[None, :]).ravel()
-        self.a[np.diag_indices_from(self.a)] += design.regularisation * self.ridge_unit
-        self.rhs = b.transpose(0, 2, 1).reshape(n_in * n_b, n_out)
-        self.edges, self.n_in, self.n_out = edges, n_in, n_out
-        self.info = {'method': METHOD, 'history_s': history / fs, 'fine_s': design.fine_s,
-                     'blocks_per_octave': design.blocks_per_octave,
-                     'regularisation': design.regularisation,
-                     'n_training_samples': int(corr.n_samples)}
-        self.fs_hz = fs
+        a = 0.5 * (a + a.T)
+        a[np.diag_indices_from(a)] += self.info['regularisation'] * self.ridge_unit
+        return a
 
 
 def _fine_count(edges: np.ndarray) -> int:
@@ -467,33 +481,55 @@ class LagOrderedFactor:
         Equations of the longest look-ahead (its future lags one sample each).
     regularisation : float, optional
         Ridge to use instead of the one ``eq`` was built with [-].
+    cholesky : numpy.ndarray, optional
+        The lower Cholesky factor of these regularised equations in lag order, from
+        :attr:`cholesky` of a factorisation of equations with the same matrix (the same
+        inputs' correlations, look-ahead, design and ridge) and another right-hand side:
+        only the right-hand side of ``eq`` is new (two triangular solves, no factorisation).
 
     Raises
     ------
     InsufficientDataError
         The regularised equations are not positive definite.
+    ShapeError
+        ``cholesky`` does not have the shape of the equations.
 
     """
 
-    def __init__(self, eq: 'NormalEquations', regularisation: Optional[float] = None):
+    def __init__(self, eq: 'NormalEquations', regularisation: Optional[float] = None,
+                 cholesky: Optional[np.ndarray] = None):
         n_b = eq.edges.size - 1
         d_max = -int(eq.edges[0])
         blocks = np.concatenate([np.arange(d_max, n_b), np.arange(d_max - 1, -1, -1)])
         self._perm = (np.arange(eq.n_in)[None, :] * n_b + blocks[:, None]).ravel()
-        a = eq.a[np.ix_(self._perm, self._perm)]
-        if regularisation is not None:
-            ridge = (regularisation - eq.info['regularisation']) * eq.ridge_unit[self._perm]
-            a[np.diag_indices_from(a)] += ridge
-        try:
-            self._l = scipy.linalg.cholesky(a, lower=True, overwrite_a=True, check_finite=False)
-        except np.linalg.LinAlgError as err:
-            raise InsufficientDataError(
-                f'live estimator (look-ahead {d_max} samples): the normal equations are not '
-                f'positive definite (inputs without power?)') from err
+        if cholesky is not None:
+            if cholesky.shape != (self._perm.size,) * 2:
+                raise ShapeError(f'Cholesky factor {cholesky.shape} for {self._perm.size} '
+                                 'unknowns')
+            self._l = cholesky
+        else:
+            a = eq.a[np.ix_(self._perm, self._perm)]
+            if regularisation is not None:
+                ridge = (regularisation - eq.info['regularisation']) * eq.ridge_unit[self._perm]
+                a[np.diag_indices_from(a)] += ridge
+            try:
+                self._l = scipy.linalg.cholesky(a, lower=True, overwrite_a=True,
+                                                check_finite=False)
+            except np.linalg.LinAlgError as err:
+                raise InsufficientDataError(
+                    f'live estimator (look-ahead {d_max} samples): the normal equations are '
+                    f'not positive definite (inputs without power?)') from err
         self._rhs = eq.rhs[self._perm]
         self._blocks, self._eq, self._d_max, self._n_b = blocks, eq, d_max, n_b
         reg = eq.info['regularisation'] if regularisation is None else regularisation
         self._info = dict(eq.info, regularisation=float(reg))
+
+    @property
+    def cholesky(self) -> np.ndarray:
+        """Return the lower Cholesky factor in lag order (read-only; see ``cholesky=``)."""
+        view = self._l.view()
+        view.flags.writeable = False
+        return view
 
     def theta(self, look_ahead: int) -> np.ndarray:
         """

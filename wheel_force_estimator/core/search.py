@@ -303,9 +303,13 @@ def _offline_rows(scores: Sequence[HeldOutPower], sp: Space, live_look_ahead_s: 
 
 
 def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
-               config: FitConfig, order: int, input_channels):
+               config: FitConfig, order: int, input_channels, live_estimators: bool = True):
     """
     Fit the chosen design of every row on all the data and compose the rows.
+
+    ``live_estimators`` False: the offline rows alone (no live estimator, no factorisation
+    of a ridge only they use), for a caller that refits the design on pieces to score them
+    offline (the diagnosis's held-out blocks: one refit cost ~2 x with them).
 
     Returns
     -------
@@ -331,16 +335,18 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
     ls = None
     n_model = max(ref_fir.n_taps, config.long_segment_length)
     if lags:
-        ridges = sorted({c.ls_regularisation for c in choice.rows if c.family != 'h1'}
-                        | set(choice.live_ridges))
-        ls = LsSolutions(whole.corr, live, ridges)
-        span = ls.d_max + int(round(live.history_s * fs_hz)) + 1
+        ridges = {c.ls_regularisation for c in choice.rows if c.family != 'h1'}
+        if live_estimators:
+            ridges |= set(choice.live_ridges)
+        ls = LsSolutions(whole.corr, live, sorted(ridges)) if ridges else None
+        span = (look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
+                + int(round(live.history_s * fs_hz)) + 1)
         n_model = max(n_model, 2 * int(2 ** np.ceil(np.log2(span))))
     f_hz = np.fft.rfftfreq(n_model, 1.0 / fs_hz)
     h = _compose(choice.rows, fits, ls, f_hz, n_model)
     fir = _realised(f_hz, h, fs_hz, config.f_max_hz)
     estimators = ()
-    if config.live is not None:
+    if config.live is not None and live_estimators:
         looks = list(dict.fromkeys(look_ahead_samples(v, fs_hz) for v in live.look_aheads_s))
         estimators = tuple(_rows_of([ls.estimator(r, d) for r in choice.live_ridges])
                            for d in looks)

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import re
 from typing import Dict, Optional, Sequence, Tuple
 
+from wheel_force_estimator import GRAVITY_MPS2
 from wheel_force_estimator.core.design import INPUT_UNITS
 from wheel_force_estimator.core.errors import RecordingError
 from wheel_force_estimator.core.physics import QUANTITIES
@@ -26,7 +27,7 @@ UNITS: Dict[str, Dict[str, float]] = {
     'displacement': {'m': 1.0, 'cm': 1e-2, 'mm': 1e-3, 'um': 1e-6, 'in': _INCH, 'ft': 0.3048},
     'velocity': {'m/s': 1.0, 'cm/s': 1e-2, 'mm/s': 1e-3, 'in/s': _INCH, 'ft/s': 0.3048},
     'acceleration': {'m/s^2': 1.0, 'm/s2': 1.0, 'mm/s^2': 1e-3, 'mm/s2': 1e-3,
-                     'in/s^2': _INCH, 'in/s2': _INCH, 'g': 9.80665},
+                     'in/s^2': _INCH, 'in/s2': _INCH, 'g': GRAVITY_MPS2},
     'force': {'N': 1.0, 'kN': 1e3, 'lbf': _LBF, 'lb': _LBF, 'kip': 1e3 * _LBF},
 }
 SI_UNITS: Dict[str, str] = {**INPUT_UNITS, 'force': 'N'}

@@ -96,13 +96,25 @@ def clip_test(x, channel: str = '', min_samples: int = MIN_CLIP_SAMPLES) -> Opti
     return best
 
 
-def clip_level(x, alpha: float = CLIP_ALPHA) -> Optional[float]:
+def clip_bound(n_inputs: int, alpha: float = CLIP_ALPHA) -> float:
+    """
+    Return the p-value below which a flat top is a clip: ``alpha / (2 n_inputs)``.
+
+    Either side of every one of the ``n_inputs`` sensors of a recording may clip, and all are
+    tested, so the false-alarm rate of the recording stays ``alpha`` (Bonferroni).  The one
+    rule of the clip finding (:mod:`diagnosis.motion`) and of the clip term's candidate
+    (:mod:`diagnosis.hypotheses`): a clip significant for one is significant for the other.
+    """
+    return alpha / (2.0 * n_inputs)
+
+
+def clip_level(x, n_inputs: int, alpha: float = CLIP_ALPHA) -> Optional[float]:
     """
     Return the clip magnitude of one sensor's records when its flat top is significant, or None.
 
-    Significant = Poisson p-value below ``alpha / 2`` (either side may clip).
+    Significant = Poisson p-value below :func:`clip_bound` of the recording's ``n_inputs``.
     """
     clip = clip_test(x)
-    if clip is None or clip.p_value >= alpha / 2.0:
+    if clip is None or clip.p_value >= clip_bound(n_inputs, alpha):
         return None
     return abs(clip.level)

@@ -106,10 +106,13 @@ def with_sharper_corner(result, diagnose_once: Callable, real, holdout, config):
         metric = METRIC[rec0.input_quantity]
         scores = [mean_score(r.model, gate, channels, metric)[0] for r in (result, other)]
         judge = 'the gate half of the holdout'
-    else:
-        # no holdout: the cross-validated RMSE after the terms (held-out time blocks)
+    elif result.fit.after and other.fit.after:
+        # no holdout: the cross-validated RMSE of the written model (held-out time blocks)
         scores = [float(np.mean([r.fit.after[c] for c in channels])) for r in (result, other)]
         judge = 'the cross-validation blocks (no holdout)'
+    else:
+        return _noted(result, f'Differentiator low-pass {sharp:.3g} Hz not tried: no held-out '
+                              f'figures to judge it on')
     # Without terms at either corner the written models are the same linear fit: nothing to
     # choose (their scores differ only by the samples each corner's settle time leaves out).
     sharper_wins = scores[1] < scores[0] and bool(result.terms or other.terms)

@@ -30,13 +30,11 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator import AXLES
 from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.physics import apply_physics
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis.result import Finding
-
-#: Axles as (left, right) corners.
-AXLES = (('lf', 'rf'), ('lr', 'rr'))
 
 
 @dataclass(frozen=True)
@@ -205,7 +203,7 @@ def left_right_coupling(recordings: Sequence, sim_reference, real_reference,
     for left, right, _, _ in found:
         gain, fc, explained, cv = fit_axle_gain(recordings, sim_reference, left, right, skip,
                                                 highpass_hz)
-        axle = 'front' if left.startswith('lf') else 'rear'
+        axle = 'front' if left[:2] == AXLES[0][0] else 'rear'
         params[f'{axle}_roll_gain'] = gain
         if cv > 0.0:
             params[f'{axle}_roll_lowpass_hz'] = fc

@@ -23,10 +23,11 @@ hardening), the only trace of an unmeasured mass in a record of base motion and 
 Each basis column is *partialled* against the linear design (the reference's FIR refitted
 with the column as its output, the Frisch-Waugh-Lovell step of
 :func:`diagnosis.written.backfitted_model`), so a column scores only what the linear model
-cannot already explain.  A candidate is judged like every other one
-(:mod:`diagnosis.selection`): its gain on held-out time blocks must reach ``min_gain``, beat
-``null_factor`` times the best gain of the same grid with the feature circularly shifted
-(:func:`selection.null_lags`) and lower the cross-validated RMSE by ``min_improvement_pct``.
+cannot already explain.  A candidate is judged by the acceptance rule of every other one
+(:meth:`selection.SelectionConfig.rejection`): its gain on held-out time blocks must reach
+``min_gain``, beat ``null_factor`` times the best gain of the same grid with the feature
+circularly shifted (:func:`selection.null_lags`) and lower the cross-validated RMSE by
+``min_improvement_pct``.
 
 Only without a simulation or model (the reference is the real-data FIR) and only on channels
 the static selection left unexplained: what a static term explains needs no structure.
@@ -44,7 +45,6 @@ from wheel_force_estimator.core.physics import load_rate
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import TrainingSegment
-from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.core.spectra import power_quantile_hz
 from wheel_force_estimator.diagnosis.hypotheses import load_state
 from wheel_force_estimator.diagnosis.hypotheses import lowpassed_load
@@ -55,6 +55,7 @@ from wheel_force_estimator.diagnosis.selection import cv_sse
 from wheel_force_estimator.diagnosis.selection import CvData
 from wheel_force_estimator.diagnosis.selection import full_fit
 from wheel_force_estimator.diagnosis.selection import null_lags
+from wheel_force_estimator.diagnosis.written import partialled
 
 #: Load-state corners tried, as multiples of the frequency below which 99 % of the load's
 #: dynamic power lies: the low-pass only takes out what lies above the band the structure
@@ -149,26 +150,17 @@ class _Channel:
     def basis(self, unit: np.ndarray) -> np.ndarray:
         return np.stack([unit, signal.lfilter(self.response, (1.0,), unit)])
 
-    def predicted(self, columns: List[np.ndarray]) -> List[np.ndarray]:
-        """
-        Return what the linear design predicts of ``columns``, fitted on them.
-
-        ``columns[k]`` (n_cols, n) are the outputs of record ``k``.  One fit with every
-        column as an output (H1 fits each output row on its own, so this is the
-        column-by-column refit, in one pass over the inputs).
-        """
-        recs = self.prep.recordings
-        names = [f'column {j}' for j in range(columns[0].shape[0])]
-        segs = [TrainingSegment(r.inputs, c, f'{r.name} (dynamic basis)')
-                for r, c in zip(recs, columns)
-                if r.n_samples >= self.design.segment_length]
-        fitted = fit_model(segs, self.fs_hz, self.design, recs[0].input_channels, names,
-                           input_quantity=recs[0].input_quantity)
-        return [predict_forces(fitted, r.inputs) for r in recs]
+    def _refit(self, recordings):
+        """Fit the reference's linear design on ``recordings`` (records too short left out)."""
+        segs = [TrainingSegment(r.inputs, r.outputs, f'{r.name} (dynamic basis)')
+                for r in recordings if r.n_samples >= self.design.segment_length]
+        rec0 = recordings[0]
+        return fit_model(segs, self.fs_hz, self.design, rec0.input_channels,
+                         rec0.output_channels, input_quantity=rec0.input_quantity)
 
     def partialled(self, columns: List[np.ndarray]) -> List[np.ndarray]:
         """Return ``columns[k]`` minus what the linear design predicts of them."""
-        return [c - p for c, p in zip(columns, self.predicted(columns))]
+        return partialled(columns, self.prep.recordings, self._refit)
 
     def sse(self, partialled: List[np.ndarray], rows: Sequence[int]) -> Tuple[float, np.ndarray]:
         """Cross-validated SSE and full-data coefficients of the partialled ``rows``."""
@@ -257,8 +249,9 @@ class _Channel:
         for _ in range(iterations):
             term = self.term(cand, taps=tuple(self.taps(coef)))
             # the channel's FIR refitted on the force minus the term
-            refit = self.predicted([rec.outputs[self.o:self.o + 1] - self._added(term, rec, pred)
-                                    for rec, pred in zip(recs, self.prep.full_predictions)])
+            columns = [rec.outputs[self.o:self.o + 1] - self._added(term, rec, pred)
+                       for rec, pred in zip(recs, self.prep.full_predictions)]
+            refit = [c - p for c, p in zip(columns, self.partialled(columns))]
             units = []
             for rec, pred, load in zip(recs, self.prep.full_predictions, refit):
                 whole = pred.copy()
@@ -307,7 +300,7 @@ def dynamic_findings(prep, reference, channels: Sequence[str], sources: Sequence
             scores = chan.gains(cands, units)
             best = int(np.argmax([s[0] for s in scores]))
             gain, coef, sse, base = scores[best]
-            if gain < cfg.min_gain:
+            if cfg.rejection(gain) is not None:
                 continue
             # Shifted record by record (a shift of the concatenation could move a record by
             # about its own length, i.e. not at all).
@@ -318,7 +311,7 @@ def dynamic_findings(prep, reference, channels: Sequence[str], sources: Sequence
             # A basis the design cannot fit (a record shorter than its segment): no finding.
             continue
         drop = chan.pct(base) - chan.pct(sse)
-        if gain <= cfg.null_factor * max(null, 0.0) or drop < cfg.min_improvement_pct:
+        if cfg.rejection(gain, null, drop) is not None:
             continue
         try:
             coef = chan.refined(cands[best], coef)

@@ -15,13 +15,11 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator import PARTNER_CORNER  # noqa: F401  (re-exported here)
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.physics import default_source
 from wheel_force_estimator.core.physics import FeatureBank
-
-#: Other corner of the same axle.
-PARTNER_CORNER = {'lf': 'rf', 'rf': 'lf', 'lr': 'rr', 'rr': 'lr'}
 
 
 @dataclass(frozen=True)
@@ -164,7 +162,9 @@ class ChannelContext:
 
     Attributes are 1-D arrays over the record: ``disp`` [m], ``vel`` [m/s], ``acc`` [m/s**2]
     of the source input, ``partner_disp`` (or None), ``level`` (raw recorded input),
-    ``load`` (reference total force prediction [N]); ``fs_hz`` the rate.
+    ``load`` (reference total force prediction [N]); ``fs_hz`` the rate; ``n_inputs`` the
+    number of input channels of the record (a test over all of them, like the clip test,
+    bounds its false alarms over that many).
     """
 
     disp: np.ndarray
@@ -175,6 +175,7 @@ class ChannelContext:
     partner_disp: Optional[np.ndarray]
     fs_hz: float
     filters: Tuple[str, float, float] = ('acceleration', 0.2, 0.0)
+    n_inputs: int = 1
 
     def shifted(self, shift: int) -> 'ChannelContext':
         """Return the context circularly shifted in time (a feature unrelated to the force)."""
@@ -182,7 +183,7 @@ class ChannelContext:
             return None if a is None else np.roll(a, shift)
         return ChannelContext(roll(self.disp), roll(self.vel), roll(self.acc), roll(self.level),
                               roll(self.load), roll(self.partner_disp), self.fs_hz,
-                              self.filters)
+                              self.filters, self.n_inputs)
 
 
 def channel_contexts(inputs: np.ndarray, input_channels: Sequence[str], fs_hz: float,
@@ -201,5 +202,5 @@ def channel_contexts(inputs: np.ndarray, input_channels: Sequence[str], fs_hz: f
             acc=feats['acceleration'][s], level=np.asarray(inputs[s], dtype=np.float64),
             load=np.asarray(prediction_n[o], dtype=np.float64),
             partner_disp=None if partner is None else feats['displacement'][idx[partner]],
-            fs_hz=fs_hz, filters=filters))
+            fs_hz=fs_hz, filters=filters, n_inputs=len(input_channels)))
     return tuple(out)

@@ -33,8 +33,6 @@ import numpy as np
 from wheel_force_estimator.core.evaluation import EvalSegment
 from wheel_force_estimator.core.evaluation import rmse_figures
 from wheel_force_estimator.core.evaluation import select_samples
-from wheel_force_estimator.core.metrics import highpass
-from wheel_force_estimator.core.metrics import rmse_pct
 from wheel_force_estimator.core.physics import apply_physics
 from wheel_force_estimator.core.sample_ranges import format_ranges
 from wheel_force_estimator.core.sample_ranges import runs
@@ -180,8 +178,18 @@ METRIC = {'acceleration': 'rmse_hp1_pct', 'velocity': 'rmse_pct', 'displacement'
 def evaluate_scores(predict: Callable[[MotionRecording], np.ndarray],
                     recordings: Sequence[MotionRecording], metric: str,
                     masks: Optional[Sequence[np.ndarray]] = None) -> Dict[str, float]:
+    """Return the ``metric`` figures of :func:`evaluate_figures` (RMSE % per channel)."""
+    return evaluate_figures(predict, recordings, masks)[metric]
+
+
+def evaluate_figures(predict: Callable[[MotionRecording], np.ndarray],
+                     recordings: Sequence[MotionRecording],
+                     masks: Optional[Sequence[np.ndarray]] = None
+                     ) -> Dict[str, Dict[str, float]]:
     """
     RMSE % per channel exactly as ``wheel-force evaluate`` computes it for these records.
+
+    Returns ``{'rmse_pct': {channel: %}, 'rmse_hp1_pct': {channel: %}}``: both figures.
 
     Parameters
     ----------
@@ -190,45 +198,39 @@ def evaluate_scores(predict: Callable[[MotionRecording], np.ndarray],
         model for every reported figure).
     recordings : sequence of MotionRecording
         Whole records (no settling removed: ``evaluate`` does not remove any).
-    metric : str
-        ``'rmse_pct'`` or ``'rmse_hp1_pct'`` (:data:`METRIC`).
     masks : sequence of numpy.ndarray of bool, optional
         Per record, the samples scored (the per-event halves); None: every sample.
 
     """
-    rec0 = recordings[0]
+    return figures_of(scored_pieces(predict, recordings, masks), recordings[0])
+
+
+def scored_pieces(predict: Callable[[MotionRecording], np.ndarray],
+                  recordings: Sequence[MotionRecording],
+                  masks: Optional[Sequence[np.ndarray]] = None) -> List[EvalSegment]:
+    """
+    Whole records predicted, the masked samples cut out as ``evaluate --samples`` cuts them.
+
+    Each run of True samples of a record's mask becomes a segment of its own (its own
+    high-pass); ``masks`` None: every record whole.
+    """
     segments = [EvalSegment(np.asarray(r.outputs, dtype=np.float64),
                             np.asarray(predict(r), dtype=np.float64),
                             np.arange(r.n_samples), r.name) for r in recordings]
-    if masks is not None:
-        # whole records predicted, the masked samples cut out as evaluate --samples does
-        segments = [piece for seg, m in zip(segments, masks)
-                    for piece in select_samples([seg], runs(m))]
+    if masks is None:
+        return segments
+    return [piece for seg, m in zip(segments, masks) for piece in select_samples([seg], runs(m))]
+
+
+def figures_of(segments: Sequence[EvalSegment], rec0: MotionRecording
+               ) -> Dict[str, Dict[str, float]]:
+    """Both RMSE figures per channel over ``segments`` (``rec0`` names rate and channels)."""
     # evaluate's own RMSE function (core.evaluation.rmse_figures): the same figures without
     # the damage, spectra and events evaluate_segments also computes (~10 % of a diagnosis).
     raw, hp = rmse_figures([s.target_n for s in segments], [s.prediction_n for s in segments],
                            rec0.fs_hz, rec0.output_channels)
-    values = hp if metric == 'rmse_hp1_pct' else raw
-    return dict(zip(rec0.output_channels, (float(v) for v in values)))
-
-
-def rmse_by_channel(targets, predictions, channels, highpass_hz=0.0, fs_hz=1.0,
-                    masks=None) -> Dict[str, float]:
-    """
-    RMSE % per channel over records (each record high-passed on its own first).
-
-    ``masks`` (one boolean sample mask per record) restricts the comparison to those samples,
-    after the high-pass.
-    """
-    if highpass_hz > 0.0:
-        targets = [highpass(t, fs_hz, highpass_hz, 'RMSE target') for t in targets]
-        predictions = [highpass(p, fs_hz, highpass_hz, 'RMSE prediction') for p in predictions]
-    if masks is not None:
-        targets = [t[:, m] for t, m in zip(targets, masks)]
-        predictions = [p[:, m] for p, m in zip(predictions, masks)]
-    t = np.concatenate(targets, axis=1)
-    p = np.concatenate(predictions, axis=1)
-    return dict(zip(channels, (float(v) for v in rmse_pct(t, p, channels))))
+    return {name: dict(zip(rec0.output_channels, (float(v) for v in values)))
+            for name, values in (('rmse_pct', raw), ('rmse_hp1_pct', hp))}
 
 
 def _with_terms(prep, terms) -> List[np.ndarray]:
@@ -244,25 +246,29 @@ def augmented(prep, terms) -> List[np.ndarray]:
 
 
 #: Largest rise of the holdout RMSE [points of %] a finding's terms may cause (mean over its
-#: channels, the other findings kept) before it is dropped.
+#: channels, the other findings kept) before they leave the model.
 MAX_HOLDOUT_HARM_PCT = 0.05
 
 
-def holdout_gate(findings, hold, channels, hp, fs_hz, mask):
+def holdout_gate(findings, hold, channels, hp, mask):
     """
-    Drop findings whose terms make the holdout worse (backward elimination).
+    Strip the terms of findings that make the holdout worse (backward elimination).
 
     Judged on the samples of ``mask`` (all when None) of ``hold``, the gate half of
-    :func:`split_holdout`.  A
-    finding is dropped when it raises the RMSE by more than :data:`MAX_HOLDOUT_HARM_PCT`
-    points on average over its channels (its parameters are shared, so it stands or falls on
-    all of them); the most harmful goes first.
+    :func:`split_holdout`, by the scorer of every reported figure (:func:`figures_of` of the
+    pieces; 1 Hz high-passed when ``hp`` > 0).  A finding's terms are stripped when they
+    raise the RMSE by more than :data:`MAX_HOLDOUT_HARM_PCT` points on average over its
+    channels (its parameters are shared, so it stands or falls on all of them); the most
+    harmful goes first.
 
-    A term that fits the real recordings but makes unseen data worse did not find physics;
-    it is reported under ``rejected``.  Linear companions were refitted jointly with all
+    A term that fits the real recordings but makes unseen data worse does not go into the
+    model; the finding stays named (the holdout judges models, not names: what is named does
+    not depend on whether a holdout is given) and the line goes under ``rejected``.  Every
+    finding is returned, in order.  Linear companions were refitted jointly with all
     terms of their channel, so they stay in every model compared (and end up on the first
     finding kept).  Returns ``(kept, rejection lines)``.
     """
+    metric = 'rmse_hp1_pct' if hp > 0.0 else 'rmse_pct'
     companions = [t for f in findings for t in f.terms if t.physics != f.physics]
     kept = [replace(f, terms=tuple(t for t in f.terms if t.physics == f.physics))
             for f in findings]
@@ -271,8 +277,13 @@ def holdout_gate(findings, hold, channels, hp, fs_hz, mask):
     def score(items):
         terms = [t for g in items for t in g.terms]
         terms += companions if terms else []
-        return rmse_by_channel(hold.targets, augmented(hold, terms), channels, hp, fs_hz,
-                               mask)
+        # the scorer of every reported figure: pieces cut first, each high-passed alone
+        segments = [EvalSegment(t, p, np.arange(t.shape[1]), r.name) for t, p, r in zip(
+            hold.targets, augmented(hold, terms), hold.recordings)]
+        if mask is not None:
+            segments = [piece for seg, m in zip(segments, mask)
+                        for piece in select_samples([seg], runs(m))]
+        return figures_of(segments, hold.recordings[0])[metric]
     while True:
         full = score(kept)
         worst, harm = None, MAX_HOLDOUT_HARM_PCT
@@ -285,10 +296,10 @@ def holdout_gate(findings, hold, channels, hp, fs_hz, mask):
         if worst is None:
             break
         gated.append(f'{text.channel_list(worst.channels)}: {worst.physics} fitted the real '
-                     f'data but worsens the holdout RMSE of ' + ', '.join(
+                     f'data but its term worsens the holdout RMSE of ' + ', '.join(
                          f'{c} ({undo[c]:.1f} % -> {full[c]:.1f} %)' for c in worst.channels)
-                     + '; not kept')
-        kept = [g for g in kept if g is not worst]
+                     + '; named, its term not written')
+        kept = [replace(g, terms=()) if g is worst else g for g in kept]
     if companions and any(f.terms for f in kept):
         i = next(i for i, f in enumerate(kept) if f.terms)
         kept[i] = replace(kept[i], terms=kept[i].terms + tuple(companions))

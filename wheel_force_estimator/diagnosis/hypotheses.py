@@ -209,7 +209,7 @@ def shift_signal(x: np.ndarray, delay_samples: float) -> np.ndarray:
 def _saturation_grid(contexts):
     # The clip test of the motion comparison, on the source's whole recorded level (a flat
     # top is judged against the values next to it over all of the record).
-    level = clip_level([c.level for c in contexts])
+    level = clip_level([c.level for c in contexts], contexts[0].n_inputs)
     if level is None:
         return []
     order = ph.QUANTITIES.index(contexts[0].filters[0])

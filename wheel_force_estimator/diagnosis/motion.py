@@ -41,19 +41,19 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 from scipy import stats
 
+from wheel_force_estimator import CORNERS
+from wheel_force_estimator import GRAVITY_MPS2
 from wheel_force_estimator.core.sample_ranges import runs
 from wheel_force_estimator.diagnosis.clipping import CLIP_ALPHA
+from wheel_force_estimator.diagnosis.clipping import clip_bound
 from wheel_force_estimator.diagnosis.clipping import clip_test
 from wheel_force_estimator.diagnosis.clipping import MIN_CLIP_SAMPLES
 from wheel_force_estimator.diagnosis.result import Finding
 
-#: Standard gravity [m/s**2]: an airborne wheel is pushed down harder than this by its spring.
-GRAVITY_MPS2 = 9.80665
 #: Shortest free flight [s]: a quarter period of a 50 Hz wheel-hop mode, far above any car's.
 FLIGHT_MIN_S = 0.005
 #: Tyre force band counted as free flight, as a fraction of the static tyre load.
 FLIGHT_BAND = 0.1
-AXLES_CORNERS = ('lf', 'rf', 'lr', 'rr')
 
 
 @dataclass(frozen=True)
@@ -122,7 +122,7 @@ def saturation_finding(real: Sequence, sim: Sequence, sources: Sequence[str],
     """
     rec0 = real[0]
     inputs = rec0.input_channels
-    bound = config.alpha / (2 * len(inputs))
+    bound = clip_bound(len(inputs), config.alpha)
     clips = []
     for i, name in enumerate(inputs):
         clip = clip_test(_rows(real, 'inputs', i), name, config.min_clip_samples)
@@ -220,7 +220,7 @@ def lift_off_finding(real: Sequence, sim: Sequence, config: MotionConfig) -> Opt
     n_sim = sum(r.n_samples for r in sim)
     pooled_sim = pooled_real = 0
     corners = []
-    for corner in AXLES_CORNERS:
+    for corner in CORNERS:
         rows = _corner_rows(rec0, corner)
         if rows is None:
             continue

@@ -29,16 +29,19 @@ class FrfReference:
 
     kind = 'frf'
 
-    def __init__(self, model, name: str, design=None):
+    def __init__(self, model, name: str, design=None, fitted=None):
         self.model = model
         self.name = name
         #: The ``FitConfig`` the model was fitted with (segment chosen), when fitted here.
         self.design = design
+        #: The :class:`core.design.DesignedFit` of the model, when fitted here.
+        self.fitted = fitted
 
     @classmethod
     def fit(cls, recordings: Sequence[MotionRecording], name: str, fit_config=None,
             short_record_fallback: bool = False, segment_fallback: bool = False,
-            choose_resolution: bool = False, long_window_fallback: Optional[bool] = None):
+            choose_resolution: bool = False, long_window_fallback: Optional[bool] = None,
+            cross_validate: bool = False, progress: bool = False):
         """
         Fit the FRF on recordings with the product's design (``wheel-force fit``).
 
@@ -59,6 +62,12 @@ class FrfReference:
         long_window_fallback : bool or None
             One resolution when the records hold no more long windows than inputs (None =
             as ``short_record_fallback``).
+        cross_validate : bool
+            Each output's design chosen by blocked cross-validation, as ``wheel-force fit``
+            chooses it (the real-data linear model); a simulation's FRF keeps the single
+            design the concealed sizes were measured with (:mod:`sim.concealment`).
+        progress : bool
+            The search's progress bars on a terminal (the library prints nothing by default).
 
         Raises
         ------
@@ -77,14 +86,36 @@ class FrfReference:
                                 rec0.output_channels, rec0.input_quantity,
                                 {'diagnosis': name}, short_record_fallback, segment_fallback,
                                 choose_resolution, long_window_fallback,
-                                # The diagnosis compares candidates on its own holdout halves;
-                                # its real-data linear model keeps the single design until
-                                # that comparison runs on fit's cross-validation (issue 30).
-                                cross_validate=False)
+                                cross_validate=cross_validate, show_progress=progress)
         except WheelForceError as err:
             raise DiagnosisError(f'cannot fit the linear FRF on the {name} recordings: '
                                  f'{err}') from err
-        return cls(fitted.model, name, fitted.config)
+        return cls(fitted.model, name, fitted.config, fitted)
+
+    def refit(self, recordings: Sequence[MotionRecording]):
+        """
+        Return the FrfModel of ``recordings`` fitted with this model's design.
+
+        The settings and, when the design was cross-validated, each output's chosen design
+        (:meth:`core.design.DesignedFit.refit`): the held-out blocks and the joint fits with
+        physics terms fit what ``fit`` writes without searching again.
+
+        Raises
+        ------
+        DiagnosisError
+            This model was not fitted here, or the recordings are too short for its design.
+
+        """
+        from wheel_force_estimator.core.pipeline import TrainingSegment
+        if self.fitted is None:
+            raise DiagnosisError(f'the {self.name} model was not fitted here: no design to '
+                                 f'refit')
+        segments = [TrainingSegment(r.inputs, r.outputs, r.name) for r in recordings]
+        try:
+            return self.fitted.refit(segments, {'diagnosis': self.name})
+        except WheelForceError as err:
+            raise DiagnosisError(f'cannot fit the linear FRF on the {self.name} recordings: '
+                                 f'{err}') from err
 
     def check(self, rec: MotionRecording):
         """Refuse a recording whose channels, rate or input quantity differ from the model's."""

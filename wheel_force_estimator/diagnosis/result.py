@@ -110,8 +110,9 @@ class FitComparison:
     model on the report half of the holdout (:func:`diagnosis.holdout.split_holdout`, named in
     ``report_on``), the ``metric`` field of ``evaluate --json`` (``rmse_hp1_pct`` for
     acceleration inputs, ``rmse_pct`` otherwise: ``highpass_hz`` 1 or 0).  With
-    ``'cross_validation'`` (no holdout) ``before``/``after`` are the reference and the
-    reference plus terms on the selection's held-out time blocks.
+    ``'cross_validation'`` (no holdout) every figure is scored the same way on the held-out
+    blocks of the training recordings, each model fitted on the other blocks
+    (:mod:`diagnosis.crossval`).
 
     Attributes
     ----------
@@ -120,15 +121,17 @@ class FitComparison:
     after : mapping str -> float
         The model ``--out-model`` writes (``model`` says which).
     data : str
-        ``'holdout'`` or ``'cross_validation'``.
+        One of :data:`DATA`.
     real_linear : mapping str -> float or None
         The best linear dynamic model fitted on the real training data with the design of
-        ``wheel-force fit`` (None when the real records cannot be fitted, or without holdout).
+        ``wheel-force fit`` (None when the real records cannot be fitted or hold no
+        blocks to judge it on).
     highpass_hz : float
         1.0 when the figures are 1 Hz high-passed, else 0.
     model : str
         Which model is written: ``sim_frf``, ``model``, ``real_linear`` (unchanged reference
-        or plain fit) or ``sim_frf+physics``, ``model+physics``, ``real_frf+physics``.
+        or plain fit), ``sim_frf+physics``, ``model+physics``, ``real_frf+physics``, or
+        ``per_channel`` (rows of several, named in ``rows_from``).
     report_on : tuple of str
         What to give ``wheel-force evaluate`` to reproduce the figures: the report files, or
         ``FILE --samples A..B,...`` for a single holdout file.
@@ -142,6 +145,12 @@ class FitComparison:
     rows_from : mapping str -> str
         With ``model == 'per_channel'``: the candidate each output channel's row (and its
         terms) comes from; empty otherwise.
+    figures : mapping str -> mapping str -> float
+        Both figures ``evaluate`` reports, whatever ``metric`` is: ``before_unfiltered``,
+        ``real_linear_unfiltered``, ``after_unfiltered`` (``rmse_pct``) and ``before_hp1``,
+        ``real_linear_hp1``, ``after_hp1`` (``rmse_hp1_pct``), each ``{channel: %}`` on the
+        same samples as ``before`` / ``real_linear`` / ``after``; written to the JSON beside
+        them.
 
     """
 
@@ -156,12 +165,14 @@ class FitComparison:
     notes: Tuple[str, ...] = ()
     gated: Tuple[str, ...] = ()
     rows_from: Mapping[str, str] = field(default_factory=dict)
+    figures: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
     def __post_init__(self):
-        if self.data not in ('holdout', 'cross_validation'):
-            raise DiagnosisError(f'fit data must be holdout or cross_validation, got '
+        if self.data not in DATA:
+            raise DiagnosisError(f'fit data must be one of {", ".join(DATA)}, got '
                                  f'{self.data!r}')
         object.__setattr__(self, 'gate', dict(self.gate))
+        object.__setattr__(self, 'figures', {k: dict(v) for k, v in self.figures.items()})
         object.__setattr__(self, 'rows_from', dict(self.rows_from))
         object.__setattr__(self, 'report_on', tuple(self.report_on))
 
@@ -181,7 +192,23 @@ class FitComparison:
                     'gate': {k: _round(v) for k, v in self.gate.items()}})
         if self.rows_from:
             out['rows_from'] = dict(self.rows_from)
+        for key, values in self.figures.items():
+            out[key] = {k: _round(v) for k, v in values.items()}
+        out['notes'] = list(self.notes)
         return out
+
+
+#: ``fit.data``: the figures come from the report half of the holdout, from held-out blocks
+#: of the training recordings (no holdout), or there are none because the training
+#: recordings are too short to hold blocks out (``notes`` says why; the plain fit is written).
+DATA = ('holdout', 'cross_validation', 'too_short')
+
+
+def figure_keys(name: str, figures: Mapping[str, Mapping[str, float]]
+                ) -> Dict[str, Dict[str, float]]:
+    """Return ``{NAME_unfiltered, NAME_hp1}`` of ``{'rmse_pct', 'rmse_hp1_pct'}`` figures."""
+    return {f'{name}_unfiltered': dict(figures['rmse_pct']),
+            f'{name}_hp1': dict(figures['rmse_hp1_pct'])}
 
 
 @dataclass(frozen=True)

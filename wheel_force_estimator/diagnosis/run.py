@@ -1,21 +1,16 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Sim-vs-real diagnosis: locate the mismatch, name the physics left out, prove the gain.
+The diagnosis's settings and the helpers its stages use (:mod:`diagnosis.pipeline`).
 
-1. The reference (the simulation's FRF, a given model, or - without either - the best linear
-   dynamic model on the real data, the MIMO FIR ``wheel-force fit`` makes) predicts the real
-   forces; the residual is what it cannot explain.
-2. Per channel the residual is located in frequency, time and operating regime.
-3. Candidate physics are ranked by the residual they explain on held-out time blocks and
-   accepted only against a time-shifted-feature null (:mod:`diagnosis.selection`).
-4. A physics accepted on several channels with compatible parameters becomes one finding with
-   shared parameters; every finding carries the :class:`PhysicsTerm` s of the augmented model.
-5. The gate half of the holdout drops findings that make unseen data worse and chooses the
-   model ``--out-model`` writes (:mod:`diagnosis.written`); the report half scores the
-   reference (``before``), the best linear model on the real data (``real_linear``) and the
-   written model (``after``) exactly as ``wheel-force evaluate`` would
-   (:mod:`diagnosis.holdout`).
+- :class:`DiagnosisConfig`: every setting of a diagnosis;
+- :func:`reference_of`, :func:`real_linear_fit`: the reference and the one real-data linear fit
+  of the run (``fit``'s design);
+- :func:`coupling_finding`: the left-right coupling test, like with like;
+- :class:`Builder`: per-channel findings with shared parameters per axis;
+- :func:`ranked`: the ranking of the findings.
+
+The stages themselves run in :func:`diagnosis.pipeline.diagnose_once`.
 """
 from dataclasses import dataclass
 from dataclasses import field
@@ -24,52 +19,36 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from wheel_force_estimator import AXLES
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis import text
-from wheel_force_estimator.diagnosis.agreement import agreed_findings
 from wheel_force_estimator.diagnosis.agreement import AgreementConfig
-from wheel_force_estimator.diagnosis.corner import with_sharper_corner
 from wheel_force_estimator.diagnosis.coupling import CouplingConfig
 from wheel_force_estimator.diagnosis.coupling import left_right_coupling
-from wheel_force_estimator.diagnosis.dynamic import dynamic_findings
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.features import motion_features
-from wheel_force_estimator.diagnosis.features import paired_by_coherence
-from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.features import settle_samples
-from wheel_force_estimator.diagnosis.hardening import add_omissions
 from wheel_force_estimator.diagnosis.hardening import hardening_winner
 from wheel_force_estimator.diagnosis.hardening import HARDENINGS
-from wheel_force_estimator.diagnosis.hardening import pooled_gain
-from wheel_force_estimator.diagnosis.hardening import settle_hardening
 from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
 from wheel_force_estimator.diagnosis.hypotheses import BY_NAME
-from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
 from wheel_force_estimator.diagnosis.hypotheses import LINEAR_COMPANIONS
 from wheel_force_estimator.diagnosis.hypotheses import term_parameters
-from wheel_force_estimator.diagnosis.locate import locate_channel
 from wheel_force_estimator.diagnosis.locate import regime_ratios
-from wheel_force_estimator.diagnosis.motion import merge_motion
-from wheel_force_estimator.diagnosis.motion import motion_findings
 from wheel_force_estimator.diagnosis.motion import MotionConfig
 from wheel_force_estimator.diagnosis.omissions import OmissionConfig
 from wheel_force_estimator.diagnosis.prepared import axis
 from wheel_force_estimator.diagnosis.prepared import group_pieces
 from wheel_force_estimator.diagnosis.prepared import pieces
-from wheel_force_estimator.diagnosis.prepared import prepare
 from wheel_force_estimator.diagnosis.recording import check_compatible
-from wheel_force_estimator.diagnosis.recording import MotionRecording
 from wheel_force_estimator.diagnosis.reference import FrfReference
 from wheel_force_estimator.diagnosis.reference import RegressionReference
-from wheel_force_estimator.diagnosis.result import DiagnosisResult
 from wheel_force_estimator.diagnosis.result import Finding
 from wheel_force_estimator.diagnosis.selection import SelectionConfig
 from wheel_force_estimator.diagnosis.selection import Selector
-from wheel_force_estimator.diagnosis.sources import sources_by_selection
-from wheel_force_estimator.diagnosis.written import compare
 
 
 @dataclass(frozen=True)
@@ -155,7 +134,7 @@ class DiagnosisConfig:
             raise ConfigError('merge_ratio must be in (0, 1] and range_ratio > 1')
 
 
-def _fit_linear(recordings, config, name, rec0):
+def fit_linear(recordings, config, name, rec0):
     """Fit the linear reference on simulation recordings (``config.linear``)."""
     kind = config.linear
     if kind == 'auto':
@@ -165,18 +144,43 @@ def _fit_linear(recordings, config, name, rec0):
     return RegressionReference.fit(recordings, config.features, name)
 
 
-def _real_linear(recordings, config, name='real'):
-    """Fit the best linear dynamic model on real recordings: ``wheel-force fit``'s design."""
+def real_linear_fit(recordings, config, name='real'):
+    """
+    Fit the best linear dynamic model on real recordings: ``wheel-force fit``'s design.
+
+    Each output's design chosen by blocked cross-validation as ``fit`` chooses it, so
+    ``fit.real_linear`` is what ``evaluate`` gives for the model ``fit`` writes; the held-out
+    blocks and the joint fits with terms refit that design (:meth:`FrfReference.refit`).
+    """
     return FrfReference.fit(recordings, name, config.fit, config.fit_fallback,
                             config.segment_fallback, config.choose_resolution,
-                            config.long_window_fallback)
+                            config.long_window_fallback, cross_validate=True,
+                            progress=config.progress)
 
 
-def _reference(real, sim_or_model, config):
+def coupling_finding(real, reference, channels, config, hp):
+    """
+    Return the left-right coupling finding (anti-roll bar), or None.
+
+    The comparison is like with like: the real records fitted with the simulation FRF's own
+    design (not the design ``fit``'s search chooses for the real car), so the two FRFs
+    differ by the data alone.  Real records too short for that design: no coupling test.
+    """
+    try:
+        real_frf = FrfReference(reference.refit(real), 'real (simulation design)')
+    except DiagnosisError:
+        return None
+    rec0 = real[0]
+    return left_right_coupling(real, reference, real_frf, channels,
+                               settle_samples(rec0.fs_hz, rec0.input_quantity,
+                                              config.features), hp, config.coupling)
+
+
+def reference_of(real, sim_or_model, config):
     """Return ``(reference, companions, mode, sim recordings)``."""
     from wheel_force_estimator.core.model import FrfModel
     if sim_or_model is None:
-        return (_real_linear(real, config, 'real (linear fit)'),
+        return (real_linear_fit(real, config, 'real (linear fit)'),
                 tuple(BY_NAME[n] for n in LINEAR_COMPANIONS), 'linear', ())
     if isinstance(sim_or_model, (FrfReference, RegressionReference)):
         return sim_or_model, (), 'model', ()
@@ -187,7 +191,7 @@ def _reference(real, sim_or_model, config):
     check_compatible(sim, 'sim')
     check_compatible((rec0,) + sim, 'real and sim')
     _check_overlap(real, sim, config)
-    return _fit_linear(sim, config, 'sim', rec0), (), 'sim', sim
+    return fit_linear(sim, config, 'sim', rec0), (), 'sim', sim
 
 
 def _check_overlap(real, sim, config):
@@ -220,8 +224,8 @@ def _contribution(hyp, shape, coef, ctx):
 def _groups(channels: Sequence[str]) -> List[List[List[str]]]:
     """Ways to share parameters, widest first: all channels of an axis, axles, singles."""
     options = [[list(channels)]]
-    front = [c for c in channels if c[:2] in ('lf', 'rf')]
-    rear = [c for c in channels if c[:2] in ('lr', 'rr')]
+    front = [c for c in channels if c[:2] in AXLES[0]]
+    rear = [c for c in channels if c[:2] in AXLES[1]]
     if front and rear and len(front) + len(rear) == len(channels):
         options.append([front, rear])
     if len(channels) > 1:
@@ -229,7 +233,7 @@ def _groups(channels: Sequence[str]) -> List[List[List[str]]]:
     return options
 
 
-class _Builder:
+class Builder:
     """Turns per-channel selections into findings with shared parameters and model terms."""
 
     def __init__(self, prep, outcomes, channels, sources, partners, config, companions,
@@ -348,7 +352,7 @@ class _Builder:
         return out
 
 
-def _without_duplicates(findings, structural):
+def without_duplicates(findings, structural):
     """
     Drop per-channel findings of a physics a whole-vehicle finding names on the same channels.
 
@@ -363,7 +367,7 @@ def _without_duplicates(findings, structural):
             if not any(f.physics == p and set(f.channels) & c for p, c in named)]
 
 
-def _ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
+def ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
     """
     Order findings: effects seen in the raw inputs first, then by the residual they explain.
 
@@ -406,161 +410,8 @@ def _ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):
                                            -total[f.physics], -weight(f)))
 
 
-def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
-             holdout: Sequence[MotionRecording] = (),
-             config: Optional[DiagnosisConfig] = None) -> DiagnosisResult:
-    """
-    Diagnose what the reference leaves out of the real recordings.
-
-    Without a simulation (none, or a model), for displacement or velocity inputs whose
-    differentiator low-pass is left to the default (``fs / 8``), the diagnosis runs a second
-    time with the sharper corner of :func:`corner.sharper_lowpass_hz`; the gate half of the
-    holdout (without one: the cross-validation blocks) chooses between the two written
-    models (mean RMSE over all output channels; a tie keeps the default), and a note in
-    ``fit.notes`` says which was kept.
-
-    Parameters
-    ----------
-    real : sequence of MotionRecording
-        Real recordings used to locate and fit (inputs + measured forces).
-    sim_or_model : sequence of MotionRecording, FrfModel, reference object or None
-        Simulation recordings (the FRF / linear law is fitted on them), a model, or None for
-        generic data without a simulation (a linear law is fitted on ``real`` and only
-        nonlinear physics are sought).
-    holdout : sequence of MotionRecording
-        Real recordings NOT used for fitting, for the before/after comparison; when empty
-        the comparison uses the held-out blocks of the cross-validation.
-    config : DiagnosisConfig, optional
-        Features, selection rules and reference settings (defaults when None).
-
-    Returns
-    -------
-    DiagnosisResult
-
-    Raises
-    ------
-    DiagnosisError
-        Incompatible recordings (rates, channels), too little data to cross-validate, no
-        overlap between simulated and real operating ranges.
-
-    """
-    config = config or DiagnosisConfig()
-    real = tuple(real)
-    holdout = tuple(holdout)
-    result = _diagnose_once(real, sim_or_model, holdout, config)
-    # A simulation's linear law for displacement / velocity inputs reads the features itself
-    # (F0 + k x + c v + m a): a second corner would change the "before" it is judged against
-    # (measured on travel -> Fz: 23.8 -> 78.8 % before, the written model no better).
-    if result.model is None or _is_simulation(sim_or_model):
-        return result
-
-    def once(cfg):
-        return _diagnose_once(real, sim_or_model, holdout, cfg)
-    return with_sharper_corner(result, once, real, holdout, config)
-
-
-def _is_simulation(sim_or_model) -> bool:
+def is_simulation(sim_or_model) -> bool:
     """Return True when ``sim_or_model`` is simulation recordings (not None, not a model)."""
     from wheel_force_estimator.core.model import FrfModel
     return sim_or_model is not None and not isinstance(
         sim_or_model, (FrfModel, FrfReference, RegressionReference))
-
-
-def _diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
-    """One diagnosis with fixed feature corners (see :func:`diagnose`)."""
-    check_compatible(real, 'real')
-    if holdout:
-        check_compatible(real + holdout, 'real and holdout')
-    reference, companions, mode, sim = _reference(real, sim_or_model, config)
-    rec0 = real[0]
-    fs_hz = rec0.fs_hz
-    hp = config.residual_highpass_hz
-    if hp is None:
-        hp = 1.0 if reference.kind == 'frf' and rec0.input_quantity == 'acceleration' else 0.0
-    config = replace(config, selection=replace(config.selection, highpass_hz=hp))
-    channels = rec0.output_channels
-    sources, partners = pairing(channels, rec0.input_channels, real)
-    prep = prepare(real, reference, sources, partners, config)
-    sim_prep = prepare(sim, reference, sources, partners, config) if sim else None
-    mismatch = sorted((locate_channel(ch, [t[o] for t in prep.targets],
-                                      [p[o] for p in prep.predictions],
-                                      [c[o] for c in prep.contexts], prep.starts_s,
-                                      fs_hz, hp) for o, ch in enumerate(channels)),
-                      key=lambda m: -m.rmse_pct)
-    skip_names = {h.physics for h in companions}
-    # Without --sim/--model the reference is the MIMO FIR fitted on these very records: a
-    # delay, a rate or a left-right coupling of the motion lies in its span, so what such a
-    # candidate "explains" is the FIR's estimation error (measured: a delay explained 51 % of
-    # a linear sine rig's residual), not missing physics.
-    candidates = [h for h in HYPOTHESES if h.physics not in skip_names
-                  and not (mode == 'linear' and h.lti)]
-    outcomes = {}
-    for o, ch in enumerate(channels):
-        sim_pieces = pieces(sim_prep, o, ch) if sim_prep else None
-        outcomes[ch] = Selector(pieces(prep, o, ch), config.selection, companions,
-                                sim_pieces).run(candidates)
-    if paired_by_coherence(channels, rec0.input_channels):
-        chosen = sources_by_selection(prep, sim_prep, reference, sources, outcomes, config,
-                                      companions, candidates)
-        if chosen != sources:
-            sources = chosen
-            prep = prepare(real, reference, sources, partners, config)
-            sim_prep = prepare(sim, reference, sources, partners, config) if sim else None
-    builder = _Builder(prep, outcomes, channels, sources, partners, config, companions,
-                       sim_prep)
-    findings = builder.findings()
-    if mode == 'linear':
-        findings += dynamic_findings(prep, reference, channels, sources, outcomes, config)
-    if mode != 'linear':
-        findings += agreed_findings(outcomes, channels, prep, sim_prep, builder, config,
-                                    config.agreement)
-    gains: Dict[tuple, float] = {}
-
-    def pooled(group, key):
-        # Shared-parameter fits are the costly part, and omissions, hardening and ranking
-        # ask for the same ones (a group's gain does not depend on its channel order).
-        index = (tuple(sorted(group)), key)
-        if index not in gains:
-            gains[index] = pooled_gain(prep, sim_prep, channels, index[0], key, config)
-        return gains[index]
-
-    structural = []
-    real_linear = None
-    if mode == 'sim' and reference.kind == 'frf':
-        coupling = None
-        try:
-            real_linear = _fit_linear(real, config, 'real', rec0)
-        except DiagnosisError:
-            pass  # real records too short for their own FRF: no linear comparison
-        else:
-            coupling = left_right_coupling(
-                real, reference, real_linear, channels,
-                settle_samples(fs_hz, rec0.input_quantity, config.features), hp,
-                config.coupling)
-        added = [coupling] if coupling is not None else []
-        findings, omitted = add_omissions(findings, real, sim, reference, channels, sources,
-                                          config, pooled)
-        added += omitted
-        findings = _without_duplicates(findings, added) + added
-        structural = [id(f) for f in added]
-    if mode == 'sim':
-        findings = settle_hardening(findings, builder, prep, sim_prep, channels, config, pooled)
-    findings = _ranked(findings, prep, channels, hp, fs_hz, structural, pooled)
-    # Motion findings (clip, tyre in the air) carry no terms, so they skip the holdout gate,
-    # but the real motion differs from the simulated one: the written model is then chosen
-    # between the reference and the plain fit on the real data (no longer "no change").
-    motion = motion_findings(real, sim, sources, config.motion)
-    findings, fit, model = compare(findings, real, reference, mode, holdout, outcomes,
-                                   channels, sources, partners, config,
-                                   lambda recs: _real_linear(recs, config).model,
-                                   motion_channels=sorted({c for m in motion
-                                                           for c in m.channels}))
-    findings = merge_motion(findings, motion)
-    named = {(c, f.physics) for f in findings for c in f.channels}
-    rejected = tuple(text.rejection(ch, outcomes[ch].rejected) for ch in channels
-                     if outcomes[ch].rejected is not None and outcomes[ch].rejected[0].gain > 0
-                     and (ch, outcomes[ch].rejected[0].hypothesis.physics) not in named)
-    rejected = tuple(fit.gated) + rejected
-    summary = text.summary(findings, fit, rejected)
-    return DiagnosisResult(tuple(mismatch), tuple(findings), fit, tuple(summary),
-                           f'{reference.name} ({reference.kind})', rejected, model, reference)

@@ -89,6 +89,28 @@ class SelectionConfig:
     highpass_hz: float = 0.0
     linear_tolerance: float = 0.04
 
+    def rejection(self, gain: float, null: Optional[float] = None,
+                  drop_pct: Optional[float] = None) -> Optional[str]:
+        """
+        Return why a candidate is not accepted, or None: the one acceptance rule.
+
+        ``gain`` is the fraction of the residual it explains on held-out blocks, ``null`` the
+        best fraction the same candidate explains with time-shifted features, ``drop_pct``
+        how much it lowers the cross-validated RMSE [points of %].  A figure not known yet
+        (None) is not judged, so a caller may reject on the gain before paying for the null.
+        Used by the per-channel selection and by the search inside the structure
+        (:mod:`diagnosis.dynamic`).
+        """
+        if gain < self.min_gain:
+            return f'explains {gain:.1%} < {self.min_gain:.0%} of the residual'
+        if null is not None and gain <= self.null_factor * max(null, 0.0):
+            return (f'explains {gain:.1%}, not {self.null_factor:g}x above the '
+                    f'{null:.1%} an unrelated (time-shifted) feature explains')
+        if drop_pct is not None and drop_pct < self.min_improvement_pct:
+            return (f'lowers the cross-validated RMSE by only {drop_pct:.2f} points '
+                    f'(< {self.min_improvement_pct:g})')
+        return None
+
     def __post_init__(self):
         if self.n_folds < 2 or self.n_null < 1 or self.max_terms < 1:
             raise ConfigError('n_folds must be >= 2, n_null and max_terms >= 1')
@@ -509,17 +531,8 @@ class Selector:
             nulls = self.null_gains(hyp, grids[hyp.key], base_sse, choice.shape)
             after_sse = base_sse * (1.0 - choice.gain)
             drop = self._pct(base_sse) - self._pct(after_sse)
-            reason = None
-            if choice.gain < cfg.min_gain:
-                reason = f'explains {choice.gain:.1%} < {cfg.min_gain:.0%} of the residual'
-            elif choice.gain <= cfg.null_factor * max(max(nulls), 0.0):
-                reason = (f'explains {choice.gain:.1%}, not {cfg.null_factor:g}x above the '
-                          f'{max(nulls):.1%} an unrelated (time-shifted) feature explains')
-            elif drop < cfg.min_improvement_pct:
-                reason = (f'lowers the cross-validated RMSE by only {drop:.2f} points '
-                          f'(< {cfg.min_improvement_pct:g})')
-            else:
-                reason = self._within_tolerance(hyp, choice.shape)
+            reason = (cfg.rejection(choice.gain, max(nulls), drop)
+                      or self._within_tolerance(hyp, choice.shape))
             if reason is not None:
                 rejected = (choice, nulls, reason)
                 break

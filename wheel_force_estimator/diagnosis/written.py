@@ -1,76 +1,77 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-The model ``--out-model`` writes: candidates, the real-data FRF + physics, the choice.
+Fitting the written model's candidates: the real-data FRF with the findings' terms.
 
-Candidates (those that exist for the run):
+- :func:`backfitted_model`: the FRF fitted on the real recordings with the design of
+  ``wheel-force fit`` plus the findings' terms, fitted jointly by backfitting (the
+  ``real_frf+physics`` candidate, and the strengths of ``sim_frf+physics``);
+- :func:`partialled`: the Frisch-Waugh-Lovell step (a column minus what the linear design
+  predicts of it);
+- :func:`joint_if_better`, :func:`gate_dynamic`: the gate half of a holdout on the joint
+  strengths and on terms inside the structure;
+- :func:`with_live_estimators`: the written model's live estimators for the node.
 
-- ``sim_frf+physics`` / ``model+physics``: the reference FRF (the simulation's, or the one given
-  with ``--model``) plus the findings' terms, as the selection fitted them;
-- ``real_frf+physics``: the FRF fitted on the real recordings with the design of
-  ``wheel-force fit`` (:func:`core.design.fit_design`) plus the findings' terms, fitted jointly
-  by backfitting (:func:`backfitted_model`);
-- ``real_linear``: that FRF alone, the model a plain ``wheel-force fit`` on the real
-  recordings gives.
-
-Rule (:func:`choose`): without a finding that carries a model term nothing changes - the
-reference is written as it is (``sim_frf``, ``model``, or ``real_linear`` when the reference
-is the real-data FRF).  With one, the candidate with the lowest mean RMSE over the findings'
-channels on the gate half of the holdout is written, whichever it is.  When that is
-``real_linear`` the named physics did not improve the best linear model on data they were not
-fitted on; writing them anyway would hand the user a model measured worse, so the plain fit is
-written and ``fit.model`` says so.  Every score runs through ``core.predict.predict_forces``,
-the path ``evaluate``, ``predict`` and the node take.
+Which candidate is written is :mod:`diagnosis.choice`'s.
 """
 from dataclasses import replace
-from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Sequence, Tuple
 
 import numpy as np
 import scipy.optimize
 
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
-from wheel_force_estimator.core.model_rows import compatible
-from wheel_force_estimator.core.model_rows import compose_rows
 from wheel_force_estimator.core.predict import predict_forces
-from wheel_force_estimator.diagnosis.features import settle_samples
 from wheel_force_estimator.diagnosis.holdout import evaluate_scores
-from wheel_force_estimator.diagnosis.holdout import holdout_gate
 from wheel_force_estimator.diagnosis.holdout import MAX_HOLDOUT_HARM_PCT
-from wheel_force_estimator.diagnosis.holdout import METRIC
 from wheel_force_estimator.diagnosis.holdout import Scored
-from wheel_force_estimator.diagnosis.holdout import split_holdout
-from wheel_force_estimator.diagnosis.prepared import prepare
-from wheel_force_estimator.diagnosis.reference import FrfReference
-from wheel_force_estimator.diagnosis.result import FitComparison
 
 
 def _predictions(model, recordings) -> List[np.ndarray]:
     return [predict_forces(model, r.inputs) for r in recordings]
 
 
-def _term_dicts(terms) -> List[dict]:
+def term_dicts(terms) -> List[dict]:
     return [t.to_dict() for t in terms]
 
 
 def _units(model, groups, recordings, base) -> List[List[np.ndarray]]:
     """Per term group, per record: the force the group adds to ``model`` (Predictor path)."""
-    return [[y - b for y, b in zip(_predictions(model.with_physics(_term_dicts(g)), recordings),
+    return [[y - b for y, b in zip(_predictions(model.with_physics(term_dicts(g)), recordings),
                                    base)] for g in groups]
 
 
-def _channel_weights(y: np.ndarray, fs_hz: float, hp: float, skip: int) -> np.ndarray:
-    """Return (n_out, 1) weights 1 / RMS of each force after ``skip``, high-passed when hp > 0."""
-    t = highpass(y, fs_hz, hp, 'refit target') if hp > 0.0 else y
-    return 1.0 / np.maximum(np.sqrt(np.mean(t[:, skip:] ** 2, axis=1, keepdims=True)), 1e-300)
+def _figure_views(x: np.ndarray, fs_hz: float, hp: float, skip: int,
+                  what: str) -> List[np.ndarray]:
+    """
+    Return ``x`` (n_out, n) after ``skip`` as each figure of ``evaluate`` sees it.
+
+    Unfiltered (``rmse_pct``): mean-removed; when ``hp`` > 0 also high-passed at ``hp``
+    (``rmse_hp1_pct``).  A term's strength is fitted on both: on the high-passed figure
+    alone a term that fixes the dynamics could spoil the quasi-static band it also carries
+    (an asymmetric damper's slow jacking force), which the unfiltered figure scores.
+    """
+    tail = x[:, skip:]
+    views = [tail - tail.mean(axis=1, keepdims=True)]
+    if hp > 0.0:
+        views.append(highpass(x, fs_hz, hp, what)[:, skip:] if np.any(x) else tail)
+    return views
+
+
+def _figure_weights(y: np.ndarray, fs_hz: float, hp: float, skip: int) -> List[np.ndarray]:
+    """Per figure of :func:`_figure_views`: (n_out, 1) weights 1 / RMS of each force there."""
+    return [1.0 / np.maximum(np.sqrt(np.mean(v ** 2, axis=1, keepdims=True)), 1e-300)
+            for v in _figure_views(y, fs_hz, hp, skip, 'refit target')]
 
 
 def _strengths(units, free, recordings, base, hp: float, skip: int) -> np.ndarray:
     """
     Non-negative least-squares strength per group (fixed groups at 1) on the residual.
 
-    Channels weighted by their force RMS (like the RMSE %), the first ``skip`` samples of
-    each record (filter settling) left out, everything high-passed at ``hp`` when > 0.
+    The criterion is the sum over both figures of ``evaluate`` (:func:`_figure_views`) of
+    the squared relative error: channels weighted by their force RMS in that figure (like
+    the RMSE %), the first ``skip`` samples of each record (filter settling) left out.
     """
     beta = np.ones(len(units))
     idx = [i for i, f in enumerate(free) if f]
@@ -78,17 +79,17 @@ def _strengths(units, free, recordings, base, hp: float, skip: int) -> np.ndarra
         return beta
     a_rows, b_rows = [], []
     for k, (rec, pred) in enumerate(zip(recordings, base)):
+        if rec.n_samples <= skip:
+            continue  # a piece within its filters' settling time holds no sample to fit
         y = np.asarray(rec.outputs, dtype=np.float64)
         r = y - pred - sum((units[i][k] for i, f in enumerate(free) if not f),
                            np.zeros_like(pred))
-        cols = [units[i][k] for i in idx]
-        if hp > 0.0:
-            fs = rec.fs_hz
-            cols = [highpass(c, fs, hp, 'term contribution') if np.any(c) else c for c in cols]
-            r = highpass(r, fs, hp, 'refit residual')
-        w = _channel_weights(y, rec.fs_hz, hp, skip)
-        a_rows.append(np.stack([(c[:, skip:] * w).ravel() for c in cols], axis=1))
-        b_rows.append((r[:, skip:] * w).ravel())
+        fs = rec.fs_hz
+        cols = [_figure_views(units[i][k], fs, hp, skip, 'term contribution') for i in idx]
+        for v, (rv, w) in enumerate(zip(_figure_views(r, fs, hp, skip, 'refit residual'),
+                                        _figure_weights(y, fs, hp, skip))):
+            a_rows.append(np.stack([(c[v] * w).ravel() for c in cols], axis=1))
+            b_rows.append((rv * w).ravel())
     q, rr = np.linalg.qr(np.concatenate(a_rows))
     sol, _ = scipy.optimize.nnls(rr, q.T @ np.concatenate(b_rows))
     beta[idx] = sol
@@ -96,14 +97,16 @@ def _strengths(units, free, recordings, base, hp: float, skip: int) -> np.ndarra
 
 
 def _weighted_sse(units, beta, recordings, base, hp: float, skip: int) -> float:
-    """Residual sum of squares the strength fit minimises (same weights, high-pass, skip)."""
+    """Residual sum of squares the strength fit minimises (both figures, weights, skip)."""
     total = 0.0
     for k, (rec, pred) in enumerate(zip(recordings, base)):
+        if rec.n_samples <= skip:
+            continue
         y = np.asarray(rec.outputs, dtype=np.float64)
         r = y - pred - sum((b * u[k] for b, u in zip(beta, units)), np.zeros_like(pred))
-        if hp > 0.0:
-            r = highpass(r, rec.fs_hz, hp, 'refit residual')
-        total += float(np.sum((r[:, skip:] * _channel_weights(y, rec.fs_hz, hp, skip)) ** 2))
+        for rv, w in zip(_figure_views(r, rec.fs_hz, hp, skip, 'refit residual'),
+                         _figure_weights(y, rec.fs_hz, hp, skip)):
+            total += float(np.sum((rv * w) ** 2))
     return total
 
 
@@ -111,6 +114,25 @@ def _joint_eligible(group) -> bool:
     """Return True when a strength group gets the joint step: motion state, free strength."""
     return all(t.state == 'motion' and t.kind.strength is not None and not t.response_taps
                for t in group)
+
+
+def partialled(columns: Sequence[np.ndarray], recordings: Sequence,
+               refit: Callable[[Sequence], object]) -> List[np.ndarray]:
+    """
+    Return ``columns[k]`` minus what the linear design predicts of them (Frisch-Waugh-Lovell).
+
+    ``columns[k]`` (n_cols, n) are outputs over record ``k`` of ``recordings``; ``refit`` fits
+    the linear design on records whose outputs they are (H1 fits each output row on its
+    own, so this is the column-by-column refit in one pass).  What is left is the part of
+    each column no linear model of the inputs can explain: the regressor of a joint
+    least-squares fit of the FIR with the column.  The one home of the step, for the
+    backfit's joint strengths (:func:`_partialled_fit`) and the search inside the structure
+    (:mod:`diagnosis.dynamic`).
+    """
+    names = tuple(f'column {j}' for j in range(np.shape(columns[0])[0]))
+    fitted = refit([replace(rec, outputs=c, output_channels=names)
+                    for rec, c in zip(recordings, columns)])
+    return [c - p for c, p in zip(columns, _predictions(fitted, recordings))]
 
 
 def _partialled_fit(groups, free, units, real, base, refit, hp: float, skip: int):
@@ -134,14 +156,13 @@ def _partialled_fit(groups, free, units, real, base, refit, hp: float, skip: int
     """
     if not any(_joint_eligible(g) for g in groups):
         return np.inf, None, None
-    partialled = []
+    regressors = []
     for i, g_units in enumerate(units):
         if not _joint_eligible(groups[i]) or not any(np.any(u) for u in g_units):
-            partialled.append(g_units)
+            regressors.append(g_units)
             continue
-        fitted = refit([replace(rec, outputs=u) for rec, u in zip(real, g_units)])
-        partialled.append([u - p for u, p in zip(g_units, _predictions(fitted, real))])
-    beta = _strengths(partialled, free, real, base, hp, skip)
+        regressors.append(partialled(g_units, real, refit))
+    beta = _strengths(regressors, free, real, base, hp, skip)
     model, base, units = _refit_around(groups, beta, units, real, refit)
     return _weighted_sse(units, beta, real, base, hp, skip), model, beta
 
@@ -218,7 +239,8 @@ def backfitted_model(findings, real: Sequence, linear_model,
     refit : callable
         ``refit(recordings) -> FrfModel`` with the design of ``wheel-force fit``.
     hp : float
-        High-pass of the strength fit [Hz] (0 = none).
+        High-pass of the second figure the strengths are fitted on [Hz] (0 = the
+        unfiltered figure alone; :func:`_figure_views`).
     skip : int
         Samples left out at the start of each record (feature filter settling).
     iterations : int
@@ -271,7 +293,7 @@ def backfitted_model(findings, real: Sequence, linear_model,
             terms.extend(t.scaled(b) for t in g)
         elif not f:
             terms.extend(g)
-    return model.with_physics(_term_dicts(terms)), tuple(float(b) for b in beta)
+    return model.with_physics(term_dicts(terms)), tuple(float(b) for b in beta)
 
 
 def mean_score(model, half: Scored, channels, metric: str) -> Tuple[float, Dict[str, float]]:
@@ -281,112 +303,8 @@ def mean_score(model, half: Scored, channels, metric: str) -> Tuple[float, Dict[
     return float(np.mean([scores[c] for c in channels])), scores
 
 
-def choose(candidates: Mapping[str, object], gate: Scored, channels: Sequence[str],
-           metric: str) -> Tuple[str, Dict[str, float], Dict[str, Dict[str, float]]]:
-    """
-    Return the name of the candidate with the lowest mean RMSE over ``channels`` on ``gate``.
-
-    Ties go to the earlier candidate.  Also returns every candidate's gate score (mean over
-    ``channels``) and its per-channel gate scores.
-    """
-    per_channel = {name: mean_score(model, gate, channels, metric)[1]
-                   for name, model in candidates.items()}
-    scores = {name: float(np.mean([per_channel[name][c] for c in channels]))
-              for name in candidates}
-    best = min(scores, key=lambda n: (scores[n], list(candidates).index(n)))
-    return best, scores, per_channel
-
-
-def linked_channels(candidates: Mapping[str, object], channels: Sequence[str]) -> List[List[str]]:
-    """
-    Return the groups of output channels that must come from one model.
-
-    Linked are the channels a physics term spans or couples.
-    A term's parameters are shared by all its channels, and a load-state term reads the
-    prediction of its partner outputs, so those channels are linked (union over every
-    candidate's terms); every other channel stands alone.
-    """
-    parent = {c: c for c in channels}
-
-    def root(c):
-        while parent[c] != c:
-            parent[c] = parent[parent[c]]
-            c = parent[c]
-        return c
-    for model in candidates.values():
-        for term in model.physics_terms:
-            linked = [c for c in tuple(term.channels) + tuple(term.partners) if c in parent]
-            for c in linked[1:]:
-                parent[root(c)] = root(linked[0])
-    groups: Dict[str, List[str]] = {}
-    for c in channels:
-        groups.setdefault(root(c), []).append(c)
-    return list(groups.values())
-
-
-def compose(candidates: Mapping[str, object], per_channel: Mapping[str, Mapping[str, float]],
-            channels: Sequence[str], motion_channels: Sequence[str] = ()
-            ) -> Tuple[Optional[object], Dict[str, str], str]:
-    """
-    Combine the candidates' rows: each linked group of channels from its best gate model.
-
-    Every output row of the FRF is its own fit (:mod:`core.model_rows`), so no channel needs
-    to take the model another channel prefers: a finding on the vertical channels may be best
-    served by the real-data FRF with its terms while the lateral channels, which the real
-    records fit worse (lower coherence), keep the simulation's rows.  Groups of
-    :func:`linked_channels` are chosen together (lowest mean gate RMSE over the group; ties to
-    the earlier candidate), and a candidate's terms come along with its rows; a group no term
-    touches chooses among the candidates without terms.  A group of ``motion_channels`` (a
-    clipped accelerometer or a tyre in the air was found there) that no term touches takes
-    the plain fit on the real data (``real_linear``) without a vote: the simulation's rows
-    there were fitted on motion the real car does not make, and the two differ on unseen
-    data by less than the deciding half can tell apart (simulator, 3 seeds: the gate half
-    took the simulation's rows for one Fz at seeds 1 and 2 and the report half found them
-    0.05 and 0.01 points worse, the plain fit's rows are the issue's bar).
-
-    Returns ``(model, {channel: candidate}, note)``: the model is None when every group
-    chose the same candidate (that candidate is written whole) or when the rows cannot be
-    combined (``note`` says why).
-    """
-    names = list(candidates)
-    plain = [n for n in names if not candidates[n].physics] or names
-    touched = {c for n in names for t in candidates[n].physics_terms for c in t.channels}
-    pick: Dict[str, str] = {}
-    for group in linked_channels(candidates, channels):
-        # A row no term touches comes from a model without terms: the other candidates'
-        # rows there differ from those only by the backfit's refitting noise.
-        eligible = names if touched.intersection(group) else plain
-        if ('real_linear' in names and set(group) <= set(motion_channels)
-                and not touched.intersection(group)):
-            eligible = ['real_linear']
-        best = min(eligible, key=lambda n: (float(np.mean([per_channel[n][c] for c in group])),
-                                            names.index(n)))
-        pick.update(dict.fromkeys(group, best))
-    if len(set(pick.values())) < 2:
-        return None, pick, ''
-    models = [candidates[n] for n in names]
-    ok, why = compatible(models)
-    if not ok:
-        return None, pick, f'rows not combined per channel: {why}'
-    terms = [t.to_dict() for n in names for t in candidates[n].physics_terms
-             if all(pick[c] == n for c in t.channels)]
-    base = max(names, key=lambda n: sum(v == n for v in pick.values()))
-    fit = dict(candidates[base].fit)
-    fit['rows_from'] = dict(pick)
-    model = compose_rows(models, [names.index(pick[c]) for c in channels], terms, fit)
-    return model, pick, ''
-
-
-#: ``fit.model`` of the reference written unchanged, per diagnosis mode.
-UNCHANGED = {'sim': 'sim_frf', 'model': 'model', 'linear': 'real_linear'}
-#: ``fit.model`` of a model combined per channel (``fit.rows_from`` names each row's source).
-PER_CHANNEL = 'per_channel'
-#: ``fit.model`` of the reference FRF plus the findings' terms, per mode.
-AUGMENTED = {'sim': 'sim_frf+physics', 'model': 'model+physics', 'linear': 'real_frf+physics'}
-
-
-def _joint_if_better(alternated, findings, real, lin_model, real_fit, hp, skip, gate,
-                     metric):
+def joint_if_better(alternated, findings, real, lin_model, real_fit, hp, skip, gate,
+                    metric):
     """
     Return the backfit from the joint strengths instead when the gate half prefers it.
 
@@ -418,14 +336,14 @@ def is_dynamic(finding) -> bool:
     return any(t.response_taps for t in finding.terms)
 
 
-def _gate_dynamic(dynamic, real, lin_model, real_fit, gate, metric, hp, skip):
+def gate_dynamic(dynamic, real, lin_model, real_fit, gate, metric, hp, skip):
     """
-    Keep the dynamic findings that do not harm the gate half with the FIR refitted around them.
+    Strip the terms of dynamic findings that harm the gate half with the FIR refitted around them.
 
     The rule of :func:`holdout.holdout_gate` (a rise of the mean RMSE over the finding's
     channels above ``MAX_HOLDOUT_HARM_PCT`` drops it), judged on the real-data FIR refitted
-    jointly with the finding (:func:`backfitted_model`) against that FIR alone.  Returns
-    ``(kept, rejection lines)``.
+    jointly with the finding (:func:`backfitted_model`) against that FIR alone; a harmful
+    finding stays named without its term.  Returns ``(findings, rejection lines)``.
     """
     kept, gated = [], []
     for f in dynamic:
@@ -437,121 +355,11 @@ def _gate_dynamic(dynamic, real, lin_model, real_fit, gate, metric, hp, skip):
             gated.append(f'{", ".join(f.channels)}: {f.physics} (inside the structure) fitted '
                          f'the real data but worsens the holdout RMSE of ' + ', '.join(
                              f'{c} ({without[c]:.1f} % -> {with_f[c]:.1f} %)'
-                             for c in f.channels) + '; not kept')
+                             for c in f.channels) + '; named, its term not written')
+            kept.append(replace(f, terms=()))
         else:
             kept.append(f)
     return kept, gated
-
-
-def compare(findings, real, reference, mode, holdout, outcomes, channels, sources, partners,
-            config, real_fit, motion_channels=()):
-    """
-    Gate the findings, choose the written model, score before / real_linear / after.
-
-    ``mode`` is ``'sim'``, ``'model'`` or ``'linear'`` (reference fitted on ``real``);
-    ``outcomes`` the per-channel selections (cross-validation figures without holdout);
-    ``real_fit(recordings) -> FrfModel`` fits with the design of ``wheel-force fit``;
-    ``motion_channels`` the channels of motion findings (no terms: the recorded motion
-    differs from the simulated one, so the reference is no longer kept as it is: a row no
-    term touches there is the plain fit's, see :func:`compose`).
-    Returns ``(findings, FitComparison, written model or None)``.
-    """
-    rec0 = real[0]
-    fs_hz = rec0.fs_hz
-    hp = config.selection.highpass_hz
-    metric = METRIC[rec0.input_quantity]
-    ref_model = reference.model if isinstance(reference, FrfReference) else None
-    notes = []
-    lin_model = ref_model if mode == 'linear' else None
-    if lin_model is None and (holdout or ref_model is None):
-        try:
-            lin_model = real_fit(real)
-        except DiagnosisError as err:
-            notes.append(f'no real-data linear model: {err}')
-    gated = []
-    split = split_holdout(holdout) if holdout else None
-    skip = settle_samples(fs_hz, rec0.input_quantity, config.features)
-    # Terms inside the structure were fitted with the FIR refitted around them (their linear
-    # part partialled out, :mod:`diagnosis.dynamic`): added to the reference as it is, they
-    # would count that part twice, so the gate judges them on the refitted model.
-    dynamic = [f for f in findings if is_dynamic(f)]
-    findings = [f for f in findings if not is_dynamic(f)]
-    if split is not None:
-        gate_prep = prepare(split.whole, reference, sources, partners, config)
-        masks = split.gate_masks(gate_prep.spans)
-        if masks is None or any(m.any() for m in masks):
-            findings, gated = holdout_gate(findings, gate_prep, channels, hp, fs_hz, masks)
-            if dynamic and lin_model is not None:
-                dynamic, gated_dynamic = _gate_dynamic(dynamic, real, lin_model, real_fit,
-                                                       split.gate_half, metric, hp, skip)
-                gated = tuple(gated) + tuple(gated_dynamic)
-        else:
-            notes.append('holdout too short: its gate half lies within the filter settling '
-                         'time, no finding was gated')
-    findings = list(findings) + dynamic
-    with_terms = [f for f in findings if f.terms]
-    terms = [t.to_dict() for f in with_terms for t in f.terms]
-    candidates = {}
-    if not with_terms:
-        if ref_model is not None:
-            candidates[UNCHANGED[mode]] = ref_model
-        if lin_model is not None and (ref_model is None or (motion_channels and split)):
-            candidates['real_linear'] = lin_model
-    else:
-        if ref_model is not None:
-            candidates[AUGMENTED[mode]] = ref_model.with_physics(list(ref_model.physics) + terms)
-        if lin_model is not None and (split is not None or not candidates or dynamic):
-            # Without a holdout nothing can choose: the reference + terms is written - but a
-            # term inside the structure needs its FIR refitted around it (see above).
-            candidates['real_frf+physics'], _ = backfitted_model(
-                findings, real, lin_model, real_fit, hp, skip)
-            if split is not None:
-                candidates['real_frf+physics'], note = _joint_if_better(
-                    candidates['real_frf+physics'], findings, real, lin_model, real_fit, hp,
-                    skip, split.gate_half, metric)
-                if note:
-                    notes.append(note)
-            candidates['real_linear'] = lin_model
-        if ref_model is not None and split is not None and mode != 'linear':
-            # the findings may help some channels and not others: the reference as it was
-            candidates[UNCHANGED[mode]] = ref_model
-    named = sorted({c for f in with_terms for c in f.channels}) or list(motion_channels)
-    gate_scores = {}
-    rows_from: Dict[str, str] = {}
-    if split is None or len(candidates) < 2:
-        choice = next(iter(candidates), None)
-        model = candidates.get(choice)
-    else:
-        choice, gate_scores, per_channel = choose(candidates, split.gate_half, named, metric)
-        model = candidates[choice]
-        combined, rows_from, note = compose(candidates, per_channel, channels, motion_channels)
-        if note:
-            notes.append(note)
-        if combined is not None:
-            choice, model = PER_CHANNEL, combined
-        else:
-            if not note:  # every group chose the same candidate
-                choice = next(iter(rows_from.values()))
-                model = candidates[choice]
-            rows_from = {}
-    if split is None:
-        fit = FitComparison({c: outcomes[c].cv_before_pct for c in channels},
-                            {c: outcomes[c].cv_after_pct for c in channels},
-                            'cross_validation', None, hp, model=choice or '',
-                            notes=tuple(notes))
-        return findings, fit, model
-    shown = split.report_half
-    before = evaluate_scores(reference.predict, shown.records, metric, shown.masks)
-    real_lin = (mean_score(lin_model, shown, channels, metric)[1]
-                if lin_model is not None else None)
-    after = (mean_score(model, shown, channels, metric)[1] if model is not None
-             else dict(before))
-    findings = [replace(f, rmse_after_pct={c: after[c] for c in f.channels}) for f in findings]
-    fit = FitComparison(before, after, 'holdout', real_lin,
-                        1.0 if metric == 'rmse_hp1_pct' else 0.0, model=choice or '',
-                        report_on=split.report_on, gate=gate_scores, notes=tuple(notes),
-                        gated=tuple(gated), rows_from=rows_from)
-    return findings, fit, model
 
 
 def with_live_estimators(model, recordings: Sequence, design):

@@ -70,8 +70,9 @@ from dataclasses import dataclass
 from numba import njit
 import numpy as np
 
+from wheel_force_estimator import CORNERS
+from wheel_force_estimator import GRAVITY_MPS2
 from wheel_force_estimator.sim.vehicle import corner_layout
-from wheel_force_estimator.sim.vehicle import GRAVITY_MPS2
 from wheel_force_estimator.sim.vehicle import per_corner
 
 # corner parameter columns
@@ -112,7 +113,7 @@ AIR_DENSITY_KGPM3 = 1.2
 def state_names():
     """Return the name of every state (order of the state vector)."""
     names = list(STATE_NAMES[0]) + list(STATE_NAMES[1]) + ['v_bx_mps', 'v_by_mps', 'int_v_bx_m']
-    for c in ('lf', 'rf', 'lr', 'rr'):
+    for c in CORNERS:
         names += [f'{c}_{n}' for n in ('z_m', 'z_mps', 'x_m', 'x_mps', 'y_m', 'y_mps',
                                        'omega_mps', 'ux_m', 'uy_m')]
     return tuple(names)

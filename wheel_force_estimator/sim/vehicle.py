@@ -23,9 +23,9 @@ from typing import Dict, Tuple
 
 import numpy as np
 
+from wheel_force_estimator import GRAVITY_MPS2
 from wheel_force_estimator.core.errors import ConfigError
 
-GRAVITY_MPS2 = 9.80665
 BODY_MODELS = ('rigid', 'quarter_car')
 
 # Fields that may be zero (everything else numeric must be > 0).
