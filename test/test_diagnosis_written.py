@@ -449,13 +449,16 @@ def test_backfit_strength_is_the_joint_fixed_point_in_one_step(start_fraction):
         real.append(MotionRecording(f'hard{k}', FS_HZ, x[None], _rig_force(x, rng)[None],
                                     ('x',), ('f',), input_quantity='displacement'))
     config = DiagnosisConfig()
-    refit = lambda recs: real_linear_fit(recs, config).model    # noqa: E731
+    # one design, chosen once on the records (as the diagnosis does): every refit is then
+    # the same linear map of its outputs, the property the one step relies on
+    reference = real_linear_fit(real, config)
+    refit = reference.refit
     term = PhysicsTerm('cubic_stiffness', ('f',), {'stiffness_n_per_m3': start_fraction * K3},
                        sources=('x',), input_quantity='displacement', highpass_hz=0.0,
                        lowpass_hz=FS_HZ / 8)
     finding = Finding('cubic_stiffness', ('f',), {}, 0.1, 'rig', (term,))
     skip = settle_samples(FS_HZ, 'displacement', config.features)
-    linear = refit(real)
+    linear = reference.model
     _, (beta,) = written.backfitted_model([finding], real, linear, refit, 0.0, skip, 0,
                                           joint=True)
     _, (fixed,) = written.backfitted_model([finding], real, linear, refit, 0.0, skip, 12)
