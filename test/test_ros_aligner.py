@@ -340,3 +340,29 @@ def test_bad_arguments_are_rejected():
         al.push(0, stamps(0, 2), np.zeros((3, 1)))
     al.push(0, np.empty(0, dtype=np.int64), np.empty((3, 0)))
     assert al.counters()['received'][0] == 0
+
+
+def test_a_fifth_stream_with_its_own_value_count_aligns_like_a_corner():
+    # issue 33: the JointState spin rates (4 values) align with the four Imu corners (3 each)
+    # by the same rules: a sample missing on the fifth stream is dropped everywhere (bug
+    # caught: an extra stream released with the wrong sample, or its rows lost)
+    al = CornerAligner(5, (3, 3, 3, 3, 4), tolerance_ns=1000, period_ns=PERIOD)
+    t = stamps(0, 6)
+    for c in range(4):
+        al.push(c, t, np.full((3, 6), float(c)) + np.arange(6))
+    keep = np.array([True, True, False, True, True, True])
+    al.push(4, t[keep] + 400, np.full((4, 5), 10.0) + np.arange(6)[keep])
+    out = al.drain()
+    aligned = [e for e in out if isinstance(e, AlignedSamples)]
+    got_t = np.concatenate([e.stamp_ns for e in aligned])
+    got = np.concatenate([e.accel_mps2 for e in aligned], axis=1)
+    assert np.array_equal(got_t, t[[0, 1, 3, 4, 5]])   # median of 5 stamps: an Imu stamp
+    assert got.shape == (16, 5)
+    assert np.array_equal(got[12:], np.full((4, 5), 10.0) + np.arange(6)[keep])
+    assert np.array_equal(got[3:6], np.full((3, 5), 1.0) + np.arange(6)[keep])
+    counts = al.counters()
+    assert counts['incomplete'].tolist() == [1, 1, 1, 1, 0]
+    with pytest.raises(ShapeError, match=r'expected \(4, 1\)'):
+        al.push(4, stamps(6, 1), np.zeros((3, 1)))
+    with pytest.raises(ConfigError, match='value counts'):
+        CornerAligner(5, (3, 3, 3, 4))

@@ -19,6 +19,7 @@ from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator import RATE_CHANNELS
+from wheel_force_estimator import SPIN_ACCEL_CHANNELS
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import read_wrench_topics
 from wheel_force_estimator.bagio import TopicConfig
@@ -144,6 +145,79 @@ def test_six_component_node_equals_predict_causal(ros_env, tmp_path, rates):
                                atol=RTOL * np.abs(pred_torque).max())
     keys = {kv.key for status in result.damage.status for kv in status.values}
     assert {'mx', 'my', 'mz'} <= keys                    # the damage topic carries them
+
+
+def test_spin_model_node_equals_predict_causal_across_a_gap(ros_env, tmp_path):
+    # Issue 33: a model with the wheel spin accelerations as inputs; the node subscribes to
+    # the JointState topic, aligns it with the Imu topics and differentiates the spin rate
+    # as the offline reader does per segment (one-sided at the segment's ends, here also at
+    # a gap).  Its 24 outputs must equal `predict --causal` sample for sample (bugs caught:
+    # a derivative across the gap or shifted by a sample, the held sample lost at a flush,
+    # stamps one sample off, the spin rows fed as rates).
+    from wheel_force_estimator.core.derived import spin_acceleration
+    rng = np.random.default_rng(5)
+
+    def write(path, seconds, seed, gap=None):
+        n = int(seconds * FS_HZ)
+        x, y = known_system(n, seed)
+        stamps = T0_NS + PERIOD_NS * np.arange(n, dtype=np.int64)
+        # spin rates: a slow speed change plus road-driven wheel dynamics (coloured, so that
+        # the spin acceleration has power at every frequency)
+        spin = (30.0 + np.linspace(0.0, 5.0, n)[None, :]
+                + 0.5 * np.cumsum(rng.standard_normal((4, n)), axis=1) / np.sqrt(FS_HZ))
+        spin_accel = spin_acceleration(spin, stamps)
+        moment = np.zeros((12, n))       # My follows the spin acceleration (spin inertia)
+        moment[:, 1:] = 0.3 * (y[::-1, :-1] - 3000.0)
+        moment[1::3] -= 1.2 * spin_accel
+        keep = np.ones(n, bool) if gap is None else np.r_[0:gap, gap + 5:n]
+        write_recording(path, stamps[keep], x[:, keep], y[:, keep], torque_nm=moment[:, keep],
+                        spin_radps=spin[:, keep])
+    write(tmp_path / 'train', 40, 1)
+    write(tmp_path / 'val', 6, 2, gap=1500)
+    extras = ('moments', 'spin')
+    rec = read_recording(tmp_path / 'train', TopicConfig(), require_wft=True, extras=extras)
+    inputs = INPUT_CHANNELS + SPIN_ACCEL_CHANNELS
+    outputs = OUTPUT_CHANNELS + MOMENT_CHANNELS
+    config = FitConfig(live=LiveDesign(look_aheads_s=(0.05,), history_s=0.3, fine_s=0.03,
+                                       blocks_per_octave=4))
+    model = fit_model([TrainingSegment(s.signals(inputs), s.signals(outputs), 'train')
+                       for s in rec.segments], FS_HZ, config, inputs, outputs)
+    path = save_model(model, tmp_path / 'model.npz')
+    assert main(['predict', str(path), str(tmp_path / 'val'), '-o', str(tmp_path / 'pred'),
+                 '--causal']) == 0
+    topics = TopicConfig()
+    pred_stamps, pred_force = read_wrench_topics(tmp_path / 'pred', topics.output_topics)
+    pred_torque = _read_torque(tmp_path / 'pred', topics.output_topics)
+    assert pred_stamps.size == 6 * int(FS_HZ) - 5                 # two segments, all of them
+
+    result = _node_replay_equals_prediction(path, ros_env, tmp_path, pred_stamps, pred_force)
+    np.testing.assert_allclose(result.output_torque_nm, pred_torque, rtol=0,
+                               atol=RTOL * np.abs(pred_torque).max())
+
+
+@pytest.mark.slow
+def test_simulated_six_component_bag_default_fit_node_equals_predict_causal(ros_env, tmp_path):
+    # Issue 33 as a user runs it: `simulate --six`, the default `fit` (which takes the angular
+    # rates and the wheel spin by itself), `predict --causal`, and the node on the replayed
+    # bag (Imu with angular velocity, JointState wheel spin): all 24 outputs equal, sample for
+    # sample.  Slow: the default fit of 28 inputs and 24 outputs (~2.5 min on 2 shared cores).
+    from wheel_force_estimator.core.model import load_model
+    for name, seed, scale in (('train', 1, 0.05), ('val', 2, 0.01)):
+        assert main(['simulate', str(tmp_path / name), '--six', '--seed', str(seed),
+                     '--duration-scale', str(scale)]) == 0
+    assert main(['fit', str(tmp_path / 'train'), '-o', str(tmp_path / 'model.npz')]) == 0
+    model = load_model(tmp_path / 'model.npz')
+    assert model.input_channels == INPUT_CHANNELS + RATE_CHANNELS + SPIN_ACCEL_CHANNELS
+    assert model.output_channels == OUTPUT_CHANNELS + MOMENT_CHANNELS
+    assert main(['predict', str(tmp_path / 'model.npz'), str(tmp_path / 'val'), '-o',
+                 str(tmp_path / 'pred'), '--causal']) == 0
+    topics = TopicConfig()
+    pred_stamps, pred_force = read_wrench_topics(tmp_path / 'pred', topics.output_topics)
+    pred_torque = _read_torque(tmp_path / 'pred', topics.output_topics)
+    result = _node_replay_equals_prediction(tmp_path / 'model.npz', ros_env, tmp_path,
+                                            pred_stamps, pred_force)
+    np.testing.assert_allclose(result.output_torque_nm, pred_torque, rtol=0,
+                               atol=RTOL * np.abs(pred_torque).max())
 
 
 def _read_torque(path, topics):

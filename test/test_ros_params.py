@@ -16,6 +16,8 @@ from support.ros_testing import synthetic_model
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator import RATE_CHANNELS
+from wheel_force_estimator import SPIN_ACCEL_CHANNELS
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ModelFileError
 from wheel_force_estimator.core.model import save_model
@@ -127,6 +129,10 @@ def test_cli_and_node_apply_one_compatibility_rule(tmp_path):
     candidates = {
         'canonical': synthetic_model(),
         'moments': synthetic_model(output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS),
+        # issue 33: the node runs spin models too (it refused them while predict took them)
+        'rates and spin': synthetic_model(
+            input_channels=INPUT_CHANNELS + RATE_CHANNELS + SPIN_ACCEL_CHANNELS,
+            output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS),
         'reordered': synthetic_model(input_channels=tuple(reversed(INPUT_CHANNELS))),
         'some moments': synthetic_model(output_channels=OUTPUT_CHANNELS + ('lf_mx',)),
         'generic': synthetic_model(input_channels=tuple(f'x{i}' for i in range(12))),
@@ -144,7 +150,8 @@ def test_cli_and_node_apply_one_compatibility_rule(tmp_path):
                 outcomes.append(False)
         assert outcomes[0] == outcomes[1], name
         verdicts[name] = outcomes[0]
-    assert verdicts == {'canonical': True, 'moments': True, 'reordered': False,
+    assert verdicts == {'canonical': True, 'moments': True, 'rates and spin': True,
+                        'reordered': False,
                         'some moments': False, 'generic': False, 'displacement': False}
 
 
@@ -210,6 +217,35 @@ def test_node_refuses_model_with_other_channels_or_missing(ros_context, tmp_path
         make_node(ros_context, other)
     with pytest.raises(ModelFileError, match='not found'):
         make_node(ros_context, tmp_path / 'missing.npz')
+
+
+def test_node_configures_a_spin_model_and_reload_refuses_other_input_groups(
+        ros_context, model_file, tmp_path):
+    # issue 33: a spin model configures (it was refused) and its node subscribes to the
+    # JointState topic once active; a reload to a model with other input groups is refused
+    # and the old model keeps running (bug caught: the aligner and subscriptions of the
+    # running model fed to the new one, a ShapeError in a callback)
+    from std_srvs.srv import Trigger
+    spin = save_model(synthetic_model(delay_samples=48,
+                                      input_channels=INPUT_CHANNELS + SPIN_ACCEL_CHANNELS),
+                      tmp_path / 'spin.npz')
+    node = make_node(ros_context, spin)
+    try:
+        node.trigger_activate()
+        subscribed = {name for name, _ in node.get_subscriber_names_and_types_by_node(
+            node.get_name(), node.get_namespace())}
+        assert '/suspension/joint_states' in subscribed
+        assert node._stream.delay_samples == 49          # one more sample for the spin
+    finally:
+        node.destroy_node()
+    node = make_node(ros_context, model_file)
+    try:
+        node.set_parameters([Parameter('model_path', value=str(spin))])
+        response = node._on_reload_model(Trigger.Request(), Trigger.Response())
+        assert not response.success and 'wheel spin: True' in response.message
+        assert 'reconfigure' in response.message and node._model.input_channels == INPUT_CHANNELS
+    finally:
+        node.destroy_node()
 
 
 def test_cli_refusal_is_one_clear_line_and_exit_1(tmp_path, model_file):

@@ -57,7 +57,8 @@ def test_any_chunking_equals_offline_prediction(model, block_size):
     np.testing.assert_array_equal(s, stamps)        # every sample estimated exactly once
     assert_close(y, predict_forces(model, x))
     assert stream.counts == {'samples_in': n, 'samples_out': n, 'gaps': 0, 'short_steps': 0,
-                             'missing_samples': 0, 'flushes': 1, 'jumps': 0}
+                             'missing_samples': 0, 'flushes': 1, 'jumps': 0,
+                             'single_samples': 0}
     # The running damage is that of exactly the emitted signal.
     np.testing.assert_allclose(stream.damage(), pseudo_damage(y, 5.0), rtol=1e-12)
 
@@ -260,3 +261,59 @@ def test_bad_arguments(model):
     stream = ForceStream(Predictor(model), 8, 5.0)
     with pytest.raises(ShapeError, match='expected \\(12, 3\\)'):
         stream.feed(sample_stamps(3), np.zeros((11, 3)))
+
+
+@pytest.fixture(scope='module')
+def spin_model():
+    from wheel_force_estimator import INPUT_CHANNELS
+    from wheel_force_estimator import SPIN_ACCEL_CHANNELS
+    return synthetic_model(n_taps=96, delay_samples=40, seed=5,
+                           input_channels=INPUT_CHANNELS + SPIN_ACCEL_CHANNELS)
+
+
+@pytest.mark.parametrize('block_size', [1, 16, 1000])
+def test_spin_rows_enter_as_the_offline_spin_acceleration_per_segment(spin_model, block_size):
+    # issue 33: the node feeds spin rates; each gap-free stretch is differentiated as the
+    # offline reader differentiates a segment (central inside, one-sided at both ends of
+    # each segment), one sample late, and every estimate keeps its sample's stamp (bugs
+    # caught: differentiating across the gap, a one-sample shift of the spin channel or of
+    # the stamps, the last sample of a segment lost at the flush)
+    from wheel_force_estimator.core.derived import spin_acceleration
+    n = 1500
+    rng = np.random.default_rng(11)
+    x = np.concatenate([synthetic_accel(n, seed=12),
+                        30.0 + np.cumsum(rng.standard_normal((4, n)), axis=1) * 0.05])
+    stamps = sample_stamps(n)
+    keep = np.r_[0:700, 703:n]                       # three samples missing: two segments
+    stream = ForceStream(Predictor(spin_model), block_size, 5.0, spin_rows=range(12, 16))
+    assert stream.delay_samples == spin_model.fir_delay_samples + 1
+    s, y = run(stream, stamps[keep], x[:, keep], np.random.default_rng(3))
+    np.testing.assert_array_equal(s, stamps[keep])
+    expected = []
+    for lo, hi in ((0, 700), (703, n)):
+        seg = x[:, lo:hi].copy()
+        seg[12:] = spin_acceleration(seg[12:], stamps[lo:hi])
+        expected.append(predict_forces(spin_model, seg))
+    assert_close(y, np.concatenate(expected, axis=1))
+    assert stream.counts['gaps'] == 1 and stream.counts['single_samples'] == 0
+
+
+def test_spin_latency_is_one_more_sample_and_a_lone_sample_is_counted(spin_model):
+    n = 200
+    x = np.concatenate([synthetic_accel(n, seed=13), np.full((4, n), 20.0)])
+    stamps = sample_stamps(n)
+    stream = ForceStream(Predictor(spin_model), 1, 5.0, spin_rows=range(12, 16))
+    stream.feed(stamps, x)
+    s, _ = stream.take()
+    # without spin the last fir_delay_samples are held; the spin derivative holds one more
+    assert s.size == n - spin_model.fir_delay_samples - 1
+    assert stream.in_flight == spin_model.fir_delay_samples + 1
+    stream.flush()
+    assert stream.take()[0].size == spin_model.fir_delay_samples + 1
+    # one sample between two gaps: no derivative, no estimate, counted
+    stream.feed(stamps[-1:] + 10 * 1_953_125, x[:, :1])
+    stream.feed(stamps[-1:] + 20 * 1_953_125, x[:, :1])
+    stream.flush()
+    assert stream.take()[0].size == 0 and stream.counts['single_samples'] == 2
+    with pytest.raises(ConfigError, match='spin_rows'):
+        ForceStream(Predictor(spin_model), 8, 5.0, spin_rows=[16])

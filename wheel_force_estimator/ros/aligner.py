@@ -7,6 +7,10 @@ Each corner's Imu messages arrive on their own topic, independently of the other
 out of order *across* topics.  Within one topic DDS delivers the samples of one writer in
 order, so each corner's stamps increase; the aligner relies on that and on nothing else.
 
+A "corner" below is any input stream: a model with wheel spin inputs adds a fifth, the
+``{corner}_wheel`` velocities of the JointState topic, aligned by the same rules as the four
+Imu topics (its stamps take part in the median); each stream has its own number of values.
+
 Rules
 -----
 * A sample is **complete** when every corner has delivered one message and the stamps of these
@@ -37,7 +41,7 @@ Every message pushed is accounted for once: ``received == aligned + duplicate + 
 incomplete + out_of_tolerance + pending`` per corner (:meth:`CornerAligner.counters`).
 """
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Union
+from typing import Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
@@ -57,8 +61,9 @@ class AlignedSamples:
     ----------
     stamp_ns : numpy.ndarray, shape (m,), int64
         Common ``header.stamp`` [ns].
-    accel_mps2 : numpy.ndarray, shape (3 * n_corners, m)
-        Corner-major values (lf x y z, rf x y z, ...) [m/s²].
+    accel_mps2 : numpy.ndarray, shape (sum of n_values, m)
+        Corner-major values (lf x y z, rf x y z, ...) [m/s²], then those of any further
+        stream (the wheel spin rates [rad/s]) in stream order.
 
     """
 
@@ -143,8 +148,9 @@ class CornerAligner:
     ----------
     n_corners : int
         Number of streams (4 for a car).
-    n_values : int
-        Values per message (3: acceleration x, y, z).
+    n_values : int or sequence of int
+        Values per message (3: acceleration x, y, z), or one count per stream (the Imu
+        corners and a JointState stream of the four wheel spin rates: ``(3, 3, 3, 3, 4)``).
     max_pending : int
         Samples a corner may hold while waiting for the others, >= 1.
     tolerance_ns : int
@@ -161,12 +167,21 @@ class CornerAligner:
 
     """
 
-    def __init__(self, n_corners: int = 4, n_values: int = 3, max_pending: int = 1024,
-                 tolerance_ns: int = 0, period_ns: Optional[float] = None):
-        for name, value in (('n_corners', n_corners), ('n_values', n_values),
-                            ('max_pending', max_pending)):
+    def __init__(self, n_corners: int = 4, n_values: Union[int, Sequence[int]] = 3,
+                 max_pending: int = 1024, tolerance_ns: int = 0,
+                 period_ns: Optional[float] = None):
+        def check(name, value):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ConfigError(f'aligner: {name} must be an integer >= 1, got {value!r}')
+        check('n_corners', n_corners)
+        check('max_pending', max_pending)
+        per_stream = (tuple(n_values) if isinstance(n_values, (tuple, list))
+                      else (n_values,) * int(n_corners))
+        if len(per_stream) != n_corners:
+            raise ConfigError(f'aligner: {len(per_stream)} value counts n_values for '
+                              f'{n_corners} streams')
+        for value in per_stream:
+            check('n_values', value)
         if not tolerance_ns >= 0:
             raise ConfigError(f'aligner: tolerance_ns must be >= 0, got {tolerance_ns!r}')
         if period_ns is not None and not (period_ns > 0 and 2 * tolerance_ns <= period_ns):
@@ -175,7 +190,7 @@ class CornerAligner:
         self._tol = int(tolerance_ns)
         self._period_ns = period_ns
         self._n = int(n_corners)
-        self._n_values = int(n_values)
+        self._n_values = tuple(int(v) for v in per_stream)
         self._max_pending = int(max_pending)
         self._counts = {name: np.zeros(self._n, dtype=np.int64) for name in COUNTER_NAMES}
         self.reset()
@@ -183,8 +198,8 @@ class CornerAligner:
     def reset(self):
         """Forget all pending samples and stamps (counters are kept)."""
         n = self._n
-        self._cur = [_Buffer(self._n_values) for _ in range(n)]
-        self._nxt = [_Buffer(self._n_values) for _ in range(n)]
+        self._cur = [_Buffer(v) for v in self._n_values]
+        self._nxt = [_Buffer(v) for v in self._n_values]
         self._jumped = np.zeros(n, dtype=bool)
         self._last: List[Optional[int]] = [None] * n       # last accepted stamp per corner
         self._floor: Optional[int] = None   # stamps <= floor - tolerance are decided
@@ -223,7 +238,7 @@ class CornerAligner:
             Corner index, ``0 <= corner < n_corners``.
         stamp_ns : array_like, shape (m,), int
             ``header.stamp`` of each message [ns].
-        accel : array_like, shape (n_values, m)
+        accel : array_like, shape (n_values of the corner, m)
             Values of each message (already checked finite by the caller).
 
         Raises
@@ -236,9 +251,10 @@ class CornerAligner:
             raise ShapeError(f'aligner: corner index {corner} outside [0, {self._n})')
         stamps = np.asarray(stamp_ns, dtype=np.int64)
         values = np.asarray(accel, dtype=np.float64)
-        if stamps.ndim != 1 or values.shape != (self._n_values, stamps.size):
+        n_values = self._n_values[corner]
+        if stamps.ndim != 1 or values.shape != (n_values, stamps.size):
             raise ShapeError(f'aligner: corner {corner}: {stamps.shape} stamps with values '
-                             f'{values.shape}, expected ({self._n_values}, {stamps.size})')
+                             f'{values.shape}, expected ({n_values}, {stamps.size})')
         if stamps.size == 0:
             return
         self._counts['received'][corner] += stamps.size
@@ -379,9 +395,9 @@ class CornerAligner:
             self._counts['incomplete'][c] += len(buf)
         self._events.append(StampJump(int(self._jump_stamp)))
         jumped = self._jumped.copy()
-        self._cur = [self._nxt[c] if jumped[c] else _Buffer(self._n_values)
+        self._cur = [self._nxt[c] if jumped[c] else _Buffer(self._n_values[c])
                      for c in range(self._n)]
-        self._nxt = [_Buffer(self._n_values) for _ in range(self._n)]
+        self._nxt = [_Buffer(v) for v in self._n_values]
         for c in np.flatnonzero(~jumped):
             # Forced change: this corner never went back; its next stamp starts afresh.
             self._last[c] = None

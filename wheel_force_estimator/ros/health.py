@@ -53,24 +53,59 @@ class NodeHealth:
                 reasons.append('')
         return reasons
 
-    def counters(self):
-        """Return the per-corner counters shown in the diagnostics (dict of name -> list)."""
+    def _stream_counters(self):
+        """Return (received, dropped by reason, aligner counters) of every aligned stream."""
         align = self._aligner.counters()
-        stream = self._stream.counts
-        n = len(CORNERS)
         dropped = {f'dropped_{reason}': self._dropped[reason] for reason in DROP_REASONS}
         dropped['dropped_duplicate'] = align['duplicate']
         dropped['dropped_late'] = align['late']
         dropped['dropped_incomplete'] = align['incomplete']
         dropped['dropped_out_of_tolerance'] = align['out_of_tolerance']
+        return self._received, dropped, align
+
+    def joint_state_counters(self):
+        """
+        Return the counters of the JointState wheel-spin stream, or ``{}`` without one.
+
+        Keys: ``received``, ``dropped`` (all reasons) and ``dropped_<reason>`` of the
+        reasons that apply to it (malformed, nonfinite, and the aligner's).
+        """
+        if not self._spin:
+            return {}
+        received, dropped, _ = self._stream_counters()
+        k = len(CORNERS)
+        out = {'received': int(received[k]),
+               'dropped': int(sum(int(value[k]) for value in dropped.values()))}
+        out.update({key: int(value[k]) for key, value in dropped.items()
+                    if key not in ('dropped_wrong_frame', 'dropped_no_angular_rate')})
+        return out
+
+    def joint_state_stale(self, now: float) -> str:
+        """Return why the JointState wheel-spin input is stale, ``''`` if not (or none)."""
+        if not self._spin:
+            return ''
+        rx = self._last_rx_s[len(CORNERS)]
+        if rx is None:
+            return 'no message received yet'
+        return f'no message for {now - rx:.2f} s' if now - rx > self._stale_s else ''
+
+    def counters(self):
+        """Return the per-corner counters shown in the diagnostics (dict of name -> list)."""
+        stream = self._stream.counts
+        n = len(CORNERS)
+        received, dropped, align = self._stream_counters()
+        # the Imu corners; a JointState stream (spin models) has its own counters
+        dropped = {key: value[:n] for key, value in dropped.items()}
+        received = received[:n]
+        align = {key: value[:n] for key, value in align.items()}
         total = sum(dropped.values())
-        out = {'received': self._received, 'published': [self._published] * n,
+        out = {'received': received, 'published': [self._published] * n,
                'dropped': total, 'gaps': [stream['gaps']] * n,
                'missing_samples': [stream['missing_samples']] * n,
                'short_steps': [stream['short_steps']] * n, 'resets': [stream['jumps']] * n}
         out.update(dropped)
         out.update({'aligned': align['aligned'], 'pending': align['pending'],
-                    'sync_offset_max_us': self._sync_offset_ns // 1000,
+                    'sync_offset_max_us': self._sync_offset_ns[:n] // 1000,
                     'in_flight': [self._stream.in_flight + self._n_unpublished] * n,
                     'flushes': [stream['flushes']] * n})
         return {key: [int(v) for v in value] for key, value in out.items()}
@@ -170,6 +205,12 @@ class NodeHealth:
                 corner for corner, why in zip(CORNERS, stale) if why)
         else:
             node_level, node_text = OK, 'running'
+        joint_stale = self.joint_state_stale(now)
+        if joint_stale:
+            # no spin, no sample: the model's wheel spin input is missing
+            node_level = max(node_level, WARN)
+            node_text = (f'wheel spin input {self._input_names[-1]} stale ({joint_stale})'
+                         + ('' if node_text == 'running' else '; ' + node_text))
         over = [corner for corner, level, _, _ in corners if level == ERROR]
         if over:
             node_level = ERROR
@@ -189,6 +230,12 @@ class NodeHealth:
                   ('pacing_latency_p50_ms', f'{p50:.2f}'),
                   ('pacing_latency_p99_ms', f'{p99:.2f}'),
                   ('pacing_latency_max_ms', f'{worst:.2f}'), ('event', self._event)]
+        joints = self.joint_state_counters()
+        if joints:
+            values += [('joint_states_topic', self._input_names[-1])]
+            values += [(f'joint_states_{key}', value) for key, value in joints.items()]
+            # gap-free stretches of one sample: no spin derivative, no estimate
+            values += [('single_samples', stream['single_samples'])]
         self._health_pub.publish(build_health_array(
             self.get_fully_qualified_name(), self._health_stamp_ns(), corners,
             (node_level, node_text, values)))
@@ -204,6 +251,10 @@ class NodeHealth:
             return 'not configured: no counters'
         counters = self.counters()
         text = ', '.join(f'{key}={value}' for key, value in counters.items())
+        joints = self.joint_state_counters()
+        if joints:
+            text += '; JointState ' + ', '.join(f'{key}={value}'
+                                                for key, value in joints.items())
         p50, p99, worst = self.pacing_latency_ms()
         return (f'counters per corner (lf, rf, lr, rr): {text}; pacing latency p50 '
                 f'{p50:.1f} ms, p99 {p99:.1f} ms, max {worst:.1f} ms')

@@ -17,6 +17,11 @@ activate at start.  Every publisher and subscription takes ``qos_overrides.*``. 
   and fed to the shared :class:`~wheel_force_estimator.core.predict.Predictor` in blocks
   (:mod:`.stream`).  A batch is processed as soon as the buffered messages could complete a
   block, else by the housekeeping timer.
+* with a model that has wheel spin inputs (six components), a ``sensor_msgs/JointState``
+  subscription on ``travel_topic``: the ``{corner}_wheel`` velocities (:mod:`.joints`;
+  a message without them or with a NaN/inf one is dropped and counted) are a fifth stream
+  of the same alignment, and :mod:`.stream` differentiates them exactly as the offline
+  reader does (one more sample of latency).
 * four ``geometry_msgs/WrenchStamped`` publishers (RELIABLE, KEEP_LAST 1024 by default),
   one message per input sample per corner, stamped with the estimated input sample's stamp.
   **Steady output**: a finished block is not published in one burst (a reliable keep-last-5
@@ -83,6 +88,7 @@ from rclpy.qos import ReliabilityPolicy
 from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import Imu
+from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
@@ -101,6 +107,7 @@ from wheel_force_estimator.ros.health import DROP_REASONS
 from wheel_force_estimator.ros.health import LATENCY_WINDOW
 from wheel_force_estimator.ros.health import NodeHealth
 from wheel_force_estimator.ros.health import WARN_THROTTLE_S
+from wheel_force_estimator.ros.joints import decode_wheel_spin
 from wheel_force_estimator.ros.pacing import OutputPacer
 from wheel_force_estimator.ros.params import declare_node_parameters
 from wheel_force_estimator.ros.params import default as _default
@@ -175,7 +182,7 @@ class WheelForceNode(NodeHealth, LifecycleNode):
                     f'qos_overrides.<topic>.<publisher|subscription>.<policy> parameters '
                     f'(they win where both are given)')
         entities = ([(self.resolve_topic_name(t), 'subscription')
-                     for t in params.imu_topics + (params.event_topic,)]
+                     for t in params.imu_topics + (params.event_topic, params.travel_topic)]
                     + [(self.resolve_topic_name(t), 'publisher')
                        for t in params.output_topics + (params.damage_topic,
                                                         DIAGNOSTICS_TOPIC)])
@@ -283,28 +290,32 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         # with angular-rate inputs each corner's sample is 6 values: acceleration, then rates
         self._rates = layout.rates
         self._rate_error_s = {}           # corner -> when its missing rates were last logged
+        # with spin inputs a fifth stream: the JointState wheel spin rates (4 values)
+        self._spin = layout.spin
+        n = len(CORNERS)
+        n_streams = n + (1 if layout.spin else 0)
         self._aligner = CornerAligner(
-            len(CORNERS), 6 if layout.rates else 3,
+            n_streams, (6 if layout.rates else 3,) * n + ((len(CORNERS),) if layout.spin else ()),
             max(params.input_qos_depth, params.stale_timeout_samples, 64),
             tolerance_ns=layout.sync_tolerance_ns, period_ns=1e9 / model.fs_hz)
         self._stale_s = params.stale_timeout_samples / model.fs_hz
         self._check_frames = any(params.imu_frame_ids)
-        n = len(CORNERS)
-        self._raw = [[] for _ in range(n)]
+        # serialized Imu messages per corner, then (spin) the JointState messages
+        self._raw = [[] for _ in range(n_streams)]
         self._queued = 0                  # stream samples waiting for their block
         self._out = collections.deque()   # [per-corner serialized messages, next index, ready]
         self._n_unpublished = 0
         self._pacer = OutputPacer(model.fs_hz, 2 * params.block_size, n)
         self._published = 0
         self._latency_s = collections.deque(maxlen=LATENCY_WINDOW)
-        self._received = np.zeros(n, dtype=np.int64)
-        self._dropped = {reason: np.zeros(n, dtype=np.int64) for reason in DROP_REASONS}
-        self._last_rx_s = [None] * n
+        self._received = np.zeros(n_streams, dtype=np.int64)
+        self._dropped = {reason: np.zeros(n_streams, dtype=np.int64) for reason in DROP_REASONS}
+        self._last_rx_s = [None] * n_streams
         self._last_input_s = None
         self._input_since_tick = False
         self._final_sent_for = None       # samples_out at the last end-of-stream report
         self._paused_at = None            # samples_out when the input was last seen stopping
-        self._sync_offset_ns = np.zeros(n, dtype=np.int64)   # worst out-of-tolerance offset
+        self._sync_offset_ns = np.zeros(n_streams, dtype=np.int64)  # worst offset out of tol.
         self._off_reported = np.zeros(n, dtype=np.int64)     # out-of-tolerance at last health
         self._damage_messages = 0
         self._wrong_types = [''] * n
@@ -324,13 +335,16 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         self._health_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10,
                                                  qos_overriding_options=qos_opts)
         self._imu_names = [self.resolve_topic_name(t) for t in params.imu_topics]
+        # names of the aligned streams, for messages (the Imu topics, then the JointState one)
+        self._input_names = self._imu_names + (
+            [self.resolve_topic_name(params.travel_topic)] if layout.spin else [])
         delay = stream.delay_samples
         self.get_logger().info(
             f'{self.get_fully_qualified_name()}: model {params.model_path}: '
             f'{model.fs_hz:g} Hz, block {params.block_size} samples '
             f'({params.block_size / model.fs_hz * 1e3:.0f} ms), look-ahead {delay} samples '
             f'({delay / model.fs_hz * 1e3:.0f} ms), sync tolerance '
-            f'{layout.sync_tolerance_ns * 1e-6:.3f} ms; inputs {", ".join(self._imu_names)} '
+            f'{layout.sync_tolerance_ns * 1e-6:.3f} ms; inputs {", ".join(self._input_names)} '
             f'({params.input_reliability} unless qos_overrides); outputs '
             f'{", ".join(pub.topic_name for pub in self._pubs)} (frames '
             f'{", ".join(params.frame_ids)}); damage {self._damage_pub.topic_name}; '
@@ -347,6 +361,10 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         self._subs = [self.create_subscription(Imu, topic, self._imu_callback(c), in_qos,
                                                raw=True, qos_overriding_options=qos_opts)
                       for c, topic in enumerate(params.imu_topics)]
+        if self._spin:
+            self._subs.append(self.create_subscription(
+                JointState, params.travel_topic, self._on_joint_state, in_qos,
+                qos_overriding_options=qos_opts))
         # Best effort matches reliable and best-effort event publishers alike.
         self._subs.append(self.create_subscription(
             String, params.event_topic, self._on_event,
@@ -418,6 +436,12 @@ class WheelForceNode(NodeHealth, LifecycleNode):
                 raise ModelFileError(f'{path}: sample rate {model.fs_hz:g} Hz differs from '
                                      f'that of the running model, {self._fs_hz:g} Hz: '
                                      f'reconfigure')
+            if layout.inputs != self._layout.inputs:
+                # the subscriptions and the alignment are made for the running model's inputs
+                raise ModelFileError(
+                    f'{path}: its inputs (angular rates: {layout.rates}, wheel spin: '
+                    f'{layout.spin}) differ from those of the running model (angular rates: '
+                    f'{self._layout.rates}, wheel spin: {self._layout.spin}): reconfigure')
         except WheelForceError as err:
             response.success = False
             response.message = f'{err}; the old model keeps running'
@@ -455,6 +479,15 @@ class WheelForceNode(NodeHealth, LifecycleNode):
                 self._pace(time.monotonic())
         return on_imu
 
+    def _on_joint_state(self, msg: JointState):
+        raws = self._raw
+        raws[-1].append(msg)
+        self.messages_taken += 1
+        self._input_since_tick = True
+        # not paced here: the pacing credits a quarter sample per Imu message
+        if self._queued + min(map(len, raws)) >= self._params.block_size:
+            self._process(time.monotonic())
+
     def _on_event(self, msg: String):
         self._event = msg.data
         if not self._params.damage_per_event:
@@ -474,7 +507,8 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         had_input, self._input_since_tick = self._input_since_tick, False
         if any(self._raw):
             self._process(now)
-        self._pacer.measure(now, int(self._received.sum()))
+        # the Imu messages set the output rhythm (four per sample; not the JointState ones)
+        self._pacer.measure(now, int(self._received[:len(CORNERS)].sum()))
         if (self._last_input_s is not None and now - self._last_input_s > self._stale_s
                 and self._paused_at != self._stream.counts['samples_in']):
             self._on_pause(now - self._last_input_s)
@@ -497,6 +531,7 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         for c, buf in enumerate(self._raw):
             batches.append(buf[:])
             buf.clear()
+        joint_msgs = batches.pop() if self._spin else []
         counts = [len(b) for b in batches]
         if self._check_frames:
             decoded = [decode_imu(b, self._params.imu_frame_ids[c], self._rates) if b else None
@@ -507,6 +542,9 @@ class WheelForceNode(NodeHealth, LifecycleNode):
             for n in counts:
                 decoded.append(whole.sliced(lo, lo + n) if n else None)
                 lo += n
+        if joint_msgs:
+            decoded.append(decode_wheel_spin(joint_msgs))
+            counts.append(len(joint_msgs))
         for c, d in enumerate(decoded):
             if d is None:
                 continue
@@ -547,7 +585,7 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         self._sync_offset_ns[c] = max(self._sync_offset_ns[c], event.offset_ns)
         total = int(self._aligner.counters()['out_of_tolerance'][c])
         self.get_logger().warning(
-            f'{self._imu_names[c]}: dropped {event.n_messages} message(s) whose stamps no '
+            f'{self._input_names[c]}: dropped {event.n_messages} message(s) whose stamps no '
             f'other corner matched within sync_tolerance_s '
             f'({self._layout.sync_tolerance_ns * 1e-9:g} s), first stamped '
             f'{event.first_stamp_ns} ns, offset {event.offset_ns * 1e-6:.3f} ms from the '
@@ -594,15 +632,18 @@ class WheelForceNode(NodeHealth, LifecycleNode):
 
         Corner-major rows: 3 accelerations per corner, or 3 accelerations and 3 angular
         rates per corner for a model with rates, whose inputs are the 12 accelerations,
-        then the 12 rates.
+        then the 12 rates; then, for a model with spin, the 4 wheel spin rates (the stream
+        differentiates them to the model's spin accelerations).
         """
         if not self._rates:
             return values
-        per = values.reshape(len(CORNERS), 6, -1)
-        return np.concatenate([per[:, :3].reshape(12, -1), per[:, 3:].reshape(12, -1)])
+        n_imu = 6 * len(CORNERS)
+        per = values[:n_imu].reshape(len(CORNERS), 6, -1)
+        return np.concatenate([per[:, :3].reshape(12, -1), per[:, 3:].reshape(12, -1),
+                               values[n_imu:]])
 
     def _count_drops(self, corner: int, decoded):
-        topic = self._imu_names[corner]
+        topic = self._input_names[corner]
         for reason in DROP_REASONS:
             mask = getattr(decoded, reason)
             n = 0 if mask is None else int(mask.sum())
@@ -727,9 +768,12 @@ def _make_stream(model, layout, params) -> ForceStream:
     """Return the node's estimation stream: the one place its Predictor is made."""
     # The live (causal) estimator for this look-ahead (the model's, else the cut FIR).
     predictor = Predictor(model, causal_delay_samples=layout.causal_delay_samples)
+    n_in = predictor.n_inputs
+    # the model's spin inputs, last, arrive as spin rates: the stream differentiates them
+    spin_rows = range(n_in - len(CORNERS), n_in) if layout.spin else ()
     return ForceStream(predictor, params.block_size, params.sn_slope,
                        damage_period_s=params.damage_publish_period_s,
-                       sn_slope_moment=params.sn_slope_moment)
+                       sn_slope_moment=params.sn_slope_moment, spin_rows=spin_rows)
 
 
 def _warm_up(model, layout, params):

@@ -74,8 +74,9 @@ PARAMETERS = (
           'measured wheel force topics (offline commands; not used live) [topic names]',
           constraints=_FOUR),
     _Spec('travel_topic', topic_defaults.DEFAULT_TRAVEL_TOPIC,
-          'sensor_msgs/JointState suspension travel (offline commands; not used live) '
-          '[topic name]'),
+          'sensor_msgs/JointState topic: the node subscribes to it when the model has wheel '
+          'spin inputs (velocity of the {corner}_wheel joints); the suspension travel on it '
+          'is read by the offline commands only [topic name]'),
     _Spec('output_topics', list(topic_defaults.DEFAULT_OUTPUT_TOPICS),
           'geometry_msgs/WrenchStamped output topics [topic names]', constraints=_FOUR),
     _Spec('damage_topic', topic_defaults.DEFAULT_DAMAGE_TOPIC,
@@ -298,6 +299,10 @@ class ModelLayout:
     sync_tolerance_ns : int
         Corner stamps at most this far apart are one sample [ns] (``sync_tolerance_s``, or
         half a sample period when it is 0).
+    rates, spin : bool
+        The model's inputs include the spindle angular rates (Imu angular velocity) / the
+        wheel spin accelerations (derived from the JointState ``{corner}_wheel`` velocities
+        on ``travel_topic``).
 
     """
 
@@ -306,6 +311,12 @@ class ModelLayout:
     causal_delay_samples: int
     sync_tolerance_ns: int = 0
     rates: bool = False
+    spin: bool = False
+
+    @property
+    def inputs(self) -> Tuple[bool, bool]:
+        """Return the input groups beyond the accelerations: ``(rates, spin)``."""
+        return (self.rates, self.spin)
 
 
 def model_layout(model, params: NodeParams) -> ModelLayout:
@@ -325,14 +336,6 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
     """
     where = f'model {params.model_path}'
     layout = spindle_layout(model, where)
-    if layout.spin:
-        # the node feeds models from the Imu messages (accelerations, angular rates); the
-        # wheel spin of the joint_states topic is offline-only so far (issue 33)
-        raise ModelFileError(
-            f'{where}: its inputs include the wheel spin rates; the node feeds models from '
-            'the Imu messages only (linear accelerations, angular rates), so fit the live '
-            'model with wheel_force_fit inputs: ["rates"] or [] (moments are still fitted '
-            'and published)')
     fs = model.fs_hz
     if params.sample_rate_hz and abs(params.sample_rate_hz - fs) > 1e-6 * fs:
         raise ModelFileError(f'{where}: sample rate {fs:g} Hz differs from parameter '
@@ -352,7 +355,7 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
                              f'at {fs:g} Hz): two samples of one corner could be taken for one')
     return ModelLayout(force_rows=layout.force_rows, torque_rows=layout.torque_rows,
                        causal_delay_samples=delay, sync_tolerance_ns=tolerance_ns,
-                       rates=layout.rates)
+                       rates=layout.rates, spin=layout.spin)
 
 
 def unknown_parameters(given: Iterable[str],

@@ -3,6 +3,10 @@
 """
 ``wheel-force replay``: play a recording's Imu topics to the node, optionally record it.
 
+Six-component recordings: the spindle angular rates go out in the Imu messages, and the wheel
+spin rates, where the recording has them, as ``sensor_msgs/JointState`` on the travel topic
+(joints ``{corner}_wheel``, ``velocity`` [rad/s], the Imu stamps).
+
 Like ``ros2 bag play`` (which has no PyPI wheel), but for this package's recordings: the four
 corner topics are read with :mod:`wheel_force_estimator.bagio`, aligned, and published with
 their original ``header.stamp`` at ``rate`` times real time (gaps between segments are waited
@@ -29,12 +33,14 @@ from rclpy.qos import QoSProfile
 from rclpy.qos import ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import Imu
+from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 from wheel_force_estimator import CORNERS
 from wheel_force_estimator.bagio.cdr import decode_wrench
 from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.bagio.topics import TopicConfig
+from wheel_force_estimator.bagio.travel import WHEEL_JOINT_NAMES
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 
@@ -189,7 +195,7 @@ def _check_samples(stamp_ns, accel_mps2) -> Tuple[np.ndarray, np.ndarray]:
 def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
                    events: Sequence[Tuple[int, str]] = (), ros_args=None,
                    after_play: Optional[Callable[[], None]] = None,
-                   rate_radps=None) -> ReplayResult:
+                   rate_radps=None, spin_radps=None) -> ReplayResult:
     """
     Publish samples as the four Imu topics in (scaled) real time; collect the outputs.
 
@@ -212,6 +218,9 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
     rate_radps : array_like, shape (12, n), optional
         Spindle angular rates in ``RATE_CHANNELS`` order [rad/s], published as the Imu
         angular velocity (else flagged "not provided").
+    spin_radps : array_like, shape (4, n), optional
+        Wheel spin rates, corners lf, rf, lr, rr [rad/s], published as the ``velocity`` of
+        the ``{corner}_wheel`` joints of a JointState on ``settings.topics.travel_topic``.
 
     Returns
     -------
@@ -227,6 +236,12 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
     rate = None
     if rate_radps is not None:
         _, rate = _check_samples(stamps, rate_radps)
+    spin = None
+    if spin_radps is not None:
+        spin = np.asarray(spin_radps, dtype=np.float64)
+        if spin.shape != (len(CORNERS), stamps.size):
+            raise ShapeError(f'replay: spin rates {spin.shape}, expected '
+                             f'({len(CORNERS)}, {stamps.size})')
     context = Context()
     rclpy.init(args=ros_args, context=context)
     node = rclpy.create_node('wheel_force_replay', context=context)
@@ -238,6 +253,8 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
                          reliability=ReliabilityPolicy.RELIABLE)
         topics = settings.topics
         pubs = [node.create_publisher(Imu, t, qos) for t in topics.imu_topics]
+        joint_pub = (None if spin is None
+                     else node.create_publisher(JointState, topics.travel_topic, qos))
         event_pub = node.create_publisher(String, topics.event_topic, 10)
         collector = _Collector()
         subs = []
@@ -251,10 +268,17 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
         spinner = threading.Thread(target=_spin, args=(executor, stop), daemon=True)
         spinner.start()
         _wait_for_subscribers(pubs, settings.wait_subscribers_s, node)
+        if joint_pub is not None:
+            # only a node whose model has spin inputs subscribes (with its Imu topics): a
+            # short wait, silent, so a replay to another node does not stall
+            deadline = time.monotonic() + min(settings.wait_subscribers_s, 1.0)
+            while joint_pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+                time.sleep(0.02)
         if settings.record:
             _wait_for_publishers(node, topics.output_topics, settings.wait_subscribers_s)
         time.sleep(settings.match_delay_s)
-        wall_s, behind_s = _play(pubs, event_pub, stamps, accel, settings, events, rate)
+        wall_s, behind_s = _play(pubs, event_pub, stamps, accel, settings, events, rate,
+                                 None if spin is None else (joint_pub, spin))
         if after_play is not None:
             after_play()
         if settings.record:
@@ -299,8 +323,12 @@ def _wait_for_publishers(node, topics: Sequence[str], timeout_s: float):
 
 
 def _play(pubs, event_pub, stamps: np.ndarray, accel: np.ndarray, settings: ReplaySettings,
-          events, rate: Optional[np.ndarray] = None) -> Tuple[float, float]:
-    """Publish on schedule; return (wall time spent, largest delay behind schedule)."""
+          events, rate: Optional[np.ndarray] = None, joints=None) -> Tuple[float, float]:
+    """
+    Publish on schedule; return (wall time spent, largest delay behind schedule).
+
+    ``joints``: ``(publisher, spin (4, n))`` of the wheel spin JointState, or None.
+    """
     due_s = (stamps - stamps[0]) * (1e-9 / settings.rate)
     pending_events = sorted((int(s), str(n)) for s, n in events)
     k_event = 0
@@ -328,8 +356,18 @@ def _play(pubs, event_pub, stamps: np.ndarray, accel: np.ndarray, settings: Repl
             for k in range(i - lo, j - lo):
                 for c, pub in enumerate(pubs):
                     pub.publish(blobs[c][k])
+            if joints is not None:
+                _publish_spin(joints[0], stamps[i:j], joints[1][:, i:j])
             i = j
     return time.monotonic() - start, behind
+
+
+def _publish_spin(pub, stamps: np.ndarray, spin: np.ndarray):
+    """Publish one JointState per sample: the ``{corner}_wheel`` velocities."""
+    for k, stamp in enumerate(stamps.tolist()):
+        msg = JointState(name=list(WHEEL_JOINT_NAMES), velocity=spin[:, k].tolist())
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
+        pub.publish(msg)
 
 
 def _wait_for_outputs(collector: _Collector, n_expected: int, settle_s: float):
@@ -400,17 +438,21 @@ def replay_bag(path, settings: ReplaySettings, record_path=None, storage: str = 
 
     from wheel_force_estimator.bagio import available_extras
 
-    # the angular rates are published when the recording has them (six-component models)
-    extras = tuple(e for e in available_extras(path, settings.topics) if e == 'rates')
+    # the angular rates and the wheel spin are published when the recording has them
+    # (six-component models)
+    extras = tuple(e for e in available_extras(path, settings.topics)
+                   if e in ('rates', 'spin'))
     recording = read_recording(path, settings.topics, require_wft=False, extras=extras)
     stamps = np.concatenate([s.stamp_ns for s in recording.segments])
     accel = np.concatenate([s.accel_mps2 for s in recording.segments], axis=1)
     rate = (np.concatenate([s.rate_radps for s in recording.segments], axis=1)
-            if extras else None)
+            if 'rates' in extras else None)
+    spin = (np.concatenate([s.spin_radps for s in recording.segments], axis=1)
+            if 'spin' in extras else None)
     if record_path is not None and not settings.record:
         settings = dataclasses.replace(settings, record=True)
     result = replay_samples(stamps, accel, settings, recording.events, ros_args, after_play,
-                            rate)
+                            rate, spin)
     if record_path is not None:
         if result.output_stamp_ns.size == 0:
             raise BagError(f'{record_path}: nothing to record: no output on '

@@ -12,6 +12,17 @@ Samples are fed to the Predictor in blocks of ``block_size``.  Output sample ``j
 filter stream estimates input sample ``j - delay``; the first ``delay`` outputs after a
 (re)start estimate nothing that was received and are discarded.
 
+**Spin inputs** (``spin_rows``, six components): those rows arrive as wheel spin rates and
+enter the Predictor as their time derivative, taken per gap-free stretch exactly as the
+offline reader takes it per segment
+(:class:`~wheel_force_estimator.core.derived.SpinAccelerationStream`).  The derivative at a
+sample needs the next one, so every sample waits one more sample before it is fed: the
+latency is ``delay + 1`` (:attr:`ForceStream.delay_samples`), and a break or flush first
+releases the held sample with its one-sided difference.  The stamps follow the samples, so
+each estimate still carries the stamp of the sample it estimates.  A stretch of a single
+sample has no derivative and no estimate (``counts['single_samples']``; the offline reader
+keeps no segment under two samples either).
+
 Discontinuities (each is counted):
 
 * **gap** — a step between consecutive stamps longer than 1.5 periods, or shorter than half
@@ -37,10 +48,11 @@ made of the damage of the estimates stamped before that boundary, so a replay at
 and any chunking of the input, gives the same reports.
 """
 from dataclasses import dataclass
-from typing import List, Optional, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator.core.derived import SpinAccelerationStream
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.evaluation import channel_sn_slopes
@@ -152,24 +164,34 @@ class ForceStream:
         Data time between two :class:`DamageReport` s [s]; ``None``: no reports.
     sn_slope_moment : float, optional
         Basquin exponent of the moment outputs (default ``sn_slope``).
+    spin_rows : sequence of int, optional
+        Input rows fed as wheel spin rates [rad/s], differentiated to the model's spin
+        accelerations [rad/s²] (see the module notes); empty: none.
 
     Raises
     ------
     ConfigError
-        On a bad block size, slope or period.
+        On a bad block size, slope, period or spin row.
 
     """
 
     def __init__(self, predictor: Predictor, block_size: int, sn_slope: float,
                  damage_period_s: Optional[float] = None,
-                 sn_slope_moment: Optional[float] = None):
+                 sn_slope_moment: Optional[float] = None, spin_rows: Sequence[int] = ()):
         if isinstance(block_size, bool) or not isinstance(block_size, (int, np.integer)) \
                 or block_size < 1:
             raise ConfigError(f'block_size must be an integer >= 1, got {block_size!r}')
         self._predictor = predictor
         self._block = int(block_size)
-        self._delay = predictor.delay_samples
         self._n_in = predictor.n_inputs
+        self._spin = None
+        if len(spin_rows):
+            try:
+                self._spin = SpinAccelerationStream(self._n_in, spin_rows)
+            except ShapeError as err:
+                raise ConfigError(f'spin_rows: {err}') from err
+        # the spin derivative holds each sample until the next one has arrived
+        self._delay = predictor.delay_samples + (1 if self._spin is not None else 0)
         self._n_out = len(predictor.model.output_channels)
         self._period_ns = 1e9 / predictor.model.fs_hz
         self._damage = ChannelDamage(channel_sn_slopes(
@@ -179,9 +201,9 @@ class ForceStream:
         self._report_ns = None if damage_period_s is None else int(
             round(damage_period_s * _NS_PER_S))
         self.counts = {'samples_in': 0, 'samples_out': 0, 'gaps': 0, 'short_steps': 0,
-                       'missing_samples': 0, 'flushes': 0, 'jumps': 0}
+                       'missing_samples': 0, 'flushes': 0, 'jumps': 0, 'single_samples': 0}
         self._last_stamp = None
-        self._lead = LeadDrop(self._delay)
+        self._lead = LeadDrop(predictor.delay_samples)
         self._reset_filter()
         self._out: List[StampedForces] = []
         self._breaks: List[StreamBreak] = []
@@ -192,7 +214,7 @@ class ForceStream:
 
     @property
     def delay_samples(self) -> int:
-        """Return the lag of the estimates behind the inputs [samples]."""
+        """Return the lag of the estimates behind the inputs [samples] (spin: one more)."""
         return self._delay
 
     @property
@@ -203,12 +225,12 @@ class ForceStream:
     @property
     def in_flight(self) -> int:
         """Return the number of samples received whose estimate is not emitted yet."""
-        return self._n_queued + int(self._fifo.size)
+        return self.queued + int(self._fifo.size)
 
     @property
     def queued(self) -> int:
-        """Return the number of samples waiting for their block to fill."""
-        return self._n_queued
+        """Return the number of samples waiting for their block to fill (or their spin)."""
+        return self._n_queued + (self._spin.held if self._spin is not None else 0)
 
     def damage(self) -> np.ndarray:
         """Return the pseudo damage of all emitted since start or the last jump, per output."""
@@ -229,6 +251,8 @@ class ForceStream:
     def _reset_filter(self):
         self._predictor.reset()
         self._lead.reset()
+        if self._spin is not None:
+            self._spin.reset()
         self._fifo = np.empty(0, dtype=np.int64)          # stamps fed, estimate pending
         self._queued: List[np.ndarray] = []               # stamps waiting for a full block
         self._queued_x: List[np.ndarray] = []
@@ -269,7 +293,7 @@ class ForceStream:
             if lo in breaks:
                 before = int(stamps[lo - 1]) if lo else int(self._last_stamp)
                 self._break(gap[lo], before, int(stamps[lo]))
-            self._queue(stamps[lo:hi], x[:, lo:hi])
+            self._take_in(stamps[lo:hi], x[:, lo:hi])
         self._last_stamp = int(stamps[-1])
         self.counts['samples_in'] += stamps.size
 
@@ -380,6 +404,13 @@ class ForceStream:
         return (np.concatenate([o.stamp_ns for o in out]),
                 np.concatenate([o.force_n for o in out], axis=1))
 
+    def _take_in(self, stamps: np.ndarray, x: np.ndarray):
+        """Queue samples of one gap-free stretch (spin rows differentiated, one sample late)."""
+        if self._spin is not None:
+            stamps, x = self._spin.push(stamps, x)
+        if stamps.size:
+            self._queue(stamps, x)
+
     def _queue(self, stamps: np.ndarray, x: np.ndarray):
         self._queued.append(stamps)
         self._queued_x.append(x)
@@ -460,6 +491,13 @@ class ForceStream:
 
     def _flush(self):
         self.counts['flushes'] += 1
+        if self._spin is not None:
+            held = self._spin.held
+            last_t, last_x = self._spin.finish()
+            if last_t.size:
+                self._queue(last_t, last_x)
+            elif held:      # a stretch of one sample: no derivative, no estimate
+                self.counts['single_samples'] += 1
         if self._queued:
             self._run(np.concatenate(self._queued), np.concatenate(self._queued_x, axis=1))
             self._queued, self._queued_x, self._n_queued = [], [], 0

@@ -1,0 +1,95 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""
+The spin acceleration (issue 33): hand values, numpy.gradient, and chunked == batch.
+
+The live node differentiates the spin rate as the samples arrive
+(:class:`SpinAccelerationStream`); offline ``predict`` differentiates whole segments
+(:func:`spin_acceleration`).  Both must give the same numbers, bit for bit, or the node's
+wrenches drift from ``predict --causal``.
+"""
+import numpy as np
+import pytest
+
+from wheel_force_estimator.core.derived import spin_acceleration
+from wheel_force_estimator.core.derived import SpinAccelerationStream
+from wheel_force_estimator.core.errors import ShapeError
+
+PERIOD_NS = 1_953_125
+T0_NS = 1_760_000_000 * 10**9
+
+
+def test_hand_values_central_inside_one_sided_at_the_ends():
+    # f = t^2 at t = 0, 1, 3 s (unequal steps): the second-order central difference on
+    # unequal steps is exact for a parabola (2 t at t = 1 is 2); the ends are one-sided
+    # slopes (1 and 4).  Bug caught: equal-step formula on unequal steps (gives 2.25).
+    stamps = np.array([0, 1, 3], dtype=np.int64) * 10**9 + T0_NS
+    got = spin_acceleration(np.array([[0.0, 1.0, 9.0]]), stamps)
+    np.testing.assert_allclose(got, [[1.0, 2.0, 4.0]], rtol=1e-14)
+
+
+def test_equals_numpy_gradient_on_jittered_stamps():
+    rng = np.random.default_rng(4)
+    n = 500
+    stamps = T0_NS + np.cumsum(PERIOD_NS + rng.integers(-20_000, 20_000, n))
+    spin = 30.0 + np.cumsum(rng.standard_normal((4, n)), axis=1) * 0.01
+    expected = np.gradient(spin, (stamps - stamps[0]) * 1e-9, axis=1)
+    # numpy steps on float times relative to the first stamp, ours on integer steps: they
+    # differ by rounding only (a wrong formula or a one-sample shift is ~1 rad/s^2)
+    np.testing.assert_allclose(spin_acceleration(spin, stamps), expected, rtol=0, atol=1e-6)
+
+
+def _stream_all(stream, stamps, x, cuts):
+    out_t, out_x = [], []
+    for lo, hi in zip(cuts[:-1], cuts[1:]):
+        t, v = stream.push(stamps[lo:hi], x[:, lo:hi])
+        out_t.append(t)
+        out_x.append(v)
+        # one sample behind: everything received but the newest is released
+        assert stream.held == (1 if hi > 0 else 0)
+    t, v = stream.finish()
+    out_t.append(t)
+    out_x.append(v)
+    assert stream.held == 0
+    return np.concatenate(out_t), np.concatenate(out_x, axis=1)
+
+
+@pytest.mark.parametrize('chunks', ['single', 'ones', 'twos', 'random'])
+def test_chunked_equals_batch_exactly_with_passenger_rows(chunks):
+    rng = np.random.default_rng(7)
+    n = 203
+    stamps = T0_NS + np.cumsum(PERIOD_NS + rng.integers(-5_000, 5_000, n))
+    x = rng.standard_normal((7, n))
+    spin_rows = [5, 1, 6]
+    cuts = {'single': [0, n], 'ones': list(range(n + 1)), 'twos': list(range(0, n, 2)) + [n],
+            'random': sorted({0, n, *rng.integers(1, n, 40).tolist()})}[chunks]
+    t, got = _stream_all(SpinAccelerationStream(7, spin_rows), stamps, x, cuts)
+    assert np.array_equal(t, stamps)
+    expected = x.copy()
+    expected[spin_rows] = spin_acceleration(x[spin_rows], stamps)
+    # bit for bit: the node must equal predict --causal (bug caught: an off-by-one window,
+    # the one-sided end applied inside, a passenger row differentiated or shifted)
+    assert np.array_equal(got, expected)
+
+
+def test_segments_restart_and_a_single_sample_segment_gives_nothing():
+    stream = SpinAccelerationStream(2, [0])
+    x = np.array([[1.0, 3.0, 6.0, 10.0], [9.0, 8.0, 7.0, 6.0]])
+    t = T0_NS + np.arange(4, dtype=np.int64) * 10**9
+    first = _stream_all(stream, t[:3], x[:, :3], [0, 1, 3])
+    np.testing.assert_array_equal(first[1][0], [2.0, 2.5, 3.0])
+    assert stream.push(t[3:], x[:, 3:])[0].size == 0          # a new segment: held
+    stamp, value = stream.finish()
+    assert stamp.size == 0 and value.shape == (2, 0)          # one sample: no derivative
+    assert stream.finish()[0].size == 0                       # nothing held, nothing out
+
+
+def test_bad_arguments():
+    with pytest.raises(ShapeError, match='n >= 2'):
+        spin_acceleration(np.zeros((4, 1)), np.zeros(1, dtype=np.int64))
+    with pytest.raises(ShapeError, match='spin rows'):
+        SpinAccelerationStream(4, [4])
+    with pytest.raises(ShapeError, match='spin rows'):
+        SpinAccelerationStream(4, [1, 1])
+    with pytest.raises(ShapeError, match='expected'):
+        SpinAccelerationStream(4, [3]).push(np.zeros(2, dtype=np.int64), np.zeros((3, 2)))
