@@ -181,6 +181,47 @@ def block_stats(segments, pieces: Sequence[Piece], welch: Dict[int, object],
                       n)
 
 
+def subset_spectra(spectra: CrossSpectra, columns: Sequence[int]) -> CrossSpectra:
+    """Return ``spectra`` of the inputs ``columns`` only (a sub-block of ``Sxx``, ``Syx``)."""
+    if len(columns) == spectra.n_inputs:
+        return spectra
+    cols = np.asarray(columns)
+    return CrossSpectra(spectra.f_hz, spectra.sxx[:, cols[:, None], cols[None, :]],
+                        spectra.syx[:, :, cols], spectra.syy, spectra.n_windows,
+                        spectra.config)
+
+
+def subset_correlations(corr: Correlations, columns: Sequence[int]) -> Correlations:
+    """Return ``corr`` of the inputs ``columns`` only."""
+    if len(columns) == corr.rxx.shape[0]:
+        return corr
+    cols = np.asarray(columns)
+    return Correlations(np.ascontiguousarray(corr.rxx[cols[:, None], cols[None, :]]),
+                        np.ascontiguousarray(corr.rxy[cols]), corr.fs_hz, corr.n_samples)
+
+
+def embedded_response(h: np.ndarray, columns: Sequence[int], n_in: int) -> np.ndarray:
+    """Return the response ``h`` (nf, n_out, len(columns)) on all ``n_in`` inputs (0 elsewhere)."""
+    if h.shape[2] == n_in:
+        return h
+    out = np.zeros(h.shape[:2] + (n_in,), dtype=h.dtype)
+    out[:, :, np.asarray(columns)] = h
+    return out
+
+
+def embedded_estimator(est: CausalEstimator, columns: Sequence[int],
+                       n_in: int) -> CausalEstimator:
+    """Return ``est`` on all ``n_in`` inputs: exactly zero taps for the inputs it lacks."""
+    if est.n_in == n_in:
+        return est
+    cols = np.asarray(columns)
+    fine = np.zeros((est.n_out, n_in, est.fine_taps.shape[2]))
+    coarse = np.zeros((est.n_out, n_in, est.coarse_taps.shape[2]))
+    fine[:, cols] = est.fine_taps
+    coarse[:, cols] = est.coarse_taps
+    return dataclasses.replace(est, fine_taps=fine, coarse_taps=coarse)
+
+
 def combine_correlations(items: Sequence[Correlations]) -> Correlations:
     """Return the sample-weighted average of correlations of disjoint data."""
     total = sum(c.n_samples for c in items)
