@@ -118,3 +118,19 @@ def test_imposed_inputs_keep_one_set():
     assert [s['name'] for s in design['input_sets']] == ['accel+rates']
     assert {r['inputs'] for r in design['rows'].values()} == {'accel+rates'}
     assert {r['live_inputs'] for r in design['rows'].values()} == {'accel+rates'}
+
+
+def test_fit_prints_and_the_report_shows_each_rows_input_set(fitted, capsys):
+    # Bug caught: the choice recorded in the model but shown nowhere (print, report table).
+    from wheel_force_estimator.cli.fit import _print_design
+    from wheel_force_estimator.report.design_plots import design_tables
+    _print_design(fitted.model)
+    out = capsys.readouterr().out
+    assert 'held-out RMSE % per input set' in out
+    line = next(s for s in out.splitlines() if s.strip().startswith('f ') and 'inputs' in s)
+    assert 'inputs accel,' in line and 'live_inputs accel' in line
+    choice, table = design_tables(fitted.model.fit['design'], ('f', 'g'))
+    assert '| live inputs | accel % | accel+rates % |' in choice.splitlines()[0]
+    row_f = next(s for s in choice.splitlines() if s.startswith('| f |'))
+    assert row_f.startswith('| f | accel ')
+    assert '| accel ls ' in table and '| accel+rates ls ' in table
