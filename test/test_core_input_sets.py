@@ -134,3 +134,24 @@ def test_fit_prints_and_the_report_shows_each_rows_input_set(fitted, capsys):
     row_f = next(s for s in choice.splitlines() if s.startswith('| f |'))
     assert row_f.startswith('| f | accel ')
     assert '| accel ls ' in table and '| accel+rates ls ' in table
+
+
+def test_a_subsets_normal_equations_are_a_sub_block_of_the_full_ones():
+    # Bug caught: a sub-block taken at the wrong unknowns (the lag-ordered factor's order, or
+    # outputs for inputs), which would fit a subset's rows to other inputs' correlations.
+    from wheel_force_estimator.core.candidates import subset_correlations
+    from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
+    from wheel_force_estimator.core.live_estimator import NormalEquations
+    rng = np.random.default_rng(3)
+    x, y = rng.normal(size=(4, 3000)), rng.normal(size=(2, 3000))
+    acc = CorrelationAccumulator(4, 2, 40)
+    acc.add(x, y)
+    corr = acc.result(FS_HZ)
+    design = LiveDesign(look_aheads_s=(0.1,), history_s=0.2, fine_s=0.03, blocks_per_octave=2)
+    cols = (0, 2)
+    got = NormalEquations(corr, 12, design).subset(cols)
+    want = NormalEquations(subset_correlations(corr, cols), 12, design)
+    assert got.n_in == 2 and got.a.shape == want.a.shape
+    np.testing.assert_array_equal(got.a, want.a)
+    np.testing.assert_array_equal(got.rhs, want.rhs)
+    np.testing.assert_array_equal(got.ridge_unit, want.ridge_unit)

@@ -22,7 +22,8 @@ fallbacks for records too short to search and builds the model):
    from the sums of the other blocks' statistics (the set's columns of them) and scored on
    the held-out block (:mod:`.crossval`), both figures.  The live estimator's ridge is
    scored on the same folds from the same factorisations (one per set and ridge: the
-   lag-ordered factor interleaves the inputs, so a subset needs its own).
+   lag-ordered factor interleaves the inputs, so a subset needs its own; its normal matrix
+   is a sub-block of the full set's, built once per fold).
 5. **the chosen design**: per output row, the live estimator's input set and ridge with the
    lowest held-out error of the live estimator (relative MSE, unfiltered plus 1 Hz
    high-passed); then the (input set, candidate) pair with the lowest held-out error among
@@ -55,6 +56,7 @@ from wheel_force_estimator.core.candidates import LsSolutions
 from wheel_force_estimator.core.candidates import score_fold
 from wheel_force_estimator.core.candidates import SCORING
 from wheel_force_estimator.core.candidates import SEGMENT_FACTORS
+from wheel_force_estimator.core.candidates import set_equations
 from wheel_force_estimator.core.candidates import SPLICE_CROSSOVERS_HZ
 from wheel_force_estimator.core.candidates import subset_correlations
 from wheel_force_estimator.core.candidates import subset_spectra
@@ -318,13 +320,16 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
         # every input set from the same block statistics: its columns of the spectra and
         # correlations (an LS subset needs its own factorisation: the lag-ordered factor
         # interleaves the inputs)
+        eqs = (set_equations(corr, live, [c for _, c in sp.input_sets], min(sp.ridges))
+               if lags else {})
         for i, (_, cols) in enumerate(sp.input_sets):
             h1 = {key: response_on_grid(fit[2].taps, fit[2].delay_samples, n_score)
                   for key, fit in h1_fits(train, config, sp.h1, fs_hz, order,
                                           input_channels, cols).items()}
             ls_resp, live_resp = {}, {}
             if lags:
-                ls = LsSolutions(subset_correlations(corr, cols), live, sp.ridges)
+                ls = LsSolutions(subset_correlations(corr, cols), live, sp.ridges,
+                                 eqs.pop(cols))
                 live_resp = {r: ls.response(r, d_live, n_score) for r in sp.ridges}
                 ls_resp = {(r, LS_LOOK_AHEAD_S): ls.response(r, d_ls, n_score)
                            for r in sp.ridges}
@@ -431,8 +436,11 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
     ls = {}
     n_model = max(ref_fir.n_taps, config.long_segment_length)
     if lags:
-        ls = {i: LsSolutions(subset_correlations(whole.corr, sets[i][1]), live, sorted(r))
-              for i, r in ridges.items() if r}
+        used = {i: sorted(r) for i, r in ridges.items() if r}
+        eqs = set_equations(whole.corr, live, [sets[i][1] for i in used],
+                            min((r for rs in used.values() for r in rs), default=0.0))
+        ls = {i: LsSolutions(subset_correlations(whole.corr, sets[i][1]), live, r,
+                             eqs[sets[i][1]]) for i, r in used.items()}
         span = (look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
                 + int(round(live.history_s * fs_hz)) + 1)
         n_model = max(n_model, 2 * int(2 ** np.ceil(np.log2(span))))
