@@ -155,3 +155,26 @@ def test_a_subsets_normal_equations_are_a_sub_block_of_the_full_ones():
     np.testing.assert_array_equal(got.a, want.a)
     np.testing.assert_array_equal(got.rhs, want.rhs)
     np.testing.assert_array_equal(got.ridge_unit, want.ridge_unit)
+
+
+def test_the_moment_lines_name_each_moments_chosen_set():
+    # Bug caught: fit saying every moment was fitted from all the groups offered when its
+    # row chose fewer (and the "every moment identifiable" line lost to the new line).
+    from types import SimpleNamespace
+
+    from wheel_force_estimator import MOMENT_CHANNELS
+    from wheel_force_estimator import OUTPUT_CHANNELS
+    from wheel_force_estimator.report.builders import moment_input_lines
+    rows = {m: {'inputs': 'accel' if m.endswith('_mz') else 'accel+rates'}
+            for m in MOMENT_CHANNELS}
+    model = SimpleNamespace(
+        output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS, input_channels=INPUTS,
+        fit={'design': {'input_sets': [{'name': 'accel'}, {'name': 'accel+rates'}],
+                        'rows': rows}})
+    lines = moment_input_lines(model, {'mean_coherence': {m: 0.9 for m in MOMENT_CHANNELS}})
+    assert lines[0] == 'moments fitted from: 12 accelerations, 12 angular rates'
+    rates = [m for m in MOMENT_CHANNELS if not m.endswith('_mz')]
+    accel = [m for m in MOMENT_CHANNELS if m.endswith('_mz')]
+    assert lines[1] == ('  input set chosen per moment (held-out blocks): accel+rates: '
+                        + ', '.join(rates) + '; accel: ' + ', '.join(accel))
+    assert lines[2].startswith('  every moment has a mean multiple coherence')
