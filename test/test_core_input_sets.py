@@ -171,7 +171,7 @@ def test_the_moment_lines_name_each_moments_chosen_set():
         output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS, input_channels=INPUTS,
         fit={'design': {'input_sets': [{'name': 'accel'}, {'name': 'accel+rates'}],
                         'rows': rows}})
-    lines = moment_input_lines(model, {'mean_coherence': {m: 0.9 for m in MOMENT_CHANNELS}})
+    lines = moment_input_lines(model, {'mean_coherence': dict.fromkeys(MOMENT_CHANNELS, 0.9)})
     assert lines[0] == 'moments fitted from: 12 accelerations, 12 angular rates'
     rates = [m for m in MOMENT_CHANNELS if not m.endswith('_mz')]
     accel = [m for m in MOMENT_CHANNELS if m.endswith('_mz')]
