@@ -320,7 +320,7 @@ def set_equations(corr: Correlations, design: LiveDesign, columns: Sequence[Sequ
     """
     sets = [tuple(c) for c in columns]
     if len(sets) <= 1:
-        return {c: None for c in sets}
+        return dict.fromkeys(sets)
     n_in = corr.rxx.shape[0]
     full = NormalEquations(corr, look_ahead_samples(LS_LOOK_AHEAD_S, corr.fs_hz),
                            dataclasses.replace(design, look_aheads_s=(LS_LOOK_AHEAD_S,),
