@@ -10,7 +10,9 @@ cross-validation) and ``wheel-force evaluate`` run on them, once per input set:
 
 - ``accel+rates+spin``: the 12 accelerations, the 12 spindle angular rates, the 4 spin rates;
 - ``accel+rates``: without the wheel spin (a logger without wheel speeds);
-- ``accel``: the 12 accelerations only.
+- ``accel``: the 12 accelerations only;
+- ``auto``: no ``inputs`` key: every group the bags carry, and the search chooses each
+  output row's input set by blocked cross-validation (the shipped default).
 
 Printed per car and input set, as ``evaluate --json`` gives them (mean over the four
 corners): RMSE % unfiltered and 1 Hz high-passed, and the damage ratio, per component; then
@@ -28,15 +30,21 @@ import time
 import numpy as np
 
 from wheel_force_estimator.cli.main import main
+from wheel_force_estimator.core.model import load_model
 
 ROOT = Path(__file__).resolve().parents[1]
 CARS = {'compact': ROOT / 'config/vehicles/compact_fwd_1421kg.yaml',
         'suv': ROOT / 'config/vehicles/suv_awd_2180kg.yaml'}
-INPUT_SETS = {'accel+rates+spin': ['rates', 'spin'], 'accel+rates': ['rates'], 'accel': []}
+INPUT_SETS = {'accel+rates+spin': ['rates', 'spin'], 'accel+rates': ['rates'], 'accel': [],
+              'auto': None}
 COMPONENTS = ('fx', 'fy', 'fz', 'mx', 'my', 'mz')
 
 
 def _config(out: Path, groups) -> Path:
+    if groups is None:                    # the shipped default: the search chooses
+        path = out / 'fit_auto.yaml'
+        path.write_text('wheel_force_fit:\n  ros__parameters:\n    moments: true\n')
+        return path
     path = out / f'fit_{"_".join(groups) or "accel"}.yaml'
     path.write_text('wheel_force_fit:\n  ros__parameters:\n'
                     f'    inputs: {json.dumps(list(groups))}\n    moments: true\n')
@@ -58,6 +66,19 @@ def _per_component(doc):
                       'rmse_hp1_pct': float(np.mean([c['rmse_hp1_pct'] for c in chans])),
                       'damage_ratio': float(np.exp(np.mean(np.log(ratio)))) if ratio else None}
     return rows
+
+
+def _chosen_inputs(model_path):
+    """Return, per component, how many corners' rows chose each input set (offline, live)."""
+    rows = (load_model(model_path).fit.get('design') or {}).get('rows') or {}
+    out = {}
+    for comp in COMPONENTS:
+        for key in ('inputs', 'live_inputs'):
+            for name, row in rows.items():
+                if name.endswith('_' + comp) and key in row:
+                    count = out.setdefault(comp, {}).setdefault(key, {})
+                    count[row[key]] = count.get(row[key], 0) + 1
+    return out
 
 
 def main_bench(argv=None) -> int:
@@ -92,7 +113,8 @@ def main_bench(argv=None) -> int:
             _run(['evaluate', model, test, '--json', doc_path, '--sn-slope-moment', 5.0])
             doc = json.loads(doc_path.read_text())
             results.setdefault(car, {})[name] = {'fit_s': fit_s,
-                                                 'components': _per_component(doc)}
+                                                 'components': _per_component(doc),
+                                                 'chosen_inputs': _chosen_inputs(model)}
     (out / 'moments.json').write_text(json.dumps(results, indent=1))
     print('\nheld-out RMSE % (unfiltered / 1 Hz high-passed) and damage ratio, mean of 4 '
           'corners (damage ratio: geometric mean)')
@@ -107,6 +129,13 @@ def main_bench(argv=None) -> int:
                       f'Mz/Fy {comps["mz"]["rmse_pct"] / fy:.2f}',
                       f'My/Fx {comps["my"]["rmse_pct"] / fx:.2f}']
             print(f'{"":8s} targets (<= 1.5): {", ".join(checks)}')
+            chosen = res['chosen_inputs']
+            if any(len(v.get('inputs', {})) > 1 or 'auto' == name for v in chosen.values()):
+                print(f'{"":8s} fit {res["fit_s"]:.0f} s; input set chosen per row (offline | '
+                      f'live, corners): ' + '; '.join(
+                          f'{c} ' + ','.join(f'{k} {n}' for k, n in v['inputs'].items())
+                          + ' | ' + ','.join(f'{k} {n}' for k, n in v['live_inputs'].items())
+                          for c, v in chosen.items()))
     print(f'json: {out / "moments.json"}')
     return 0
 

@@ -136,6 +136,8 @@ def command(args: argparse.Namespace) -> int:
     # Bags keep the long-segment refusal; generic records fall back unless the user chose it.
     # Too few long windows for the inputs fall back for both, unless the user chose it.
     explicit = explicit_fit_keys(args.config, **settings)
+    if request is None and fit_channels(args.config).inputs is not None:
+        explicit = explicit | {'inputs'}      # the input groups imposed: not searched
     default_long = 'long_segment_length' not in explicit
     fallback = request is not None and default_long
     chosen = request is not None and 'segment_length' not in explicit
@@ -241,6 +243,17 @@ def _print_design(model) -> None:
     for name, row in design['rows'].items():
         detail = ', '.join(f'{k} {v:g}' if isinstance(v, float) else f'{k} {v}'
                            for k, v in row.items()
-                           if k not in ('family', 'cv_rmse_pct', 'cv_rmse_hp1_pct'))
+                           if k not in ('family', 'cv_rmse_pct', 'cv_rmse_hp1_pct',
+                                        'input_sets'))
         print(f'  {name:6s} {row["family"]:8s} {row["cv_rmse_pct"]:6.1f} '
               f'{row["cv_rmse_hp1_pct"]:6.1f}   {detail}')
+    sets = [s['name'] for s in design.get('input_sets') or ()]
+    if len(sets) > 1:
+        print('held-out RMSE % per input set (best candidate of each set; unfiltered / '
+              '1 Hz high-passed):')
+        print(f'  {"":6s} ' + '  '.join(f'{n:>17s}' for n in sets))
+        for name, row in design['rows'].items():
+            per = row['input_sets']
+            print(f'  {name:6s} ' + '  '.join(
+                f'{per[n]["cv_rmse_pct"]:8.1f}/{per[n]["cv_rmse_hp1_pct"]:<8.1f}'
+                for n in sets))

@@ -181,6 +181,47 @@ def block_stats(segments, pieces: Sequence[Piece], welch: Dict[int, object],
                       n)
 
 
+def subset_spectra(spectra: CrossSpectra, columns: Sequence[int]) -> CrossSpectra:
+    """Return ``spectra`` of the inputs ``columns`` only (a sub-block of ``Sxx``, ``Syx``)."""
+    if len(columns) == spectra.n_inputs:
+        return spectra
+    cols = np.asarray(columns)
+    return CrossSpectra(spectra.f_hz, spectra.sxx[:, cols[:, None], cols[None, :]],
+                        spectra.syx[:, :, cols], spectra.syy, spectra.n_windows,
+                        spectra.config)
+
+
+def subset_correlations(corr: Correlations, columns: Sequence[int]) -> Correlations:
+    """Return ``corr`` of the inputs ``columns`` only."""
+    if len(columns) == corr.rxx.shape[0]:
+        return corr
+    cols = np.asarray(columns)
+    return Correlations(np.ascontiguousarray(corr.rxx[cols[:, None], cols[None, :]]),
+                        np.ascontiguousarray(corr.rxy[cols]), corr.fs_hz, corr.n_samples)
+
+
+def embedded_response(h: np.ndarray, columns: Sequence[int], n_in: int) -> np.ndarray:
+    """Return the response ``h`` (nf, n_out, len(columns)) on all ``n_in`` inputs (0 elsewhere)."""
+    if h.shape[2] == n_in:
+        return h
+    out = np.zeros(h.shape[:2] + (n_in,), dtype=h.dtype)
+    out[:, :, np.asarray(columns)] = h
+    return out
+
+
+def embedded_estimator(est: CausalEstimator, columns: Sequence[int],
+                       n_in: int) -> CausalEstimator:
+    """Return ``est`` on all ``n_in`` inputs: exactly zero taps for the inputs it lacks."""
+    if est.n_in == n_in:
+        return est
+    cols = np.asarray(columns)
+    fine = np.zeros((est.n_out, n_in, est.fine_taps.shape[2]))
+    coarse = np.zeros((est.n_out, n_in, est.coarse_taps.shape[2]))
+    fine[:, cols] = est.fine_taps
+    coarse[:, cols] = est.coarse_taps
+    return dataclasses.replace(est, fine_taps=fine, coarse_taps=coarse)
+
+
 def combine_correlations(items: Sequence[Correlations]) -> Correlations:
     """Return the sample-weighted average of correlations of disjoint data."""
     total = sum(c.n_samples for c in items)
@@ -234,14 +275,22 @@ _FACTORS = _RecentFactors()
 
 
 class LsSolutions:
-    """The least-squares FIRs of one training set: one factorisation per ridge."""
+    """
+    The least-squares FIRs of one training set: one factorisation per ridge.
 
-    def __init__(self, corr: Correlations, design: LiveDesign, ridges: Sequence[float]):
+    ``equations``: the normal equations of ``corr`` already at hand (a subset's, taken from
+    the full set's by :meth:`.NormalEquations.subset`), else built here.
+    """
+
+    def __init__(self, corr: Correlations, design: LiveDesign, ridges: Sequence[float],
+                 equations: Optional[NormalEquations] = None):
         self.fs_hz = corr.fs_hz
         self.d_max = look_ahead_samples(LS_LOOK_AHEAD_S, corr.fs_hz)
+        base = (float(ridges[0]) if equations is None
+                else float(equations.info['regularisation']))
         design = dataclasses.replace(design, look_aheads_s=(LS_LOOK_AHEAD_S,),
-                                     regularisation=float(ridges[0]))
-        eq = NormalEquations(corr, self.d_max, design)
+                                     regularisation=base)
+        eq = NormalEquations(corr, self.d_max, design) if equations is None else equations
         self.factors = {r: _FACTORS.factor(_FACTORS.key(corr, self.d_max, design, r), eq, r)
                         for r in ridges}
         self._estimators: Dict[Tuple[float, int], CausalEstimator] = {}
@@ -257,6 +306,26 @@ class LsSolutions:
         """Return the realised response on the ``n_fft`` grid, shape (nf, n_out, n_in)."""
         fir = self.estimator(ridge, look_ahead).fir(self.fs_hz)
         return response_on_grid(fir.taps, fir.delay_samples, n_fft)
+
+
+def set_equations(corr: Correlations, design: LiveDesign, columns: Sequence[Sequence[int]],
+                  base_ridge: float) -> Dict[Tuple[int, ...], Optional[NormalEquations]]:
+    """
+    Return the LS normal equations of every input set (``columns``) for :class:`LsSolutions`.
+
+    One build serves every set: a subset's matrix is a sub-block of the full one
+    (:meth:`.NormalEquations.subset`, taken on first use); each set still needs its own
+    factorisations (the lag-ordered factor interleaves the inputs).  One set alone: ``None``
+    (:class:`LsSolutions` builds its own, of that set only).
+    """
+    sets = [tuple(c) for c in columns]
+    if len(sets) <= 1:
+        return dict.fromkeys(sets)
+    n_in = corr.rxx.shape[0]
+    full = NormalEquations(corr, look_ahead_samples(LS_LOOK_AHEAD_S, corr.fs_hz),
+                           dataclasses.replace(design, look_aheads_s=(LS_LOOK_AHEAD_S,),
+                                               regularisation=float(base_ridge)))
+    return {c: full if len(c) == n_in else full.subset(c) for c in sets}
 
 
 def score_fold(h1: Dict[Tuple[int, float], np.ndarray],

@@ -99,8 +99,8 @@ class DesignedFit:
         Fit ``segments`` with this fit's design: its settings and, when chosen, its rows.
 
         The design is not searched again: the rows the cross-validation chose on the whole
-        data (H1 variant, FIR ridge, crossover per output) are fitted on the segments
-        given, as :func:`fit_design` fits them on the whole data.  For a caller that fits
+        data (input set, H1 variant, FIR ridge, crossover per output) are fitted on the
+        segments given, as :func:`fit_design` fits them on the whole data.  For a caller that fits
         pieces of the same recordings many times (the diagnosis's held-out blocks and its
         joint fits of the FIR with physics terms), so every piece gets the design ``fit``
         writes without a search per piece.  The refitted model carries no live estimators
@@ -169,7 +169,7 @@ class ChosenDesign:
         est, h, fir, live, extra, static_x, static_y = fit_chosen(
             used, self.choice, self.welch, self.lags, fs_hz, config, self.order,
             input_channels, live_estimators)
-        extra = dict(extra, design=self.choice.record(output_channels))
+        extra = dict(extra, design=self.choice.record(output_channels, input_channels))
         return build_model(used, fs_hz, config, input_channels, output_channels,
                            (est, h, fir, live, extra, static_x, static_y), fit_info)
 

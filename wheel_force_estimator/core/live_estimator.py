@@ -411,6 +411,29 @@ class NormalEquations:
                      'n_training_samples': int(corr.n_samples)}
         self.fs_hz = fs
         self._rxx, self._t_max = rxx, t_max
+        self._parent: Optional['NormalEquations'] = None
+        self._index: Optional[np.ndarray] = None
+
+    def subset(self, columns: Sequence[int]) -> 'NormalEquations':
+        """
+        Return the equations of the inputs ``columns`` only (the other inputs' taps dropped).
+
+        The unknowns are ordered input by input, and entry ``((i, p), (j, q))`` of the matrix
+        depends on ``r_ij`` alone, so the subset's matrix is a sub-block of this one: the same
+        values its own build from the subset's correlations gives (tested), for the cost of a
+        copy.  Taken on first use from this matrix (built then if it was not).
+        """
+        cols = np.asarray(columns, dtype=np.int64)
+        n_b = self.edges.size - 1
+        index = (cols[:, None] * n_b + np.arange(n_b)[None, :]).ravel()
+        sub = object.__new__(NormalEquations)
+        sub.__dict__.update({k: v for k, v in self.__dict__.items() if k != 'a'})
+        sub.ridge_unit = self.ridge_unit[index]
+        sub.rhs = self.rhs[index]
+        sub.n_in = int(cols.size)
+        sub._rxx = self._rxx[cols[:, None], cols[None, :]]
+        sub._parent, sub._index = self, index
+        return sub
 
     @functools.cached_property
     def a(self) -> np.ndarray:
@@ -421,6 +444,8 @@ class NormalEquations:
         inputs, another output) needs only :attr:`rhs`, and the build costs about as much as
         the factorisation.
         """
+        if self._parent is not None:
+            return self._parent.a[np.ix_(self._index, self._index)]
         rxx, t_max, edges, n_in = self._rxx, self._t_max, self.edges, self.n_in
         n_b = edges.size - 1
         # sum_{l in p} sum_{m in q} r(l - m) from C2, the double cumulative sum of r:

@@ -13,20 +13,29 @@ fallbacks for records too short to search and builds the model):
    says so).
 2. **statistics per block, once** (:func:`.candidates.block_stats`): Welch cross-spectra at
    every resolution of the grid and the correlations of the least-squares FIRs.
-3. **candidates** (:func:`space`): H1 variants x LS ridges x splice crossovers; a setting
-   the user imposed keeps its value.
-4. **held-out scores**, fold by fold: each candidate is fitted from the sums of the other
-   blocks' statistics and scored on the held-out block (:mod:`.crossval`), both figures.
-   The live estimator's ridge is scored on the same folds from the same factorisations.
-5. **the chosen design**: per output row, the candidate with the lowest held-out error
-   (relative MSE, unfiltered plus 1 Hz high-passed) among those no worse than that row's
-   live estimator, and per row the live ridge.
+3. **candidates** (:func:`space`): input sets x H1 variants x LS ridges x splice
+   crossovers; a setting the user imposed keeps its value.  The input sets are nested by
+   group (:func:`.spindle.input_sets`: accelerations; + angular rates; + spin, those the
+   recordings carry; one set of every input for a generic recording or when the user
+   imposed ``inputs``).
+4. **held-out scores**, fold by fold and input set by input set: each candidate is fitted
+   from the sums of the other blocks' statistics (the set's columns of them) and scored on
+   the held-out block (:mod:`.crossval`), both figures.  The live estimator's ridge is
+   scored on the same folds from the same factorisations (one per set and ridge: the
+   lag-ordered factor interleaves the inputs, so a subset needs its own; its normal matrix
+   is a sub-block of the full set's, built once per fold).
+5. **the chosen design**: per output row, the live estimator's input set and ridge with the
+   lowest held-out error of the live estimator (relative MSE, unfiltered plus 1 Hz
+   high-passed); then the (input set, candidate) pair with the lowest held-out error among
+   those no worse than that live estimator in either figure.
 6. **the estimate** (:func:`fit_chosen`): the chosen H1 variants and LS factorisations on
-   all the data (one factorisation per ridge serves the offline FIR and every live
-   look-ahead).
-7. **the FIR**: the rows composed into one FRF and realised exactly (:func:`_realised`).
-8. **the live estimators**: every stored look-ahead, each row with its chosen ridge; the
-   caller builds the model (:func:`.pipeline.build_model`) with ``fit.design``.
+   all the data, per input set (one factorisation per set and ridge serves the offline FIR
+   and every live look-ahead).
+7. **the FIR**: the rows composed into one FRF over every input (exactly zero for the
+   inputs outside a row's set) and realised exactly (:func:`_realised`).
+8. **the live estimators**: every stored look-ahead, each row with its chosen set and ridge
+   (zero taps outside the set); the caller builds the model
+   (:func:`.pipeline.build_model`) with ``fit.design``.
 """
 import dataclasses
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -38,6 +47,8 @@ from wheel_force_estimator.core.candidates import BlockStats
 from wheel_force_estimator.core.candidates import Candidate
 from wheel_force_estimator.core.candidates import candidates
 from wheel_force_estimator.core.candidates import combine_correlations
+from wheel_force_estimator.core.candidates import embedded_estimator
+from wheel_force_estimator.core.candidates import embedded_response
 from wheel_force_estimator.core.candidates import LONG_REGULARISATIONS
 from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
 from wheel_force_estimator.core.candidates import LS_REGULARISATIONS
@@ -45,7 +56,10 @@ from wheel_force_estimator.core.candidates import LsSolutions
 from wheel_force_estimator.core.candidates import score_fold
 from wheel_force_estimator.core.candidates import SCORING
 from wheel_force_estimator.core.candidates import SEGMENT_FACTORS
+from wheel_force_estimator.core.candidates import set_equations
 from wheel_force_estimator.core.candidates import SPLICE_CROSSOVERS_HZ
+from wheel_force_estimator.core.candidates import subset_correlations
+from wheel_force_estimator.core.candidates import subset_spectra
 from wheel_force_estimator.core.crossval import best_rows
 from wheel_force_estimator.core.crossval import blend_weight
 from wheel_force_estimator.core.crossval import block_pieces
@@ -60,11 +74,14 @@ from wheel_force_estimator.core.live_estimator import look_ahead_samples
 from wheel_force_estimator.core.pipeline import estimate_h1
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.spectra import combine_spectra
+from wheel_force_estimator.core.spindle import input_sets
 
 #: Shortest scoring resolution tried [samples]; each block must hold two of its windows.
 MIN_SCORING_SEGMENT = 1024
 #: Settings that pin the offline estimator to the H1 family when the user sets them.
 H1_ONLY_KEYS = frozenset({'estimator'})
+#: The setting that pins the input set (``wheel_force_fit.inputs``): all inputs, not searched.
+INPUTS_KEY = 'inputs'
 
 
 @dataclasses.dataclass(frozen=True)
@@ -82,6 +99,9 @@ class Space:
         Offline candidates.
     imposed : tuple of str
         Settings the user imposed (kept, not searched).
+    input_sets : tuple of (str, tuple of int)
+        The nested input sets tried (:func:`.spindle.input_sets`): name and the columns of
+        the inputs; the last one is every input.
 
     """
 
@@ -89,6 +109,7 @@ class Space:
     ridges: Tuple[float, ...]
     offline: Tuple[Candidate, ...]
     imposed: Tuple[str, ...]
+    input_sets: Tuple[Tuple[str, Tuple[int, ...]], ...] = ()
 
     @property
     def needs_ls(self) -> bool:
@@ -105,10 +126,15 @@ class Choice:
     ----------
     rows : tuple of Candidate
         Offline design per output row.
+    row_sets : tuple of int
+        Input set per output row of the offline design (index into ``space.input_sets``).
     live_ridges : tuple of float
         Live-estimator ridge per output row.
-    scores, live_scores : tuple of HeldOutPower
-        Held-out power per offline candidate (``space.offline`` order) and per live ridge.
+    live_sets : tuple of int
+        Input set per output row of the live estimator.
+    scores, live_scores : tuple of tuple of HeldOutPower
+        Per input set, the held-out power per offline candidate (``space.offline`` order)
+        and per live ridge (``space.ridges`` order).
     space : Space
         What was searched.
     n_score : int
@@ -119,35 +145,57 @@ class Choice:
     """
 
     rows: Tuple[Candidate, ...]
+    row_sets: Tuple[int, ...]
     live_ridges: Tuple[float, ...]
-    scores: Tuple[HeldOutPower, ...]
-    live_scores: Tuple[HeldOutPower, ...]
+    live_sets: Tuple[int, ...]
+    scores: Tuple[Tuple[HeldOutPower, ...], ...]
+    live_scores: Tuple[Tuple[HeldOutPower, ...], ...]
     space: Space
     n_score: int
     blocks_s: Tuple[float, ...]
 
-    def record(self, output_channels: Sequence[str]) -> dict:
-        """Return the model's ``fit.design`` entry (JSON)."""
+    def record(self, output_channels: Sequence[str], input_channels: Sequence[str]) -> dict:
+        """
+        Return the model's ``fit.design`` entry (JSON).
+
+        Per row: the chosen candidate and input set (``inputs``) with its held-out RMSE, the
+        live ridge and input set, and under ``input_sets`` the held-out RMSE of the best
+        candidate (lowest criterion) of every input set tried.
+        """
         def figures(score: HeldOutPower) -> dict:
             pct = score.rmse_pct()
             return {'cv_rmse_pct': [round(float(v), 3) for v in pct[0]],
                     'cv_rmse_hp1_pct': [round(float(v), 3) for v in pct[1]]}
 
+        sets = self.space.input_sets
         index = {c: k for k, c in enumerate(self.space.offline)}
+        crit = np.stack([[p.criterion() for p in per] for per in self.scores])  # (set, c, o)
+        best = np.argmin(crit, axis=1)                                          # (set, o)
         rows = {}
         for o, (name, cand) in enumerate(zip(output_channels, self.rows)):
-            pct = self.scores[index[cand]].rmse_pct()
-            rows[name] = dict(cand.as_dict(), cv_rmse_pct=round(float(pct[0, o]), 3),
+            pct = self.scores[self.row_sets[o]][index[cand]].rmse_pct()
+            per_set = {}
+            for s, (set_name, _) in enumerate(sets):
+                p = self.scores[s][best[s, o]].rmse_pct()
+                per_set[set_name] = {'cv_rmse_pct': round(float(p[0, o]), 3),
+                                     'cv_rmse_hp1_pct': round(float(p[1, o]), 3)}
+            rows[name] = dict(cand.as_dict(), inputs=sets[self.row_sets[o]][0],
+                              cv_rmse_pct=round(float(pct[0, o]), 3),
                               cv_rmse_hp1_pct=round(float(pct[1, o]), 3),
-                              live_regularisation=self.live_ridges[o])
+                              live_regularisation=self.live_ridges[o],
+                              live_inputs=sets[self.live_sets[o]][0], input_sets=per_set)
         return {'method': 'blocked_cross_validation', 'n_blocks': len(self.blocks_s),
                 'blocks_s': [round(b, 3) for b in self.blocks_s],
                 'scoring_segment_length': self.n_score, 'imposed': list(self.space.imposed),
+                'input_sets': [{'name': n, 'channels': [input_channels[i] for i in cols]}
+                               for n, cols in sets],
                 'rows': rows,
-                'candidates': [dict(c.as_dict(), **figures(s))
-                               for c, s in zip(self.space.offline, self.scores)],
-                'live_candidates': [dict({'regularisation': r}, **figures(s))
-                                    for r, s in zip(self.space.ridges, self.live_scores)]}
+                'candidates': [dict(c.as_dict(), inputs=n, **figures(sc))
+                               for (n, _), per in zip(sets, self.scores)
+                               for c, sc in zip(self.space.offline, per)],
+                'live_candidates': [dict({'regularisation': r, 'inputs': n}, **figures(sc))
+                                    for (n, _), per in zip(sets, self.live_scores)
+                                    for r, sc in zip(self.space.ridges, per)]}
 
 
 def scoring_blocks(lengths: Sequence[int], config: FitConfig
@@ -164,8 +212,13 @@ def scoring_blocks(lengths: Sequence[int], config: FitConfig
 
 
 def space(config: FitConfig, imposed: frozenset, n_score: int,
-          live_look_ahead_s: Optional[float]) -> Space:
-    """Return the candidates: the grids of the defaults, imposed settings kept."""
+          live_look_ahead_s: Optional[float], input_channels: Sequence[str]) -> Space:
+    """
+    Return the candidates: the grids of the defaults, imposed settings kept.
+
+    The input sets: the nested groups of :func:`.spindle.input_sets`, or every input alone
+    when the user imposed them (:data:`INPUTS_KEY`).
+    """
     long = config.long_segment_length
     if 'segment_length' in imposed:
         segs = (config.segment_length,)
@@ -176,25 +229,36 @@ def space(config: FitConfig, imposed: frozenset, n_score: int,
     lregs = ((config.long_regularisation,) if 'long_regularisation' in imposed or not long
              else LONG_REGULARISATIONS)
     crossovers = (0.0,) if imposed & H1_ONLY_KEYS else SPLICE_CROSSOVERS_HZ
+    sets = input_sets(input_channels)
+    if INPUTS_KEY in imposed:
+        sets = sets[-1:]
     return Space(tuple((s, lr) for s in segs for lr in lregs), LS_REGULARISATIONS,
                  tuple(candidates(segs, lregs, LS_REGULARISATIONS, crossovers,
                                   live_look_ahead_s)),
-                 tuple(sorted(imposed)))
+                 tuple(sorted(imposed)), sets)
 
 
 def h1_fits(stats: Sequence[BlockStats], config: FitConfig, variants, fs_hz: float,
-            order: int, input_channels) -> Dict[Tuple[int, float], tuple]:
-    """Return ``{(segment, long_reg): estimate_h1(...)}`` from the sums of ``stats``."""
+            order: int, input_channels, columns: Optional[Sequence[int]] = None
+            ) -> Dict[Tuple[int, float], tuple]:
+    """
+    Return ``{(segment, long_reg): estimate_h1(...)}`` from the sums of ``stats``.
+
+    ``columns``: fit on those inputs only (``input_channels`` are all the inputs); None: all.
+    """
     long = config.long_segment_length
+    cols = tuple(range(len(input_channels))) if columns is None else tuple(columns)
+    names = [input_channels[i] for i in cols]
     out = {}
     for seg, lreg in variants:
         short = [s.spectra[seg] for s in stats if seg in s.spectra]
         longs = [s.spectra[long] for s in stats if long and long in s.spectra]
         cfg = dataclasses.replace(config, segment_length=seg, long_regularisation=lreg,
                                   long_segment_length=long if longs else 0)
-        out[(seg, lreg)] = estimate_h1(combine_spectra(short),
-                                       combine_spectra(longs) if longs else None, cfg,
-                                       fs_hz, order, input_channels)
+        out[(seg, lreg)] = estimate_h1(
+            subset_spectra(combine_spectra(short), cols),
+            subset_spectra(combine_spectra(longs), cols) if longs else None, cfg, fs_hz,
+            order, names)
     return out
 
 
@@ -240,7 +304,7 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     if n_score is None:
         return None
     live = config.live or LiveDesign()
-    sp = space(config, imposed, n_score, live.look_aheads_s[0])
+    sp = space(config, imposed, n_score, live.look_aheads_s[0], input_channels)
     # the scorer's window: the longest power of two every chunk holds (the finest grid)
     n_score = 1 << int(np.log2(min(p.stop - p.start for b in blocks for p in b)))
     lags = max_lag(live, fs_hz) if (sp.needs_ls or config.live is not None) else 0
@@ -248,58 +312,83 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     stats = [block_stats(used, b, welch, fs_hz, lags) for b in progress(blocks, 'fit: blocks')]
     d_ls = look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
     d_live = look_ahead_samples(live.look_aheads_s[0], fs_hz)
-    scores = live_scores = None
+    scores = [None] * len(sp.input_sets)
+    live_scores = [None] * len(sp.input_sets)
     for k in progress(range(len(stats)), 'fit: cross-validation'):
         train = [s for j, s in enumerate(stats) if j != k]
-        h1 = {key: response_on_grid(fit[2].taps, fit[2].delay_samples, n_score)
-              for key, fit in h1_fits(train, config, sp.h1, fs_hz, order,
-                                      input_channels).items()}
-        ls_resp, live_resp = {}, {}
-        if lags:
-            ls = LsSolutions(combine_correlations([s.corr for s in train]), live, sp.ridges)
-            live_resp = {r: ls.response(r, d_live, n_score) for r in sp.ridges}
-            ls_resp = {(r, LS_LOOK_AHEAD_S): ls.response(r, d_ls, n_score) for r in sp.ridges}
-            ls_resp.update({(r, live.look_aheads_s[0]): live_resp[r] for r in sp.ridges})
-        off, lv = score_fold(h1, ls_resp, live_resp, sp.offline, stats[k].spectra[SCORING])
-        scores = off if scores is None else [a + b for a, b in zip(scores, off)]
-        live_scores = lv if live_scores is None else [a + b for a, b in zip(live_scores, lv)]
+        corr = combine_correlations([s.corr for s in train]) if lags else None
+        # every input set from the same block statistics: its columns of the spectra and
+        # correlations (an LS subset needs its own factorisation: the lag-ordered factor
+        # interleaves the inputs)
+        eqs = (set_equations(corr, live, [c for _, c in sp.input_sets], min(sp.ridges))
+               if lags else {})
+        for i, (_, cols) in enumerate(sp.input_sets):
+            h1 = {key: response_on_grid(fit[2].taps, fit[2].delay_samples, n_score)
+                  for key, fit in h1_fits(train, config, sp.h1, fs_hz, order,
+                                          input_channels, cols).items()}
+            ls_resp, live_resp = {}, {}
+            if lags:
+                ls = LsSolutions(subset_correlations(corr, cols), live, sp.ridges,
+                                 eqs.pop(cols))
+                live_resp = {r: ls.response(r, d_live, n_score) for r in sp.ridges}
+                ls_resp = {(r, LS_LOOK_AHEAD_S): ls.response(r, d_ls, n_score)
+                           for r in sp.ridges}
+                ls_resp.update({(r, live.look_aheads_s[0]): live_resp[r] for r in sp.ridges})
+                del ls
+            off, lv = score_fold(h1, ls_resp, live_resp, sp.offline,
+                                 subset_spectra(stats[k].spectra[SCORING], cols))
+            scores[i] = off if scores[i] is None else [a + b for a, b in zip(scores[i], off)]
+            live_scores[i] = (lv if live_scores[i] is None
+                              else [a + b for a, b in zip(live_scores[i], lv)])
     n_out = stats[0].sum_y.size
-    live_rows = (best_rows(np.stack([s.criterion() for s in live_scores]))[0] if lags
-                 else np.zeros(n_out, dtype=int))
-    rows = _offline_rows(scores, sp, live.look_aheads_s[0],
-                         [sp.ridges[i] for i in live_rows] if lags else None)
-    choice = Choice(tuple(sp.offline[i] for i in rows),
-                    tuple(float(sp.ridges[i]) for i in live_rows), tuple(scores),
-                    tuple(live_scores), sp, n_score, tuple(s.n / fs_hz for s in stats))
+    n_ridges = len(sp.ridges)
+    if lags:
+        # the live estimator's input set and ridge per row: its own held-out criterion
+        flat = best_rows(np.stack([p.criterion() for per in live_scores for p in per]))[0]
+        live_sets, live_rows = flat // n_ridges, flat % n_ridges
+    else:
+        live_sets = live_rows = np.zeros(n_out, dtype=int)
+    row_sets, rows = _offline_rows(scores, sp, live.look_aheads_s[0],
+                                   [(int(i), sp.ridges[r]) for i, r in zip(live_sets, live_rows)]
+                                   if lags else None)
+    choice = Choice(tuple(sp.offline[i] for i in rows), tuple(int(i) for i in row_sets),
+                    tuple(float(sp.ridges[i]) for i in live_rows),
+                    tuple(int(i) for i in live_sets),
+                    tuple(tuple(per) for per in scores), tuple(tuple(per) for per in live_scores),
+                    sp, n_score, tuple(s.n / fs_hz for s in stats))
     return choice, welch, lags
 
 
-def _offline_rows(scores: Sequence[HeldOutPower], sp: Space, live_look_ahead_s: float,
-                  live_ridges: Optional[Sequence[float]]) -> np.ndarray:
+def _offline_rows(scores: Sequence[Sequence[HeldOutPower]], sp: Space,
+                  live_look_ahead_s: float,
+                  live: Optional[Sequence[Tuple[int, float]]]) -> Tuple[np.ndarray, np.ndarray]:
     """
-    Return the offline candidate per output, never worse than live on the held-out blocks.
+    Return the input set and offline candidate per output, never worse than live held out.
 
-    The lowest criterion among the candidates no worse than that output's live estimator in
-    either figure.
+    Every (input set, candidate) pair competes: the lowest criterion among the pairs no
+    worse than that output's live estimator (its input set and ridge, ``live``) in either
+    figure.
 
-    The live estimator is itself a candidate, so the set is never empty: offline can never
-    score worse than live, unfiltered or high-passed (a lower sum alone could trade one
-    figure for the other: measured on the van, z 11.6 % offline against 10.6 % live
-    unfiltered, bought with the high-passed figure).
+    The live estimator is itself a candidate in its input set, so the pairs kept are never
+    empty: offline can never score worse than live, unfiltered or high-passed (a lower sum
+    alone could trade one figure for the other: measured on the van, z 11.6 % offline
+    against 10.6 % live unfiltered, bought with the high-passed figure).
     """
-    rel = np.stack([s.error / np.maximum(s.target, np.finfo(float).tiny) for s in scores])
-    criterion = rel.sum(axis=1)                                     # (n_cand, n_out)
-    if live_ridges is None:
-        return best_rows(criterion)[0]
-    rows = best_rows(criterion)[0]
-    for o, ridge in enumerate(live_ridges):
-        live = [k for k, c in enumerate(sp.offline) if c.family == 'ls'
-                and c.ls_regularisation == ridge and c.ls_look_ahead_s == live_look_ahead_s]
-        if not live:                      # no LS candidate (an imposed H1 estimator)
-            continue
-        ok = np.all(rel[:, :, o] <= rel[live[0], :, o] * (1 + 1e-12), axis=1)
-        rows[o] = int(np.flatnonzero(ok)[np.argmin(criterion[ok, o])])
-    return rows
+    n_cand = len(sp.offline)
+    flat = [p for per in scores for p in per]                       # set-major
+    rel = np.stack([s.error / np.maximum(s.target, np.finfo(float).tiny) for s in flat])
+    criterion = rel.sum(axis=1)                                     # (n_set n_cand, n_out)
+    best = best_rows(criterion)[0]
+    if live is not None:
+        for o, (i_set, ridge) in enumerate(live):
+            same = [k for k, c in enumerate(sp.offline) if c.family == 'ls'
+                    and c.ls_regularisation == ridge and c.ls_look_ahead_s == live_look_ahead_s]
+            if not same:                  # no LS candidate (an imposed H1 estimator)
+                continue
+            ref = i_set * n_cand + same[0]
+            ok = np.all(rel[:, :, o] <= rel[ref, :, o] * (1 + 1e-12), axis=1)
+            best[o] = int(np.flatnonzero(ok)[np.argmin(criterion[ok, o])])
+    return best // n_cand, best % n_cand
 
 
 def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
@@ -323,33 +412,48 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
     # from the whole segments: no window or pair lost at a chunk edge
     whole = block_stats(used, [Piece(i, 0, s.accel_mps2.shape[1]) for i, s in enumerate(used)],
                         welch, fs_hz, lags)
-    variants = {(c.segment_length, c.long_regularisation) for c in choice.rows
-                if c.family != 'ls'}
+    sets = choice.space.input_sets
+    n_in = len(input_channels)
     # the indicators (coherence, conditioning) of the least-regularised H1 variant at the
-    # configured segment: regularisation biases the multiple coherence low
+    # configured segment, on every input: regularisation biases the multiple coherence low
     default = min((v for v in choice.space.h1 if v[0] == config.segment_length),
                   key=lambda v: v[1], default=choice.space.h1[0])
-    fits = h1_fits([whole], config, sorted(variants | {default}), fs_hz, order, input_channels)
-    ref_est, _, ref_fir, extra = fits[default]
+    variants = {i: set() for i in range(len(sets))}
+    ridges = {i: set() for i in range(len(sets))}
+    for c, i in zip(choice.rows, choice.row_sets):
+        if c.family != 'ls':
+            variants[i].add((c.segment_length, c.long_regularisation))
+        if c.family != 'h1':
+            ridges[i].add(c.ls_regularisation)
+    if live_estimators and lags:
+        for r, i in zip(choice.live_ridges, choice.live_sets):
+            ridges[i].add(r)
+    variants[len(sets) - 1].add(default)                     # the last set: every input
+    fits = {i: h1_fits([whole], config, sorted(v), fs_hz, order, input_channels, sets[i][1])
+            for i, v in variants.items() if v}
+    ref_est, _, ref_fir, extra = fits[len(sets) - 1][default]
     live = config.live or LiveDesign()
-    ls = None
+    ls = {}
     n_model = max(ref_fir.n_taps, config.long_segment_length)
     if lags:
-        ridges = {c.ls_regularisation for c in choice.rows if c.family != 'h1'}
-        if live_estimators:
-            ridges |= set(choice.live_ridges)
-        ls = LsSolutions(whole.corr, live, sorted(ridges)) if ridges else None
+        used = {i: sorted(r) for i, r in ridges.items() if r}
+        eqs = set_equations(whole.corr, live, [sets[i][1] for i in used],
+                            min((r for rs in used.values() for r in rs), default=0.0))
+        ls = {i: LsSolutions(subset_correlations(whole.corr, sets[i][1]), live, r,
+                             eqs[sets[i][1]]) for i, r in used.items()}
         span = (look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
                 + int(round(live.history_s * fs_hz)) + 1)
         n_model = max(n_model, 2 * int(2 ** np.ceil(np.log2(span))))
     f_hz = np.fft.rfftfreq(n_model, 1.0 / fs_hz)
-    h = _compose(choice.rows, fits, ls, f_hz, n_model)
+    h = _compose(choice, fits, ls, f_hz, n_model, n_in)
     fir = _realised(f_hz, h, fs_hz, config.f_max_hz)
     estimators = ()
     if config.live is not None and live_estimators:
         looks = list(dict.fromkeys(look_ahead_samples(v, fs_hz) for v in live.look_aheads_s))
-        estimators = tuple(_rows_of([ls.estimator(r, d) for r in choice.live_ridges])
-                           for d in looks)
+        estimators = tuple(
+            _rows_of([embedded_estimator(ls[i].estimator(r, d), sets[i][1], n_in)
+                      for r, i in zip(choice.live_ridges, choice.live_sets)])
+            for d in looks)
     return (_indicators_on(ref_est, f_hz), h, fir, estimators, extra, whole.sum_x / whole.n,
             whole.sum_y / whole.n)
 
@@ -372,38 +476,38 @@ def _realised(f_hz: np.ndarray, h: np.ndarray, fs_hz: float, f_max_hz) -> FirFil
     return FirFilter(np.ascontiguousarray(taps.transpose(1, 2, 0)), delay, fs_hz)
 
 
-def _compose(rows: Sequence[Candidate], fits, ls, f_hz: np.ndarray, n_model: int):
-    """Return the FRF whose row ``o`` is the realised response of ``rows[o]``."""
+def _compose(choice: Choice, fits, ls, f_hz: np.ndarray, n_model: int, n_in: int):
+    """
+    Return the FRF whose row ``o`` is the realised response of ``choice.rows[o]``.
+
+    A row fitted on an input set has exactly zero response to the inputs outside it.
+    """
     responses = {}
+    sets = choice.space.input_sets
 
-    def response(key):
-        if key not in responses:
+    def response(i, key):
+        if (i, key) not in responses:
             if key[0] == 'h1':
-                fir = fits[key[1:]][2]
-                responses[key] = response_on_grid(fir.taps, fir.delay_samples, n_model)
+                fir = fits[i][key[1:]][2]
+                h = response_on_grid(fir.taps, fir.delay_samples, n_model)
             else:
-                d = look_ahead_samples(key[2], ls.fs_hz)
-                responses[key] = ls.response(key[1], d, n_model)
-        return responses[key]
+                h = ls[i].response(key[1], look_ahead_samples(key[2], ls[i].fs_hz), n_model)
+            responses[(i, key)] = embedded_response(h, sets[i][1], n_in)
+        return responses[(i, key)]
 
-    h = np.empty((f_hz.size,) + response_shape(fits), dtype=np.complex128)
-    for o, c in enumerate(rows):
+    n_out = len(choice.rows)
+    h = np.empty((f_hz.size, n_out, n_in), dtype=np.complex128)
+    for o, (c, i) in enumerate(zip(choice.rows, choice.row_sets)):
         h1 = ('h1', c.segment_length, c.long_regularisation)
+        ls_key = ('ls', c.ls_regularisation, c.ls_look_ahead_s)
         if c.family == 'h1':
-            h[:, o] = response(h1)[:, o]
+            h[:, o] = response(i, h1)[:, o]
         elif c.family == 'ls':
-            h[:, o] = response(('ls', c.ls_regularisation, c.ls_look_ahead_s))[:, o]
+            h[:, o] = response(i, ls_key)[:, o]
         else:
             w = blend_weight(f_hz, c.crossover_hz)
-            ls_key = ('ls', c.ls_regularisation, c.ls_look_ahead_s)
-            h[:, o] = splice(response(ls_key), response(h1), w)[:, o]
+            h[:, o] = splice(response(i, ls_key), response(i, h1), w)[:, o]
     return h
-
-
-def response_shape(fits) -> Tuple[int, int]:
-    """Return (n_out, n_in) of the H1 fits."""
-    fir = next(iter(fits.values()))[2]
-    return fir.taps.shape[:2]
 
 
 def _indicators_on(est, f_hz: np.ndarray):

@@ -36,7 +36,8 @@ from wheel_force_estimator import SPIN_ACCEL_CHANNELS
 from wheel_force_estimator.core.errors import ModelFileError
 
 __all__ = ['CHANNEL_UNITS', 'MOMENT_CHANNELS', 'SPINDLE_UNITS', 'SpindleLayout',
-           'channel_units', 'declared_inputs', 'declared_outputs', 'spindle_layout']
+           'channel_units', 'declared_inputs', 'declared_outputs', 'input_sets',
+           'spindle_layout']
 #: Units a spindle model must carry (the first channel group of each side).
 SPINDLE_UNITS = {'input': 'm/s^2', 'output': 'N'}
 #: The unit of every channel group, as the messages carry it (REP-103 SI).
@@ -55,6 +56,29 @@ def declared_inputs(rates: bool, spin: bool) -> Tuple[str, ...]:
     """Return the input channels of a spindle model with or without rates and spin."""
     return (INPUT_CHANNELS + (RATE_CHANNELS if rates else ())
             + (SPIN_ACCEL_CHANNELS if spin else ()))
+
+
+def input_sets(input_channels) -> Tuple[Tuple[str, Tuple[int, ...]], ...]:
+    """
+    Return the nested input sets the fit's search tries: ``((name, columns), ...)``.
+
+    A spindle model's inputs (:func:`declared_inputs`) give one set per group, nested in the
+    order the groups come: ``accel``; ``accel+rates``; ``accel+rates+spin`` (only the groups
+    present; ``accel+spin`` when the rates are absent).  Any other channel list (a generic
+    DAQ fit) is one set, ``all``, of every input.  ``columns`` index ``input_channels``.
+    """
+    names = tuple(input_channels)
+    n_acc = len(INPUT_CHANNELS)
+    if names[:n_acc] != INPUT_CHANNELS or names not in {
+            declared_inputs(r, sp) for r in (False, True) for sp in (False, True)}:
+        return (('all', tuple(range(len(names)))),)
+    sets = [('accel', tuple(range(n_acc)))]
+    stop = n_acc
+    for group, label in ((RATE_CHANNELS, 'rates'), (SPIN_ACCEL_CHANNELS, 'spin')):
+        if names[stop:stop + len(group)] == group:
+            stop += len(group)
+            sets.append((f'{sets[-1][0]}+{label}', tuple(range(stop))))
+    return tuple(sets)
 
 
 def declared_outputs(moments: bool) -> Tuple[str, ...]:

@@ -81,6 +81,8 @@ def moment_input_lines(model, summary) -> List[str]:
     """
     Say which inputs a six-component model's moments were given, and which they cannot explain.
 
+    With more than one input set searched, the set each moment's row chose is listed too.
+
     A moment whose mean multiple coherence (0.5-50 Hz) is below
     :data:`IDENTIFIABLE_COHERENCE` is named as not identifiable from these inputs (``My``
     needs the wheel spin rate or drive/brake torque information).  Empty without moments.
@@ -94,6 +96,16 @@ def moment_input_lines(model, summary) -> List[str]:
     if any(c in SPIN_ACCEL_CHANNELS for c in model.input_channels):
         groups.append('4 spin accelerations (from the spin rates)')
     lines = [f'moments fitted from: {", ".join(groups)}']
+    design = model.fit.get('design') or {}
+    if len(design.get('input_sets') or ()) > 1:
+        # each row's own set, chosen by cross-validation (the groups above are the offer)
+        chosen: dict = {}
+        for name in moments:
+            row = design['rows'].get(name) or {}
+            chosen.setdefault(row.get('inputs', '?'), []).append(name)
+        lines.append('  input set chosen per moment (held-out blocks): ' + '; '.join(
+            f'{k}: {", ".join(v)}' for k, v in chosen.items()))
+    header = len(lines)
     for name in moments:
         coh = summary['mean_coherence'][name]
         if coh < IDENTIFIABLE_COHERENCE:
@@ -101,7 +113,7 @@ def moment_input_lines(model, summary) -> List[str]:
                     if name.endswith('_my') else '')
             lines.append(f'  {name}: NOT identifiable from these inputs: mean multiple '
                          f'coherence {coh:.2f} < {IDENTIFIABLE_COHERENCE}{need}')
-    if len(lines) == 1:
+    if len(lines) == header:
         lines.append(f'  every moment has a mean multiple coherence >= {IDENTIFIABLE_COHERENCE}')
     return lines
 

@@ -10,7 +10,8 @@ import numpy as np
 
 def _label(cand: dict) -> str:
     """Return a short label of a candidate (its family and the settings it uses)."""
-    parts = [cand['family']]
+    parts = [cand['inputs']] if 'inputs' in cand else []
+    parts.append(cand['family'])
     if 'segment_length' in cand:
         parts.append(f'seg {cand["segment_length"]} lreg {cand["long_regularisation"]:g}')
     if 'ls_regularisation' in cand:
@@ -38,12 +39,18 @@ def design_tables(design: dict, output_channels) -> tuple:
         Per-output choice table, per-candidate table (mean held-out RMSE % over outputs).
 
     """
-    rows = ['| output | design | held-out RMSE % | 1 Hz HP % | live ridge |',
-            '|---|---|---|---|---|']
+    sets = [s['name'] for s in design.get('input_sets') or ()]
+    rows = ['| output | design | held-out RMSE % | 1 Hz HP % | live ridge | live inputs |'
+            + ''.join(f' {n} % |' for n in sets),
+            '|---|---|---|---|---|---|' + '---|' * len(sets)]
     for name in output_channels:
         r = design['rows'][name]
+        per = r.get('input_sets') or {}
         rows.append(f'| {name} | {_label(r)} | {r["cv_rmse_pct"]:.1f} | '
-                    f'{r["cv_rmse_hp1_pct"]:.1f} | {r["live_regularisation"]:g} |')
+                    f'{r["cv_rmse_hp1_pct"]:.1f} | {r["live_regularisation"]:g} | '
+                    f'{r.get("live_inputs", "-")} |'
+                    + ''.join(f' {per[n]["cv_rmse_pct"]:.1f} / {per[n]["cv_rmse_hp1_pct"]:.1f} |'
+                              for n in sets if n in per))
     cands = ['| candidate | mean held-out RMSE % | mean 1 Hz HP % | chosen for |',
              '|---|---|---|---|']
     for c in design['candidates']:

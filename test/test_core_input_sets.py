@@ -1,0 +1,180 @@
+# Copyright 2026 wheel_force_estimator contributors
+# SPDX-License-Identifier: Apache-2.0
+"""The input set of every output row, chosen by the search's blocked cross-validation."""
+import numpy as np
+import pytest
+from scipy import signal
+
+from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import RATE_CHANNELS
+from wheel_force_estimator import SPIN_ACCEL_CHANNELS
+from wheel_force_estimator.core.design import fit_design
+from wheel_force_estimator.core.live_estimator import LiveDesign
+from wheel_force_estimator.core.pipeline import FitConfig
+from wheel_force_estimator.core.pipeline import TrainingSegment
+from wheel_force_estimator.core.spindle import declared_inputs
+from wheel_force_estimator.core.spindle import input_sets
+
+FS_HZ = 128.0
+INPUTS = INPUT_CHANNELS + RATE_CHANNELS
+N_ACC = len(INPUT_CHANNELS)
+#: Small live basis (the search's cost, not its rule, depends on it).
+CONFIG = FitConfig(segment_length=512, long_segment_length=0,
+                   live=LiveDesign(look_aheads_s=(0.05,), history_s=0.25, fine_s=0.03,
+                                   blocks_per_octave=4))
+
+
+def _system(n, seed):
+    """
+    24 inputs (12 accelerations, 12 rates) -> 2 outputs through known low-pass filters.
+
+    Output 0 depends on accelerations 0 and 1 only; output 1 on acceleration 0 and rates
+    0 and 1 (half of its power from the rates).  Output noise 5 % of each output's RMS.
+    """
+    rng = np.random.default_rng(seed)
+    b, a = signal.butter(2, 30.0, fs=FS_HZ)
+    x = signal.lfilter(b, a, rng.normal(size=(len(INPUTS), n)), axis=1)
+    b1, a1 = signal.butter(2, 12.0, fs=FS_HZ)
+    b2, a2 = signal.cheby1(2, 1.0, 20.0, fs=FS_HZ)
+    y0 = signal.lfilter(b1, a1, x[0]) + 0.5 * x[1]
+    y1 = (signal.lfilter(b2, a2, x[0]) + signal.lfilter(b1, a1, x[N_ACC])
+          - 0.7 * np.roll(x[N_ACC + 1], 3))
+    y = np.vstack([y0, y1])
+    return x, y + 0.05 * y.std(axis=1, keepdims=True) * rng.normal(size=y.shape)
+
+
+@pytest.fixture(scope='module')
+def fitted():
+    # 220 s of training: short against 24 inputs, so 12 irrelevant rates cost row 0 variance
+    x, y = _system(28000, 1)
+    return fit_design([TrainingSegment(x, y, 'train')], FS_HZ, CONFIG, INPUTS, ('f', 'g'))
+
+
+def test_input_sets_are_the_nested_groups_the_inputs_carry():
+    assert [n for n, _ in input_sets(declared_inputs(True, True))] == [
+        'accel', 'accel+rates', 'accel+rates+spin']
+    assert input_sets(declared_inputs(False, True)) == (
+        ('accel', tuple(range(N_ACC))),
+        ('accel+spin', tuple(range(N_ACC + len(SPIN_ACCEL_CHANNELS)))))
+    assert input_sets(INPUT_CHANNELS) == (('accel', tuple(range(N_ACC))),)
+    # a generic DAQ fit (declared channels, no groups): one set, as before
+    assert input_sets(('a', 'b', 'c')) == (('all', (0, 1, 2)),)
+    assert input_sets(RATE_CHANNELS + INPUT_CHANNELS) == (('all', tuple(range(24))),)
+
+
+def test_each_row_chooses_its_inputs_and_excluded_inputs_have_zero_taps(fitted):
+    # Bugs caught: a set chosen against its held-out score; one set for all rows; a row on
+    # the accelerations whose FIR or live taps still read the rates.
+    model, design = fitted.model, fitted.model.fit['design']
+    assert [s['name'] for s in design['input_sets']] == ['accel', 'accel+rates']
+    assert design['input_sets'][0]['channels'] == list(INPUT_CHANNELS)
+    rows = design['rows']
+    assert rows['g']['inputs'] == 'accel+rates'       # half of g's power is in the rates
+    assert rows['g']['live_inputs'] == 'accel+rates'
+    assert rows['f']['inputs'] == 'accel'              # the rates are noise to f
+    assert rows['f']['live_inputs'] == 'accel'
+    for name, row in rows.items():
+        per = row['input_sets']
+        assert set(per) == {'accel', 'accel+rates'}
+        crit = {k: (v['cv_rmse_pct'] / 100) ** 2 + (v['cv_rmse_hp1_pct'] / 100) ** 2
+                for k, v in per.items()}
+        # the chosen set is the one whose best candidate scored best held out
+        assert crit[row['inputs']] == pytest.approx(min(crit.values()), rel=1e-6)
+    # g without the rates would be far worse (the known answer: they carry half its power)
+    assert rows['g']['input_sets']['accel']['cv_rmse_pct'] > 50.0
+    assert rows['g']['input_sets']['accel+rates']['cv_rmse_pct'] < 20.0
+    # exactly zero taps for the inputs row f does not use; row g uses them
+    assert np.all(model.fir_taps[0, N_ACC:] == 0.0)
+    assert np.any(model.fir_taps[0, :N_ACC] != 0.0)
+    assert np.any(model.fir_taps[1, N_ACC:] != 0.0)
+    assert model.live
+    for est in model.live:
+        assert est.n_in == len(INPUTS)
+        assert np.all(est.fine_taps[0, N_ACC:] == 0.0)
+        assert np.all(est.coarse_taps[0, N_ACC:] == 0.0)
+        assert np.any(est.fine_taps[1, N_ACC:] != 0.0)
+    # every (set, candidate) is recorded
+    n_sets = len(design['input_sets'])
+    assert len(design['candidates']) % n_sets == 0
+    assert {c['inputs'] for c in design['candidates']} == {'accel', 'accel+rates'}
+
+
+def test_refit_keeps_each_rows_input_set(fitted):
+    # Bug caught: the diagnosis's refit on pieces fitting every row on every input.
+    x, y = _system(8192, 2)
+    again = fitted.refit([TrainingSegment(x, y, 'other')])
+    assert again.fit['design']['rows'] == fitted.model.fit['design']['rows']
+    assert np.all(again.fir_taps[0, N_ACC:] == 0.0)
+    assert np.any(again.fir_taps[1, N_ACC:] != 0.0)
+    assert not np.allclose(again.fir_taps, fitted.model.fir_taps)
+
+
+def test_imposed_inputs_keep_one_set():
+    # Bug caught: `wheel_force_fit.inputs` in the params file searched over anyway.
+    x, y = _system(28000, 1)
+    design = fit_design([TrainingSegment(x, y, 'train')], FS_HZ, CONFIG, INPUTS, ('f', 'g'),
+                        imposed={'inputs'}).model.fit['design']
+    assert design['imposed'] == ['inputs']
+    assert [s['name'] for s in design['input_sets']] == ['accel+rates']
+    assert {r['inputs'] for r in design['rows'].values()} == {'accel+rates'}
+    assert {r['live_inputs'] for r in design['rows'].values()} == {'accel+rates'}
+
+
+def test_fit_prints_and_the_report_shows_each_rows_input_set(fitted, capsys):
+    # Bug caught: the choice recorded in the model but shown nowhere (print, report table).
+    from wheel_force_estimator.cli.fit import _print_design
+    from wheel_force_estimator.report.design_plots import design_tables
+    _print_design(fitted.model)
+    out = capsys.readouterr().out
+    assert 'held-out RMSE % per input set' in out
+    line = next(s for s in out.splitlines() if s.strip().startswith('f ') and 'inputs' in s)
+    assert 'inputs accel,' in line and 'live_inputs accel' in line
+    choice, table = design_tables(fitted.model.fit['design'], ('f', 'g'))
+    assert '| live inputs | accel % | accel+rates % |' in choice.splitlines()[0]
+    row_f = next(s for s in choice.splitlines() if s.startswith('| f |'))
+    assert row_f.startswith('| f | accel ')
+    assert '| accel ls ' in table and '| accel+rates ls ' in table
+
+
+def test_a_subsets_normal_equations_are_a_sub_block_of_the_full_ones():
+    # Bug caught: a sub-block taken at the wrong unknowns (the lag-ordered factor's order, or
+    # outputs for inputs), which would fit a subset's rows to other inputs' correlations.
+    from wheel_force_estimator.core.candidates import subset_correlations
+    from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
+    from wheel_force_estimator.core.live_estimator import NormalEquations
+    rng = np.random.default_rng(3)
+    x, y = rng.normal(size=(4, 3000)), rng.normal(size=(2, 3000))
+    acc = CorrelationAccumulator(4, 2, 40)
+    acc.add(x, y)
+    corr = acc.result(FS_HZ)
+    design = LiveDesign(look_aheads_s=(0.1,), history_s=0.2, fine_s=0.03, blocks_per_octave=2)
+    cols = (0, 2)
+    got = NormalEquations(corr, 12, design).subset(cols)
+    want = NormalEquations(subset_correlations(corr, cols), 12, design)
+    assert got.n_in == 2 and got.a.shape == want.a.shape
+    np.testing.assert_array_equal(got.a, want.a)
+    np.testing.assert_array_equal(got.rhs, want.rhs)
+    np.testing.assert_array_equal(got.ridge_unit, want.ridge_unit)
+
+
+def test_the_moment_lines_name_each_moments_chosen_set():
+    # Bug caught: fit saying every moment was fitted from all the groups offered when its
+    # row chose fewer (and the "every moment identifiable" line lost to the new line).
+    from types import SimpleNamespace
+
+    from wheel_force_estimator import MOMENT_CHANNELS
+    from wheel_force_estimator import OUTPUT_CHANNELS
+    from wheel_force_estimator.report.builders import moment_input_lines
+    rows = {m: {'inputs': 'accel' if m.endswith('_mz') else 'accel+rates'}
+            for m in MOMENT_CHANNELS}
+    model = SimpleNamespace(
+        output_channels=OUTPUT_CHANNELS + MOMENT_CHANNELS, input_channels=INPUTS,
+        fit={'design': {'input_sets': [{'name': 'accel'}, {'name': 'accel+rates'}],
+                        'rows': rows}})
+    lines = moment_input_lines(model, {'mean_coherence': dict.fromkeys(MOMENT_CHANNELS, 0.9)})
+    assert lines[0] == 'moments fitted from: 12 accelerations, 12 angular rates'
+    rates = [m for m in MOMENT_CHANNELS if not m.endswith('_mz')]
+    accel = [m for m in MOMENT_CHANNELS if m.endswith('_mz')]
+    assert lines[1] == ('  input set chosen per moment (held-out blocks): accel+rates: '
+                        + ', '.join(rates) + '; accel: ' + ', '.join(accel))
+    assert lines[2].startswith('  every moment has a mean multiple coherence')
