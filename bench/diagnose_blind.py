@@ -24,7 +24,8 @@ Four parts, each printed with a baseline measured in the same run:
    which one in the last column); a confusion matrix per seed and pooled, hit rates over all
    cases and over the concealed ones, and the targets of issue 14: named nonlinear cases with
    the written model better than the plain fit, named linear ones within 3 % of it and better
-   than the simulation, nulls with no finding and the simulation's FRF written unchanged.
+   than the simulation, nulls with no finding and the written model no worse than the plain
+   fit (issue 30: the best linear model on held-out data, not the reference unchanged).
 3. The stop cases again with suspension travel recorded instead of spindle accelerations
    (generic path): what a travel channel adds where the compression cannot be inferred
    (baseline: the spindle-only diagnosis of the same pairs in part 2).
@@ -204,7 +205,7 @@ def run_synthetic(seeds, effects):
                   f'{fit.before["lf_fz"]:6.1f} -> {fit.after["lf_fz"]:6.1f} '
                   f'({fit.real_linear["lf_fz"]:.1f}; {fit.model})', flush=True)
     print_confusion('synthetic', rows)
-    print_targets(rows, 'synthetic pairs, lf_fz: ', 'real_linear')
+    print_targets(rows, 'synthetic pairs, lf_fz: ')
 
 
 def _events(result):
@@ -352,13 +353,8 @@ MOTION_EFFECTS = ('sensor_saturation', 'tire_lift_off')
 SAME_PCT = 1e-6
 
 
-def print_targets(rows, label='', unchanged='sim_frf'):
-    """
-    Issue 14's targets over rows (true, named, naive, before, written, fit, model, hidden).
-
-    ``unchanged`` is ``fit.model`` of the reference written as it was: ``'sim_frf'``, or
-    ``'real_linear'`` for a static-law reference (no FRF to write: the plain fit is).
-    """
+def print_targets(rows, label=''):
+    """Issue 14's targets over rows (true, named, naive, before, written, fit, model, hidden)."""
     nonlinear = [r for r in rows if r[0] != 'none' and r[0] not in LINEAR_EFFECTS
                  and r[0] not in MOTION_EFFECTS and r[0] == r[1]]
     motion = [r for r in rows if r[0] in MOTION_EFFECTS and r[0] == r[1]]
@@ -371,8 +367,10 @@ def print_targets(rows, label='', unchanged='sim_frf'):
     print(f'{label}named linear cases, written model within 3 % of the plain fit and better than '
           f'the simulation: {sum(r[4] <= 1.03 * r[5] and r[4] < r[3] for r in linear)}/'
           f'{len(linear)}')
-    print(f'{label}null cases with no finding and the reference written unchanged: '
-          f'{sum(r[1] == "none" and r[6] == unchanged for r in nulls)}/{len(nulls)}')
+    # issue 30: with nothing named, the written model is the best linear one on held-out
+    # data (no worse than the plain fit), no longer the reference unchanged
+    print(f'{label}null cases with no finding and the written model no worse than the plain '
+          f'fit: {sum(r[1] == "none" and r[4] <= r[5] + SAME_PCT for r in nulls)}/{len(nulls)}')
     missed = [r for r in rows if r[0] != 'none' and r[0] != r[1]]
     print(f'{label}effect cases not named first (written model vs plain fit): ' + (', '.join(
         f'{r[0]} {r[4]:.1f} vs {r[5]:.1f} % ({r[6]})' for r in missed) or '-'))
