@@ -101,6 +101,26 @@ def _node_replay_equals_prediction(model, ros_env, tmp_path, pred_stamps, pred_f
     return result
 
 
+def _six_component_prediction(tmp_path, extras, inputs):
+    """
+    Fit ``tmp_path/train`` (24 outputs, ``inputs``) and run ``predict --causal`` on ``val``.
+
+    Returns ``(model path, stamps, forces, torques)`` of the prediction bag.
+    """
+    rec = read_recording(tmp_path / 'train', TopicConfig(), require_wft=True, extras=extras)
+    outputs = OUTPUT_CHANNELS + MOMENT_CHANNELS
+    config = FitConfig(live=LiveDesign(look_aheads_s=(0.05,), history_s=0.3, fine_s=0.03,
+                                       blocks_per_octave=4))
+    model = fit_model([TrainingSegment(s.signals(inputs), s.signals(outputs), 'train')
+                       for s in rec.segments], FS_HZ, config, inputs, outputs)
+    path = save_model(model, tmp_path / 'model.npz')
+    assert main(['predict', str(path), str(tmp_path / 'val'), '-o', str(tmp_path / 'pred'),
+                 '--causal']) == 0
+    topics = TopicConfig().output_topics
+    pred_stamps, pred_force = read_wrench_topics(tmp_path / 'pred', topics)
+    return path, pred_stamps, pred_force, _read_torque(tmp_path / 'pred', topics)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize('rates', [False, True], ids=['accel', 'accel+rates'])
 def test_six_component_node_equals_predict_causal(ros_env, tmp_path, rates):
@@ -122,20 +142,9 @@ def test_six_component_node_equals_predict_causal(ros_env, tmp_path, rates):
     write(tmp_path / 'train', 60, 1)
     write(tmp_path / 'val', 8, 2)
     extras = ('moments', 'rates') if rates else ('moments',)
-    rec = read_recording(tmp_path / 'train', TopicConfig(), require_wft=True, extras=extras)
-    inputs = INPUT_CHANNELS + (RATE_CHANNELS if rates else ())
-    outputs = OUTPUT_CHANNELS + MOMENT_CHANNELS
-    config = FitConfig(live=LiveDesign(look_aheads_s=(0.05,), history_s=0.3, fine_s=0.03,
-                                       blocks_per_octave=4))
-    model = fit_model([TrainingSegment(s.signals(inputs), s.signals(outputs), 'train')
-                       for s in rec.segments], FS_HZ, config, inputs, outputs)
-    path = save_model(model, tmp_path / 'model.npz')
-    assert main(['predict', str(path), str(tmp_path / 'val'), '-o', str(tmp_path / 'pred'),
-                 '--causal']) == 0
-    topics = TopicConfig()
-    pred_stamps, pred_force = read_wrench_topics(tmp_path / 'pred', topics.output_topics)
-    pred_torque = _read_torque(tmp_path / 'pred', topics.output_topics)
-    val = read_recording(tmp_path / 'val', topics, require_wft=True, extras=extras)
+    path, pred_stamps, pred_force, pred_torque = _six_component_prediction(
+        tmp_path, extras, INPUT_CHANNELS + (RATE_CHANNELS if rates else ()))
+    val = read_recording(tmp_path / 'val', TopicConfig(), require_wft=True, extras=extras)
     # noise-free linear system: the moments are estimated as well as the forces (a wrong row
     # or a dropped torque is ~100 %)
     assert np.max(rmse_pct(val.segments[0].moment_nm, pred_torque)) < 5.0
@@ -174,20 +183,8 @@ def test_spin_model_node_equals_predict_causal_across_a_gap(ros_env, tmp_path):
                         spin_radps=spin[:, keep])
     write(tmp_path / 'train', 40, 1)
     write(tmp_path / 'val', 6, 2, gap=1500)
-    extras = ('moments', 'spin')
-    rec = read_recording(tmp_path / 'train', TopicConfig(), require_wft=True, extras=extras)
-    inputs = INPUT_CHANNELS + SPIN_ACCEL_CHANNELS
-    outputs = OUTPUT_CHANNELS + MOMENT_CHANNELS
-    config = FitConfig(live=LiveDesign(look_aheads_s=(0.05,), history_s=0.3, fine_s=0.03,
-                                       blocks_per_octave=4))
-    model = fit_model([TrainingSegment(s.signals(inputs), s.signals(outputs), 'train')
-                       for s in rec.segments], FS_HZ, config, inputs, outputs)
-    path = save_model(model, tmp_path / 'model.npz')
-    assert main(['predict', str(path), str(tmp_path / 'val'), '-o', str(tmp_path / 'pred'),
-                 '--causal']) == 0
-    topics = TopicConfig()
-    pred_stamps, pred_force = read_wrench_topics(tmp_path / 'pred', topics.output_topics)
-    pred_torque = _read_torque(tmp_path / 'pred', topics.output_topics)
+    path, pred_stamps, pred_force, pred_torque = _six_component_prediction(
+        tmp_path, ('moments', 'spin'), INPUT_CHANNELS + SPIN_ACCEL_CHANNELS)
     assert pred_stamps.size == 6 * int(FS_HZ) - 5                 # two segments, all of them
 
     result = _node_replay_equals_prediction(path, ros_env, tmp_path, pred_stamps, pred_force)
