@@ -47,6 +47,7 @@ bench: venv
 
 bench-diagnose: venv
 	$(BIN)/python bench/diagnose_blind.py
+	$(BIN)/python bench/diagnose_bound.py
 
 clean:
 	rm -rf $(VENV) $(DEMO_DIR) build install log *.egg-info

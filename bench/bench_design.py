@@ -19,7 +19,14 @@ Then the real MR damper (``../shared/data/mr_damper``, labcontrol-data/mr-damper
 on runs 4.1-4.3 (velocity -> force), judged on run 4.4.  Checks printed: offline <= 0.8x paper,
 live <= 1.25x offline (x, y) / 2x (z), live better than ls2s, offline <= live.
 
-Run: ``python bench/bench_design.py [--minutes 10] [--cars compact,suv,van]``
+``--inputs accel+spin`` (or ``accel+rates+spin``) fits ``offline``/``live50`` on the
+accelerations plus the wheel spin acceleration (and the spindle angular rates) a logger with
+wheel speeds records - every output row chooses its input set by the same cross-validation,
+as ``wheel-force fit`` does on such bags - while ``paper`` stays the paper's 12 accelerations;
+``ls2s`` gets the same inputs as ``offline``, so the live comparison stays like for like.
+
+Run: ``python bench/bench_design.py [--minutes 10] [--cars compact,suv,van]
+[--inputs accel|accel+spin|accel+rates+spin]``
 """
 import argparse
 import dataclasses
@@ -32,6 +39,7 @@ import numpy as np
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.cli.common import load_fit_config
+from wheel_force_estimator.core.derived import spin_acceleration
 from wheel_force_estimator.core.design import fit_design
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
@@ -44,6 +52,7 @@ from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.core.spindle import declared_inputs
 from wheel_force_estimator.sim import simulate
 from wheel_force_estimator.sim.vehicle import load_vehicle
 
@@ -81,23 +90,34 @@ def baseline(x, y, xv, static_x, static_y, fs):
     return apply_fir(FirFilter(g, d, fs), xv - static_x[:, None]) + static_y[:, None]
 
 
-def car_rows(name, minutes):
+def input_signals(result, inputs: str, n=None):
+    """Return the model inputs of ``inputs`` (``accel``, ``accel+spin``, ...) of a simulation."""
+    rows = [result.accel_mps2]
+    if 'rates' in inputs:
+        rows.append(result.rate_radps)
+    if 'spin' in inputs:
+        rows.append(spin_acceleration(result.spin_radps, result.stamp_ns))
+    return np.vstack(rows)[:, :n]
+
+
+def car_rows(name, minutes, inputs='accel'):
     """Fit and judge one vehicle; return {estimator: (unfiltered, hp) per direction}."""
     vehicle = load_vehicle(CARS[name]) if CARS[name] else None
     train = simulate(seed=1, vehicle=vehicle)
     val = simulate(seed=2, vehicle=vehicle, duration_scale=0.5)
     fs = train.fs_hz
     n = min(train.accel_mps2.shape[1], int(minutes * 60 * fs))
-    x, y = train.accel_mps2[:, :n], train.force_n[:, :n]
-    seg = [TrainingSegment(x, y, f'{name}_seed1')]
-    paper = fit_model(seg, fs, FitConfig(), INPUT_CHANNELS, OUTPUT_CHANNELS)
+    x, y = input_signals(train, inputs, n), train.force_n[:, :n]
+    channels = declared_inputs('rates' in inputs, 'spin' in inputs)
+    paper = fit_model([TrainingSegment(x[:12], y, f'{name}_seed1')], fs, FitConfig(),
+                      INPUT_CHANNELS, OUTPUT_CHANNELS)
     t0 = time.perf_counter()
-    fitted = fit_design(seg, fs, product_config(), INPUT_CHANNELS, OUTPUT_CHANNELS,
-                        long_window_fallback=True)
+    fitted = fit_design([TrainingSegment(x, y, f'{name}_seed1')], fs, product_config(),
+                        channels, OUTPUT_CHANNELS, long_window_fallback=True)
     t_fit = time.perf_counter() - t0
     model = fitted.model
-    xv, yv = val.accel_mps2, val.force_n
-    preds = {'paper': predict_forces(paper, xv), 'offline': predict_forces(model, xv),
+    xv, yv = input_signals(val, inputs), val.force_n
+    preds = {'paper': predict_forces(paper, xv[:12]), 'offline': predict_forces(model, xv),
              'live50': predict_forces(model, xv, int(round(LIVE_S * fs))),
              'ls2s': baseline(x, y, xv, model.static_accel_mps2, model.static_force_n, fs)}
     rows = {k: (by_direction(rmse_pct(yv, p)), by_direction(rmse_hp_pct(yv, p, fs)))
@@ -133,10 +153,13 @@ def main():
                         help='training minutes of the proving-ground course (<= 10)')
     parser.add_argument('--cars', default='compact,suv,van')
     parser.add_argument('--no-mr-damper', action='store_true')
+    parser.add_argument('--inputs', default='accel',
+                        choices=('accel', 'accel+spin', 'accel+rates+spin'),
+                        help='inputs of offline / live50 / ls2s (paper: the accelerations)')
     args = parser.parse_args()
     for name in args.cars.split(','):
-        rows, model, fitted, t_fit, train_s = car_rows(name, args.minutes)
-        print(f'\n== {name}: {train_s:.0f} s training, fit {t_fit:.1f} s '
+        rows, model, fitted, t_fit, train_s = car_rows(name, args.minutes, args.inputs)
+        print(f'\n== {name} ({args.inputs}): {train_s:.0f} s training, fit {t_fit:.1f} s '
               f'(cross-validation included); RMSE % unfiltered | 1 Hz high-passed, x y z')
         for k, (u, h) in rows.items():
             print(f'  {k:8s} ' + ' '.join(f'{v:5.1f}' for v in u) + '  | '
