@@ -6,9 +6,9 @@ import pytest
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.diagnosis.candidates import BY_KEY
 from wheel_force_estimator.diagnosis.features import ChannelContext
 from wheel_force_estimator.diagnosis.features import pairing
-from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
 from wheel_force_estimator.diagnosis.selection import Piece
 from wheel_force_estimator.diagnosis.selection import SelectionConfig
 from wheel_force_estimator.diagnosis.selection import Selector
@@ -116,8 +116,8 @@ def test_a_damping_change_inside_the_tolerance_is_drift_and_outside_it_is_named(
 
 def test_known_mass_error_and_time_delay_become_term_parameters():
     from wheel_force_estimator.core.physics import PhysicsTerm
-    from wheel_force_estimator.diagnosis.hypotheses import shift_signal
-    from wheel_force_estimator.diagnosis.hypotheses import term_parameters
+    from wheel_force_estimator.diagnosis.candidates import term_parameters
+    from wheel_force_estimator.diagnosis.grids import shift_signal
     stiffness, damping, mass = 20000.0, 2000.0, 15.0
     disp, vel, acc = _linear_motion()
     load = stiffness * disp + damping * vel + mass * acc
@@ -146,8 +146,8 @@ def test_known_mass_error_and_time_delay_become_term_parameters():
 
 def test_every_candidate_is_a_registered_term_kind():
     from wheel_force_estimator.core.physics import TERM_KINDS
-    from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
-    from wheel_force_estimator.diagnosis.hypotheses import LOAD_LINEAR
+    from wheel_force_estimator.diagnosis.candidates import HYPOTHESES
+    from wheel_force_estimator.diagnosis.candidates import LOAD_LINEAR
     # One registry: every candidate the diagnosis ranks can be written as a model term.
     assert {h.key for h in HYPOTHESES + (LOAD_LINEAR,)} <= set(TERM_KINDS)
 

@@ -17,8 +17,8 @@ from dataclasses import replace
 from typing import Dict, List
 
 from wheel_force_estimator.core.errors import ConfigError
+from wheel_force_estimator.diagnosis.candidates import BY_KEY
 from wheel_force_estimator.diagnosis.hardening import pooled_selector
-from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
 from wheel_force_estimator.diagnosis.prepared import axis
 
 

@@ -46,8 +46,9 @@ from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.spectra import power_quantile_hz
-from wheel_force_estimator.diagnosis.hypotheses import load_state
-from wheel_force_estimator.diagnosis.hypotheses import lowpassed_load
+from wheel_force_estimator.diagnosis.candidates import BY_KEY
+from wheel_force_estimator.diagnosis.grids import load_state
+from wheel_force_estimator.diagnosis.grids import lowpassed_load
 from wheel_force_estimator.diagnosis.prepared import pieces
 from wheel_force_estimator.diagnosis.result import Finding
 from wheel_force_estimator.diagnosis.selection import block_stats
@@ -332,9 +333,7 @@ def _finding(chan: _Channel, cand: _Candidate, coef, gain: float, null: float,
     params = dict(cand.params)
     params[chan.term(cand).kind.strength] = peak
     term = chan.term(cand, params, tuple(taps / peak))
-    what = ('friction in the load path (the rate of the predicted load, i.e. of the '
-            'deflection)' if cand.physics == 'coulomb_friction'
-            else 'hardening in the load path (the cube of the predicted load change)')
+    what = BY_KEY[f'{cand.physics}:load'].inside
     evidence = (f'{chan.channel}: {what} acting inside the structure, reaching the sensor '
                 f'through its own response (largest at {peak_hz:.3g} Hz); explains '
                 f'{gain:.1%} of the residual on held-out blocks vs {null:.1%} with time-shifted '

@@ -13,19 +13,16 @@ from dataclasses import replace
 from typing import Callable, List, Optional, Sequence, Tuple
 
 from wheel_force_estimator.diagnosis import text
+from wheel_force_estimator.diagnosis.candidates import BY_KEY
+from wheel_force_estimator.diagnosis.candidates import HARDENINGS
+from wheel_force_estimator.diagnosis.candidates import LINEAR_COMPANIONS
+from wheel_force_estimator.diagnosis.candidates import STIFFENING
 from wheel_force_estimator.diagnosis.features import settle_samples
-from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
-from wheel_force_estimator.diagnosis.hypotheses import LINEAR_COMPANIONS
 from wheel_force_estimator.diagnosis.omissions import linear_omissions
 from wheel_force_estimator.diagnosis.prepared import axis
 from wheel_force_estimator.diagnosis.prepared import group_pieces
 from wheel_force_estimator.diagnosis.selection import Selector
 
-#: The kinds of hardening of the vocabulary.
-HARDENINGS = ('cubic_stiffness', 'bump_stop', 'rebound_stop')
-#: Hardening candidates a wrong spring rate can pass for (compared on pooled Fz channels).
-STIFFENING = ('cubic_stiffness:load', 'bump_stop:load', 'rebound_stop:load', 'cubic_stiffness',
-              'bump_stop', 'rebound_stop')
 #: A linear spring-rate error must explain this many times what the best hardening explains.
 LINEAR_OVER_HARDENING = 1.3
 #: A hardening no channel selected replaces the ones selected when, pooled over their axis,

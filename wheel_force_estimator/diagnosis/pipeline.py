@@ -35,6 +35,7 @@ from typing import Dict, List, Optional, Sequence
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.diagnosis import text
 from wheel_force_estimator.diagnosis.agreement import agreed_findings
+from wheel_force_estimator.diagnosis.candidates import HYPOTHESES
 from wheel_force_estimator.diagnosis.choice import compare
 from wheel_force_estimator.diagnosis.corner import with_sharper_corner
 from wheel_force_estimator.diagnosis.dynamic import dynamic_findings
@@ -43,7 +44,6 @@ from wheel_force_estimator.diagnosis.features import pairing
 from wheel_force_estimator.diagnosis.hardening import add_omissions
 from wheel_force_estimator.diagnosis.hardening import pooled_gain
 from wheel_force_estimator.diagnosis.hardening import settle_hardening
-from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
 from wheel_force_estimator.diagnosis.locate import locate_channel
 from wheel_force_estimator.diagnosis.motion import merge_motion
 from wheel_force_estimator.diagnosis.motion import motion_findings
@@ -226,7 +226,7 @@ def locate_stage(run: Run) -> list:
 
 
 def _candidates(run: Run) -> list:
-    """Return the hypotheses the selection tries."""
+    """Return the candidates the selection tries."""
     skip_names = {h.physics for h in run.companions}
     # Without --sim/--model the reference is the MIMO FIR fitted on these very records: a
     # delay, a rate or a left-right coupling of the motion lies in its span, so what such a

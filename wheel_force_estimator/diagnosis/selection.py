@@ -25,9 +25,9 @@ import numpy as np
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
+from wheel_force_estimator.diagnosis.candidates import Candidate
+from wheel_force_estimator.diagnosis.candidates import LINEAR_RATES
 from wheel_force_estimator.diagnosis.features import ChannelContext
-from wheel_force_estimator.diagnosis.hypotheses import Hypothesis
-from wheel_force_estimator.diagnosis.hypotheses import LINEAR_RATES
 
 
 @dataclass(frozen=True)
@@ -327,7 +327,7 @@ def full_fit(stats: Stats) -> np.ndarray:
 class Evaluated:
     """Best shape of one hypothesis at one greedy step."""
 
-    hypothesis: Hypothesis
+    hypothesis: Candidate
     shape: Dict[str, float]
     gain: float
 
@@ -336,7 +336,7 @@ class Evaluated:
 class Accepted:
     """A term accepted for a channel (or a pooled group of channels)."""
 
-    hypothesis: Hypothesis
+    hypothesis: Candidate
     shape: Dict[str, float]
     gain: float
     null_gains: Tuple[float, ...]
@@ -370,7 +370,7 @@ class Selector:
     """
 
     def __init__(self, pieces: Sequence[Piece], config: SelectionConfig,
-                 companions: Sequence[Hypothesis] = (),
+                 companions: Sequence[Candidate] = (),
                  sim_pieces: Optional[Sequence[Piece]] = None):
         self.data = CvData(pieces, config)
         self.config = config
@@ -500,7 +500,7 @@ class Selector:
             return 0.0
         return 100.0 * float(np.sqrt(max(sse, 0.0) / self.data.target_ss))
 
-    def run(self, hypotheses: Sequence[Hypothesis]) -> Outcome:
+    def run(self, hypotheses: Sequence[Candidate]) -> Outcome:
         """Add candidates greedily while they pass the significance test."""
         cfg = self.config
         contexts = [p.ctx for p in self.data.pieces]
@@ -561,7 +561,7 @@ class Selector:
         return Outcome(final, companions, ranking, rejected, self._pct(start_sse),
                        self._pct(self._sse()))
 
-    def fit_single(self, hyp: Hypothesis) -> Tuple[Dict[str, float], float, float, float]:
+    def fit_single(self, hyp: Candidate) -> Tuple[Dict[str, float], float, float, float]:
         """Best shape, held-out gain, coefficient and starting SSE of one hypothesis alone."""
         base_sse = self._sse()
         grid = hyp.grid([p.ctx for p in self.data.pieces])
@@ -574,7 +574,7 @@ class Selector:
         coef = full_fit(block_stats(self.data, cols, self._offset))[-1]
         return dict(shape), float(gain), float(coef), base_sse
 
-    def null_gains(self, hyp: Hypothesis, grid=None, base_sse=None,
+    def null_gains(self, hyp: Candidate, grid=None, base_sse=None,
                    shape=None) -> Tuple[float, ...]:
         """
         Best gains of ``hyp`` on features circularly shifted against the force (the null).
