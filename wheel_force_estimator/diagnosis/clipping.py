@@ -102,7 +102,7 @@ def clip_bound(n_inputs: int, alpha: float = CLIP_ALPHA) -> float:
 
     Either side of every one of the ``n_inputs`` sensors of a recording may clip, and all are
     tested, so the false-alarm rate of the recording stays ``alpha`` (Bonferroni).  The one
-    rule of the clip finding (:mod:`diagnosis.motion`) and of the clip term's candidate
+    rule of the clip finding (:mod:`diagnosis.finders.motion`) and of the clip term's candidate
     (:mod:`diagnosis.grids`): a clip significant for one is significant for the other.
     """
     return alpha / (2.0 * n_inputs)
