@@ -127,6 +127,7 @@ class Builder:
         return shape, gain, coef, gain * base
 
     def findings(self) -> List[Finding]:
+        """Return one finding per accepted candidate and channel group, priority first."""
         by_key: Dict[str, List[str]] = {}
         for ch in self.channels:
             for a in self.outcomes[ch].accepted:
