@@ -283,6 +283,20 @@ class Selector:
             return 0.0
         return 100.0 * float(np.sqrt(max(sse, 0.0) / self.data.target_ss))
 
+    def _add(self, hyp: Candidate, shape) -> None:
+        """Keep an accepted candidate in the design (real and simulated) of later steps."""
+        cols = self._columns(hyp, shape)
+        if hyp.fixed_coefficient:
+            self._offset = [o + c for o, c in zip(self._offset, cols)]
+        else:
+            self._base_cols = [b + [c] for b, c in zip(self._base_cols, cols)]
+        if self.sim is not None:
+            sim_cols = self._columns_of(self.sim, hyp, shape)
+            if hyp.fixed_coefficient:
+                self._sim_offset = [o + c for o, c in zip(self._sim_offset, sim_cols)]
+            else:
+                self._sim_cols = [b + [c] for b, c in zip(self._sim_cols, sim_cols)]
+
     def run(self, hypotheses: Sequence[Candidate]) -> Outcome:
         """Add candidates greedily while they pass the significance test."""
         cfg = self.config
@@ -319,17 +333,7 @@ class Selector:
             if reason is not None:
                 rejected = (choice, nulls, reason)
                 break
-            cols = self._columns(hyp, choice.shape)
-            if hyp.fixed_coefficient:
-                self._offset = [o + c for o, c in zip(self._offset, cols)]
-            else:
-                self._base_cols = [b + [c] for b, c in zip(self._base_cols, cols)]
-            if self.sim is not None:
-                sim_cols = self._columns_of(self.sim, hyp, choice.shape)
-                if hyp.fixed_coefficient:
-                    self._sim_offset = [o + c for o, c in zip(self._sim_offset, sim_cols)]
-                else:
-                    self._sim_cols = [b + [c] for b, c in zip(self._sim_cols, sim_cols)]
+            self._add(hyp, choice.shape)
             accepted.append(Accepted(hyp, choice.shape, choice.gain, nulls, 1.0,
                                      self._pct(base_sse), self._pct(after_sse), base_sse))
             candidates = [h for h in candidates if h.physics != hyp.physics]
