@@ -5,8 +5,8 @@ Cost of the motion findings (clip and lift-off tests) against the FRF fit of a d
 
 One full proving-ground course (``duration_scale`` 1.0, ~10 min at 512 Hz, 12 + 12 channels)
 for the nominal car (sim) and a car with tyre lift-off (real), both in memory.  Timed in the
-same run: ``diagnosis.motion.motion_findings(real, sim)`` and, as the baseline, the linear
-MIMO FRF fit that every diagnosis makes on the simulation (``core.pipeline.fit_model``).
+same run: ``diagnosis.finders.motion.motion_findings(real, sim)`` and, as the baseline, the
+linear MIMO FRF fit that every diagnosis makes on the simulation (``core.pipeline.fit_model``).
 
 Run: ``nice -n 5 .venv/bin/python bench/bench_motion.py [--scale X]`` (about 1 min).
 """
@@ -16,7 +16,7 @@ import time
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.diagnosis.features import pairing
-from wheel_force_estimator.diagnosis.motion import motion_findings
+from wheel_force_estimator.diagnosis.finders.motion import motion_findings
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 from wheel_force_estimator.diagnosis.run import DiagnosisConfig
 from wheel_force_estimator.diagnosis.run import fit_linear

@@ -5,12 +5,12 @@ import numpy as np
 import pytest
 
 from wheel_force_estimator.core.errors import ConfigError
-from wheel_force_estimator.diagnosis.agreement import agreed_findings
-from wheel_force_estimator.diagnosis.agreement import AgreementConfig
-from wheel_force_estimator.diagnosis.agreement import votes
+from wheel_force_estimator.diagnosis.candidates import BY_KEY
+from wheel_force_estimator.diagnosis.candidates import BY_NAME
 from wheel_force_estimator.diagnosis.features import ChannelContext
-from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
-from wheel_force_estimator.diagnosis.hypotheses import BY_NAME
+from wheel_force_estimator.diagnosis.finders.agreement import agreed_findings
+from wheel_force_estimator.diagnosis.finders.agreement import AgreementConfig
+from wheel_force_estimator.diagnosis.finders.agreement import votes
 from wheel_force_estimator.diagnosis.prepared import pieces
 from wheel_force_estimator.diagnosis.prepared import Prepared
 from wheel_force_estimator.diagnosis.run import DiagnosisConfig

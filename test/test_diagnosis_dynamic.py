@@ -1,7 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Physics inside a structure (:mod:`diagnosis.dynamic`).
+Physics inside a structure (:mod:`diagnosis.finders.structure`).
 
 A term whose force reaches the sensor through the structure's own response.
 

@@ -6,10 +6,10 @@ import pytest
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.diagnosis.blocks import Piece
+from wheel_force_estimator.diagnosis.candidates import BY_KEY
 from wheel_force_estimator.diagnosis.features import ChannelContext
 from wheel_force_estimator.diagnosis.features import pairing
-from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
-from wheel_force_estimator.diagnosis.selection import Piece
 from wheel_force_estimator.diagnosis.selection import SelectionConfig
 from wheel_force_estimator.diagnosis.selection import Selector
 
@@ -116,8 +116,8 @@ def test_a_damping_change_inside_the_tolerance_is_drift_and_outside_it_is_named(
 
 def test_known_mass_error_and_time_delay_become_term_parameters():
     from wheel_force_estimator.core.physics import PhysicsTerm
-    from wheel_force_estimator.diagnosis.hypotheses import shift_signal
-    from wheel_force_estimator.diagnosis.hypotheses import term_parameters
+    from wheel_force_estimator.diagnosis.candidates import term_parameters
+    from wheel_force_estimator.diagnosis.grids import shift_signal
     stiffness, damping, mass = 20000.0, 2000.0, 15.0
     disp, vel, acc = _linear_motion()
     load = stiffness * disp + damping * vel + mass * acc
@@ -146,15 +146,15 @@ def test_known_mass_error_and_time_delay_become_term_parameters():
 
 def test_every_candidate_is_a_registered_term_kind():
     from wheel_force_estimator.core.physics import TERM_KINDS
-    from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
-    from wheel_force_estimator.diagnosis.hypotheses import LOAD_LINEAR
+    from wheel_force_estimator.diagnosis.candidates import HYPOTHESES
+    from wheel_force_estimator.diagnosis.candidates import LOAD_LINEAR
     # One registry: every candidate the diagnosis ranks can be written as a model term.
     assert {h.key for h in HYPOTHESES + (LOAD_LINEAR,)} <= set(TERM_KINDS)
 
 
 def test_short_records_get_shorter_cross_validation_blocks_down_to_the_floor():
     from wheel_force_estimator.core.errors import DiagnosisError
-    from wheel_force_estimator.diagnosis.selection import CvData
+    from wheel_force_estimator.diagnosis.blocks import CvData
     config = SelectionConfig()                       # 5 folds of 2 s blocks (512 samples)
 
     def pieces(*sizes):
@@ -175,7 +175,7 @@ def test_short_records_get_shorter_cross_validation_blocks_down_to_the_floor():
 
 
 def test_null_lags_of_a_periodic_feature_are_where_it_is_unlike_itself():
-    from wheel_force_estimator.diagnosis.selection import null_lags
+    from wheel_force_estimator.diagnosis.blocks import null_lags
     n, period = 8192, 256
     phase = 2 * np.pi * np.arange(n) / period
     # A sine, its square wave (odd harmonics) and its rectified form (even harmonics): a
@@ -198,7 +198,7 @@ def test_a_short_sine_test_gets_fewer_null_lags_rather_than_related_ones():
     # from one keeps (1 + cos(0.25 pi)) / 2 = 85 % of the energy in phase - the feature
     # itself, as far as a null can tell (bug caught: filling the null with such lags, which
     # explained 27 % of the friction damper's residual against 49 % for the true backlash).
-    from wheel_force_estimator.diagnosis.selection import null_lags
+    from wheel_force_estimator.diagnosis.blocks import null_lags
     n, period = 6144, 1024
     for feature in (np.sin(2 * np.pi * np.arange(n) / period),
                     np.clip(np.sin(2 * np.pi * np.arange(n) / period), -0.3, 0.3)):
@@ -208,7 +208,7 @@ def test_a_short_sine_test_gets_fewer_null_lags_rather_than_related_ones():
 
 
 def test_the_null_of_a_sine_test_is_not_the_feature_shifted_by_whole_periods():
-    from wheel_force_estimator.diagnosis.selection import NullShift
+    from wheel_force_estimator.diagnosis.blocks import NullShift
     hyp = BY_KEY['backlash:load']
     n = 8192
     # A sine test at a period that divides the record: the old fixed quarter-record shift

@@ -11,9 +11,9 @@ from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.diagnosis.clipping import clip_test
 from wheel_force_estimator.diagnosis.features import pairing
-from wheel_force_estimator.diagnosis.motion import merge_motion
-from wheel_force_estimator.diagnosis.motion import motion_findings
-from wheel_force_estimator.diagnosis.motion import supporting_mass
+from wheel_force_estimator.diagnosis.finders.motion import motion_findings
+from wheel_force_estimator.diagnosis.finders.motion import supporting_mass
+from wheel_force_estimator.diagnosis.finders.reconcile import merge_motion
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 from wheel_force_estimator.diagnosis.result import Finding
 from wheel_force_estimator.sim.api import simulate

@@ -102,7 +102,7 @@ def test_same_law_and_amplitude_dependent_stiffening_are_not_linear_omissions():
 
 def test_known_mass_error_gain_is_read_back_into_the_term():
     from wheel_force_estimator.diagnosis.features import ChannelContext
-    from wheel_force_estimator.diagnosis.hypotheses import load_state
+    from wheel_force_estimator.diagnosis.grids import load_state
 
     def heavier(pred):
         # A 7 % heavier car as the term models it: 7 % more of the load below 1 Hz.

@@ -21,7 +21,7 @@ else is named for them instead:
 - ``tire_lift_off``: the WFT at the hub reads the suspension force plus inboard inertia, which
   do not depend on the tyre contact, so lifting off changes the recorded motion but hardly the
   acceleration-to-force behaviour (it adds 0.2 x the noise floor on the worst channel, on
-  0.3 % of the samples).  It is named from the motion instead (:mod:`diagnosis.motion`: the
+  0.3 % of the samples).  It is named from the motion instead (:mod:`diagnosis.finders.motion`: the
   free-flight signature ``Fz = -m_o az`` and a tyre that never pulls), without a model term.
 - ``bump_stop`` at its concealed size (engaged on 3 % of the samples): the true stop force
   explains 18 % of the Fz residual (coefficient 1.0), but no feature the recordings give

@@ -21,7 +21,7 @@ state in the stage.
 A term may carry a causal *response* (``response_taps``): its force then passes through that
 FIR before it is added.  A nonlinear element inside a structure (a friction joint between a
 measured base and an unmeasured mass) does not add its force to the measured one: the force
-reaches the sensor through the structure's dynamics (:mod:`diagnosis.dynamic`).
+reaches the sensor through the structure's dynamics (:mod:`diagnosis.finders.structure`).
 """
 import dataclasses
 from dataclasses import dataclass

@@ -1,7 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Sim-vs-real diagnosis: residual location, physics hypotheses, cross-validated selection.
+Sim-vs-real diagnosis: residual location, physics candidates, cross-validated selection.
 
 ``diagnose(real, sim_or_model, holdout, config)`` is the entry point; recordings are
 :class:`MotionRecording` (from bags via ``recording.from_bag_recording`` or from text tables /

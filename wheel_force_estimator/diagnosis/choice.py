@@ -294,7 +294,7 @@ def _gated(findings, real, reference, holdout, split, channels, sources, partner
     """
     metric = METRIC[real[0].input_quantity]
     # Terms inside the structure were fitted with the FIR refitted around them (their linear
-    # part partialled out, :mod:`diagnosis.dynamic`): added to the reference as it is, they
+    # part partialled out, :mod:`finders.structure`): added to the reference as it is, they
     # would count that part twice, so the gate judges them on the refitted model.
     dynamic = [f for f in findings if is_dynamic(f)]
     static = [f for f in findings if not is_dynamic(f)]

@@ -9,7 +9,7 @@ values: the tail thins toward the extreme).  :func:`clip_test` compares the coun
 extreme with a Poisson law whose mean is how often the :data:`NEIGHBOURS` distinct values next
 to it repeat, so no fraction of clipped samples is assumed (a clip on far fewer than 0.1 % of
 the samples is significant when it is exact).  :mod:`.motion` names ``sensor_saturation`` from
-it (Bonferroni over channels and sides); :mod:`.hypotheses` takes the clip level of the
+it (Bonferroni over channels and sides); :mod:`.grids` takes the clip level of the
 ``sensor_saturation`` term from it.
 """
 from dataclasses import dataclass
@@ -102,8 +102,8 @@ def clip_bound(n_inputs: int, alpha: float = CLIP_ALPHA) -> float:
 
     Either side of every one of the ``n_inputs`` sensors of a recording may clip, and all are
     tested, so the false-alarm rate of the recording stays ``alpha`` (Bonferroni).  The one
-    rule of the clip finding (:mod:`diagnosis.motion`) and of the clip term's candidate
-    (:mod:`diagnosis.hypotheses`): a clip significant for one is significant for the other.
+    rule of the clip finding (:mod:`diagnosis.finders.motion`) and of the clip term's candidate
+    (:mod:`diagnosis.grids`): a clip significant for one is significant for the other.
     """
     return alpha / (2.0 * n_inputs)
 

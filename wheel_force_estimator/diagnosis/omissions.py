@@ -36,7 +36,7 @@ from scipy import signal
 from wheel_force_estimator.core.metrics import highpass
 from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.diagnosis.features import ChannelContext
-from wheel_force_estimator.diagnosis.hypotheses import load_state
+from wheel_force_estimator.diagnosis.grids import load_state
 from wheel_force_estimator.diagnosis.result import Finding
 
 #: Quasi-static band [Hz] (below the body mode, above the integrators' settling).

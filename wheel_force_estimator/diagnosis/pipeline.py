@@ -15,53 +15,62 @@ its outer loop runs the stages again at a sharper differentiator corner
    the reference's prediction per record (:mod:`diagnosis.features`,
    :mod:`diagnosis.prepared`);
 4. :func:`locate_stage` - where each channel's residual lives (:mod:`diagnosis.locate`);
-5. :func:`find_stage` - per-channel candidates accepted by one rule against a
-   time-shifted-feature null (:mod:`diagnosis.selection`), shared parameters per axis,
-   physics inside a structure (:mod:`diagnosis.dynamic`) and the whole-vehicle comparisons
-   (:mod:`diagnosis.coupling`, :mod:`diagnosis.omissions`);
-6. :func:`rank_stage` - effects seen in the inputs first, then by the squared RMSE removed;
-7. :func:`choose_stage` - the motion findings (:mod:`diagnosis.motion`), the written model
-   judged on held-out data (the gate half of the holdout, or held-out blocks of the training
-   recordings), never worse than the plain fit in either figure, and before / real_linear /
-   after scored as ``evaluate`` scores them (:mod:`diagnosis.choice`);
-8. :func:`report_stage` - the DESIGN.md result and the summary (:mod:`diagnosis.result`,
-   :mod:`diagnosis.text`).
+5. :func:`find_stage` - the per-channel selection, then the finders of :data:`FINDERS` in
+   order (:mod:`diagnosis.finders`: per channel, agreement across corners, inside the
+   structure, structural whole-vehicle comparisons, the pooled kind of hardening), each
+   accepting a candidate by one rule (:mod:`finders.acceptance`) and combined by one rule
+   (:func:`finders.reconcile.reconcile`: a later finder's finding supersedes what an earlier
+   one named of the same effect on its channels); and the motion finder
+   (:mod:`finders.motion`), which reads the recordings, not the residual;
+6. :func:`rank_stage` - effects seen in the inputs first, then the structural findings, then
+   by the squared RMSE removed (:func:`run.ranked`);
+7. :func:`choose_stage` - the written model judged on held-out data (the gate half of the
+   holdout, or held-out blocks of the training recordings), never worse than the plain fit
+   in either figure, and before / real_linear / after scored as ``evaluate`` scores them
+   (:mod:`diagnosis.choice`); the motion findings' channels choose between the reference
+   and the plain fit;
+8. :func:`report_stage` - the motion findings first, one finding per physics
+   (:func:`finders.reconcile.merge_motion`), the DESIGN.md result and the summary
+   (:mod:`diagnosis.result`, :mod:`diagnosis.text`).
 """
 from dataclasses import dataclass
 from dataclasses import field
 from dataclasses import replace
-from typing import Dict, List, Optional, Sequence
+from typing import Dict, List, Optional, Sequence, Tuple
 
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.diagnosis import text
-from wheel_force_estimator.diagnosis.agreement import agreed_findings
 from wheel_force_estimator.diagnosis.choice import compare
 from wheel_force_estimator.diagnosis.corner import with_sharper_corner
-from wheel_force_estimator.diagnosis.dynamic import dynamic_findings
-from wheel_force_estimator.diagnosis.features import paired_by_coherence
 from wheel_force_estimator.diagnosis.features import pairing
-from wheel_force_estimator.diagnosis.hardening import add_omissions
-from wheel_force_estimator.diagnosis.hardening import pooled_gain
-from wheel_force_estimator.diagnosis.hardening import settle_hardening
-from wheel_force_estimator.diagnosis.hypotheses import HYPOTHESES
+from wheel_force_estimator.diagnosis.finders import agreement
+from wheel_force_estimator.diagnosis.finders import hardening
+from wheel_force_estimator.diagnosis.finders import motion
+from wheel_force_estimator.diagnosis.finders import per_channel
+from wheel_force_estimator.diagnosis.finders import structural
+from wheel_force_estimator.diagnosis.finders import structure
+from wheel_force_estimator.diagnosis.finders.reconcile import merge_motion
+from wheel_force_estimator.diagnosis.finders.reconcile import reconcile
 from wheel_force_estimator.diagnosis.locate import locate_channel
-from wheel_force_estimator.diagnosis.motion import merge_motion
-from wheel_force_estimator.diagnosis.motion import motion_findings
-from wheel_force_estimator.diagnosis.prepared import pieces
 from wheel_force_estimator.diagnosis.prepared import prepare
 from wheel_force_estimator.diagnosis.recording import check_compatible
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 from wheel_force_estimator.diagnosis.result import DiagnosisResult
-from wheel_force_estimator.diagnosis.run import Builder
-from wheel_force_estimator.diagnosis.run import coupling_finding
 from wheel_force_estimator.diagnosis.run import DiagnosisConfig
 from wheel_force_estimator.diagnosis.run import is_simulation
 from wheel_force_estimator.diagnosis.run import ranked
 from wheel_force_estimator.diagnosis.run import real_linear_fit
 from wheel_force_estimator.diagnosis.run import reference_of
-from wheel_force_estimator.diagnosis.run import without_duplicates
-from wheel_force_estimator.diagnosis.selection import Selector
-from wheel_force_estimator.diagnosis.sources import sources_by_selection
+from wheel_force_estimator.diagnosis.selection import pooled_gain
+
+#: The finders of the residual, in the order they run (:func:`find_stage`).  Each sees the
+#: findings of those before it; a later one's finding supersedes an earlier one's of the same
+#: effect on its channels (:mod:`finders.reconcile`).  Each decides itself in which modes it
+#: runs: agreement against a simulation or model, inside the structure without either, the
+#: structural comparisons against a simulation's FRF, the pooled hardening against a
+#: simulation.
+FINDERS = (('per_channel', per_channel), ('agreement', agreement), ('structure', structure),
+           ('structural', structural), ('hardening', hardening))
 
 
 def diagnose(real: Sequence[MotionRecording], sim_or_model=None,
@@ -143,6 +152,18 @@ class Run:
         """High-pass of the residual analysis [Hz] (0 = none)."""
         return self.config.selection.highpass_hz
 
+    def prepare(self, sources=None) -> None:
+        """Pair each output with its source input (``sources`` when given); features, preds."""
+        rec0 = self.real[0]
+        if sources is None:
+            self.sources, self.partners = pairing(self.channels, rec0.input_channels, self.real)
+        else:
+            self.sources = sources
+        args = (self.reference, self.sources, self.partners, self.config)
+        self.prep = prepare(self.real, *args)
+        self.sim_prep = prepare(self.sim, *args) if self.sim else None
+        self.gains.clear()
+
     def pooled(self, group, key) -> float:
         """Return the shared-parameter gain of ``key`` over ``group`` (cached)."""
         # Shared-parameter fits are the costly part, and omissions, hardening and ranking
@@ -160,10 +181,10 @@ def diagnose_once(real, sim_or_model, holdout, config) -> DiagnosisResult:
     real_linear_stage(run)
     prepare_stage(run)
     mismatch = locate_stage(run)
-    findings, structural = find_stage(run)
-    findings = rank_stage(run, findings, structural)
-    findings, fit, model = choose_stage(run, findings)
-    return report_stage(run, mismatch, findings, fit, model)
+    found = find_stage(run)
+    findings = rank_stage(run, found)
+    findings, fit, model = choose_stage(run, findings, found.motion)
+    return report_stage(run, mismatch, findings, found.motion, fit, model)
 
 
 def reference_stage(real, sim_or_model, holdout, config) -> Run:
@@ -202,17 +223,9 @@ def real_linear_stage(run: Run) -> None:
         run.notes.append(f'no real-data linear model: {err}')
 
 
-def prepare_stage(run: Run, sources=None) -> None:
+def prepare_stage(run: Run) -> None:
     """Pair each output with its source input; features and reference predictions."""
-    rec0 = run.real[0]
-    if sources is None:
-        run.sources, run.partners = pairing(run.channels, rec0.input_channels, run.real)
-    else:
-        run.sources = sources
-    args = (run.reference, run.sources, run.partners, run.config)
-    run.prep = prepare(run.real, *args)
-    run.sim_prep = prepare(run.sim, *args) if run.sim else None
-    run.gains.clear()
+    run.prepare()
 
 
 def locate_stage(run: Run) -> list:
@@ -225,71 +238,40 @@ def locate_stage(run: Run) -> list:
     return sorted(located, key=lambda m: -m.rmse_pct)
 
 
-def _candidates(run: Run) -> list:
-    """Return the hypotheses the selection tries."""
-    skip_names = {h.physics for h in run.companions}
-    # Without --sim/--model the reference is the MIMO FIR fitted on these very records: a
-    # delay, a rate or a left-right coupling of the motion lies in its span, so what such a
-    # candidate "explains" is the FIR's estimation error (measured: a delay explained 51 % of
-    # a linear sine rig's residual), not missing physics.
-    return [h for h in HYPOTHESES if h.physics not in skip_names
-            and not (run.mode == 'linear' and h.lti)]
+@dataclass(frozen=True)
+class Found:
+    """What the finders found: the combined findings, each finder's own, the motion ones."""
+
+    findings: Tuple
+    by_finder: Dict[str, Tuple]
+    motion: Tuple
 
 
-def _select_channels(run: Run, candidates) -> None:
-    """Run the per-channel selection; with coherence pairing, choose the sources by it."""
-    for o, ch in enumerate(run.channels):
-        sim_pieces = pieces(run.sim_prep, o, ch) if run.sim_prep else None
-        run.outcomes[ch] = Selector(pieces(run.prep, o, ch), run.config.selection,
-                                    run.companions, sim_pieces).run(candidates)
-    if paired_by_coherence(run.channels, run.real[0].input_channels):
-        chosen = sources_by_selection(run.prep, run.sim_prep, run.reference, run.sources,
-                                      run.outcomes, run.config, run.companions, candidates)
-        if chosen != run.sources:
-            prepare_stage(run, chosen)
-
-
-def find_stage(run: Run):
+def find_stage(run: Run) -> Found:
     """
-    Return ``(findings, ids of the structural ones)``: every finder's accepted findings.
+    Run the per-channel selection, then every finder of :data:`FINDERS` in order.
 
-    Per channel and shared per axis (:class:`run.Builder`), inside the structure without a
-    reference model, agreement across corners against one, and against a simulation the
-    whole-vehicle comparisons and the settling of the hardening kind.
+    The selection (:func:`finders.per_channel.select`) fills ``run.outcomes``, which the
+    agreement and the search inside the structure read too.  Each finder's findings are
+    combined with those before by the one rule of :func:`finders.reconcile.reconcile`.  The
+    motion finder reads the recordings only; its findings join at the report.
     """
-    _select_channels(run, _candidates(run))
-    config = run.config
-    builder = Builder(run.prep, run.outcomes, run.channels, run.sources, run.partners,
-                      config, run.companions, run.sim_prep)
-    findings = builder.findings()
-    if run.mode == 'linear':
-        findings += dynamic_findings(run.prep, run.reference, run.channels, run.sources,
-                                     run.outcomes, config)
-    else:
-        findings += agreed_findings(run.outcomes, run.channels, run.prep, run.sim_prep,
-                                    builder, config, config.agreement)
-    structural = []
-    if run.mode == 'sim' and run.reference.kind == 'frf':
-        coupling = coupling_finding(run.real, run.reference, run.channels, config, run.hp)
-        added = [coupling] if coupling is not None else []
-        findings, omitted = add_omissions(findings, run.real, run.sim, run.reference,
-                                          run.channels, run.sources, config, run.pooled)
-        added += omitted
-        findings = without_duplicates(findings, added) + added
-        structural = [id(f) for f in added]
-    if run.mode == 'sim':
-        findings = settle_hardening(findings, builder, run.prep, run.sim_prep, run.channels,
-                                    config, run.pooled)
-    return findings, structural
+    per_channel.select(run)
+    findings, by_finder = [], {}
+    for name, finder in FINDERS:
+        by_finder[name] = tuple(finder.find(run, tuple(findings)))
+        findings = reconcile(findings, by_finder[name])
+    return Found(tuple(findings), by_finder, tuple(motion.find(run, ())))
 
 
-def rank_stage(run: Run, findings, structural) -> list:
+def rank_stage(run: Run, found: Found) -> list:
     """Return the findings ranked (:func:`run.ranked`)."""
-    return ranked(findings, run.prep, run.channels, run.hp, run.real[0].fs_hz, structural,
-                  run.pooled)
+    structural_ids = [id(f) for f in found.by_finder['structural']]
+    return ranked(list(found.findings), run.prep, run.channels, run.hp, run.real[0].fs_hz,
+                  structural_ids, run.pooled)
 
 
-def choose_stage(run: Run, findings):
+def choose_stage(run: Run, findings, motion_found):
     """
     Return ``(findings, FitComparison, written model or None)``.
 
@@ -297,21 +279,25 @@ def choose_stage(run: Run, findings):
     from the simulated one: where they are, the written model is chosen between the
     reference and the plain fit on the real data (no longer "no change").
     """
-    motion = motion_findings(run.real, run.sim, run.sources, run.config.motion)
     lin = run.real_linear
     frf_sim = run.mode == 'sim' and run.reference.kind == 'frf'
-    findings, fit, model = compare(
+    return compare(
         findings, run.real, run.reference, run.mode, run.holdout, run.channels, run.sources,
         run.partners, run.config,
         lin.refit if lin is not None else (lambda recs: real_linear_fit(recs, run.config).model),
         lin.model if lin is not None else None,
-        motion_channels=sorted({c for m in motion for c in m.channels}), notes=run.notes,
-        sim=run.sim, sim_fit=run.reference.refit if frf_sim else None)
-    return merge_motion(findings, motion), fit, model
+        motion_channels=sorted({c for m in motion_found for c in m.channels}),
+        notes=run.notes, sim=run.sim, sim_fit=run.reference.refit if frf_sim else None)
 
 
-def report_stage(run: Run, mismatch, findings, fit, model) -> DiagnosisResult:
-    """Return the result: findings, figures, the rejected candidates and the summary."""
+def report_stage(run: Run, mismatch, findings, motion_found, fit,
+                 model) -> DiagnosisResult:
+    """
+    Return the result: findings, figures, the rejected candidates and the summary.
+
+    The motion findings come first, one per physics (:func:`finders.reconcile.merge_motion`).
+    """
+    findings = merge_motion(findings, motion_found)
     named = {(c, f.physics) for f in findings for c in f.channels}
     outcomes = run.outcomes
     rejected = tuple(text.rejection(ch, outcomes[ch].rejected) for ch in run.channels

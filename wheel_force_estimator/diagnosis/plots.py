@@ -9,25 +9,10 @@ from scipy import signal
 
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.diagnosis.candidates import BY_NAME
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.features import motion_features
 from wheel_force_estimator.diagnosis.features import pairing
-from wheel_force_estimator.diagnosis.hypotheses import BY_NAME
-
-#: Which state reveals each physics (feature key, axis label).
-_STATE = {'bump_stop': ('displacement', 'displacement [m]'),
-          'rebound_stop': ('displacement', 'displacement [m]'),
-          'cubic_stiffness': ('displacement', 'displacement [m]'),
-          'backlash': ('displacement', 'displacement [m]'),
-          'stiffness_error': ('displacement', 'displacement [m]'),
-          'anti_roll_bar': ('displacement', 'displacement [m]'),
-          'damper_asymmetry': ('velocity', 'velocity [m/s]'),
-          'coulomb_friction': ('velocity', 'velocity [m/s]'),
-          'damping_error': ('velocity', 'velocity [m/s]'),
-          'mass_error': ('acceleration', 'acceleration [m/s^2]'),
-          'sensor_saturation': ('level', 'recorded input'),
-          'tire_lift_off': ('load', 'predicted force [N]'),
-          'time_delay': ('load', 'predicted force [N]')}
 
 
 def _pyplot():
@@ -91,7 +76,7 @@ def _regime_plot(plt, path, rec, o, before, finding, after=None):
     else:
         source = pairing(rec.output_channels, rec.input_channels, (rec,))[0][o]
     s = rec.input_channels.index(source)
-    key, label = _STATE.get(finding.physics, ('displacement', 'displacement [m]'))
+    key, label = BY_NAME[finding.physics].plot
     if term is not None and term.response_taps and after is not None:
         # Inside the structure no motion state shows it (the force arrives through the
         # structure's response, with the FIR refitted around it): what the written model

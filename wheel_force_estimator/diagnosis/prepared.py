@@ -14,10 +14,10 @@ from typing import List, Sequence, Tuple
 import numpy as np
 
 from wheel_force_estimator.core.errors import DiagnosisError
+from wheel_force_estimator.diagnosis.blocks import Piece
 from wheel_force_estimator.diagnosis.features import channel_contexts
 from wheel_force_estimator.diagnosis.features import settle_samples
 from wheel_force_estimator.diagnosis.recording import MotionRecording
-from wheel_force_estimator.diagnosis.selection import Piece
 
 
 @dataclass

@@ -6,49 +6,34 @@ The diagnosis's settings and the helpers its stages use (:mod:`diagnosis.pipelin
 - :class:`DiagnosisConfig`: every setting of a diagnosis;
 - :func:`reference_of`, :func:`real_linear_fit`: the reference and the one real-data linear fit
   of the run (``fit``'s design);
-- :func:`coupling_finding`: the left-right coupling test, like with like;
-- :class:`Builder`: per-channel findings with shared parameters per axis;
-- :func:`ranked`: the ranking of the findings.
+- :func:`ranked`: the ranking of the findings;
+- :func:`is_simulation`: whether the run has simulation recordings.
 
 The stages themselves run in :func:`diagnosis.pipeline.diagnose_once`.
 """
 from dataclasses import dataclass
 from dataclasses import field
-from dataclasses import replace
-from typing import Dict, List, Optional, Sequence
+from typing import Dict, Optional
 
 import numpy as np
 
-from wheel_force_estimator import AXLES
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
-from wheel_force_estimator.core.physics import PhysicsTerm
-from wheel_force_estimator.diagnosis import text
-from wheel_force_estimator.diagnosis.agreement import AgreementConfig
+from wheel_force_estimator.diagnosis.candidates import BY_NAME
+from wheel_force_estimator.diagnosis.candidates import HARDENINGS
+from wheel_force_estimator.diagnosis.candidates import LINEAR_COMPANIONS
 from wheel_force_estimator.diagnosis.coupling import CouplingConfig
-from wheel_force_estimator.diagnosis.coupling import left_right_coupling
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 from wheel_force_estimator.diagnosis.features import motion_features
-from wheel_force_estimator.diagnosis.features import settle_samples
-from wheel_force_estimator.diagnosis.hardening import hardening_winner
-from wheel_force_estimator.diagnosis.hardening import HARDENINGS
-from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
-from wheel_force_estimator.diagnosis.hypotheses import BY_NAME
-from wheel_force_estimator.diagnosis.hypotheses import LINEAR_COMPANIONS
-from wheel_force_estimator.diagnosis.hypotheses import term_parameters
-from wheel_force_estimator.diagnosis.locate import regime_ratios
-from wheel_force_estimator.diagnosis.motion import MotionConfig
+from wheel_force_estimator.diagnosis.finders.agreement import AgreementConfig
+from wheel_force_estimator.diagnosis.finders.hardening import hardening_winner
+from wheel_force_estimator.diagnosis.finders.motion import MotionConfig
 from wheel_force_estimator.diagnosis.omissions import OmissionConfig
-from wheel_force_estimator.diagnosis.prepared import axis
-from wheel_force_estimator.diagnosis.prepared import group_pieces
-from wheel_force_estimator.diagnosis.prepared import pieces
 from wheel_force_estimator.diagnosis.recording import check_compatible
 from wheel_force_estimator.diagnosis.reference import FrfReference
 from wheel_force_estimator.diagnosis.reference import RegressionReference
-from wheel_force_estimator.diagnosis.result import Finding
 from wheel_force_estimator.diagnosis.selection import SelectionConfig
-from wheel_force_estimator.diagnosis.selection import Selector
 
 
 @dataclass(frozen=True)
@@ -100,7 +85,7 @@ class DiagnosisConfig:
         quasi-static load transfer), none for a linear-law reference.
     agreement : AgreementConfig
         When the corners of an axis that agree on a candidate name it together
-        (:mod:`diagnosis.agreement`; against a simulation or a model only).
+        (:mod:`finders.agreement`; against a simulation or a model only).
     progress : bool
         Show a tqdm bar on stderr, when it is a terminal, for the search over inputs
         (:mod:`diagnosis.sources`; minutes for a dozen unnamed inputs).
@@ -158,24 +143,6 @@ def real_linear_fit(recordings, config, name='real'):
                             progress=config.progress)
 
 
-def coupling_finding(real, reference, channels, config, hp):
-    """
-    Return the left-right coupling finding (anti-roll bar), or None.
-
-    The comparison is like with like: the real records fitted with the simulation FRF's own
-    design (not the design ``fit``'s search chooses for the real car), so the two FRFs
-    differ by the data alone.  Real records too short for that design: no coupling test.
-    """
-    try:
-        real_frf = FrfReference(reference.refit(real), 'real (simulation design)')
-    except DiagnosisError:
-        return None
-    rec0 = real[0]
-    return left_right_coupling(real, reference, real_frf, channels,
-                               settle_samples(rec0.fs_hz, rec0.input_quantity,
-                                              config.features), hp, config.coupling)
-
-
 def reference_of(real, sim_or_model, config):
     """Return ``(reference, companions, mode, sim recordings)``."""
     from wheel_force_estimator.core.model import FrfModel
@@ -215,156 +182,6 @@ def _check_overlap(real, sim, config):
                 f'{r_hi[i]:.4g} (dynamic RMS {r_rms[i]:.4g}), sim {s_lo[i]:.4g}..{s_hi[i]:.4g} '
                 f'(dynamic RMS {s_rms[i]:.4g}); a diagnosis needs the simulation driven like '
                 f'the real system')
-
-
-def _contribution(hyp, shape, coef, ctx):
-    return coef * hyp.basis(ctx, shape)
-
-
-def _groups(channels: Sequence[str]) -> List[List[List[str]]]:
-    """Ways to share parameters, widest first: all channels of an axis, axles, singles."""
-    options = [[list(channels)]]
-    front = [c for c in channels if c[:2] in AXLES[0]]
-    rear = [c for c in channels if c[:2] in AXLES[1]]
-    if front and rear and len(front) + len(rear) == len(channels):
-        options.append([front, rear])
-    if len(channels) > 1:
-        options.append([[c] for c in channels])
-    return options
-
-
-class Builder:
-    """Turns per-channel selections into findings with shared parameters and model terms."""
-
-    def __init__(self, prep, outcomes, channels, sources, partners, config, companions,
-                 sim_prep=None):
-        self.prep, self.outcomes, self.channels = prep, outcomes, channels
-        self.sim_prep = sim_prep
-        self.sources, self.partners = sources, partners
-        self.config, self.companions = config, companions
-        rec0 = prep.recordings[0]
-        self.fs_hz, self.quantity = rec0.fs_hz, rec0.input_quantity
-        self.hp, self.lp = config.features.resolved(self.fs_hz, self.quantity)
-
-    def _cleaned_pieces(self, channel, key):
-        """Pieces of ``channel`` with its other accepted terms and companions removed."""
-        o = self.channels.index(channel)
-        outcome = self.outcomes[channel]
-        cleaned = pieces(self.prep, o, channel)
-        for p in cleaned:
-            for a in outcome.accepted:
-                if a.hypothesis.key != key:
-                    p.residual = p.residual - _contribution(a.hypothesis, a.shape,
-                                                            a.coefficient, p.ctx)
-            for name, coef in outcome.companions.items():
-                p.residual = p.residual - _contribution(BY_NAME[name], {}, coef, p.ctx)
-        return cleaned
-
-    def _shared(self, key, group):
-        """Pooled fit over ``group``: (shape, gain, coefficient, sse drop)."""
-        real = [p for c in group for p in self._cleaned_pieces(c, key)]
-        sim_pieces = (None if self.sim_prep is None
-                      else group_pieces(self.sim_prep, self.channels, group))
-        sel = Selector(real, self.config.selection, (), sim_pieces)
-        shape, gain, coef, base = sel.fit_single(BY_KEY[key])
-        return shape, gain, coef, gain * base
-
-    def findings(self) -> List[Finding]:
-        by_key: Dict[str, List[str]] = {}
-        for ch in self.channels:
-            for a in self.outcomes[ch].accepted:
-                by_key.setdefault(a.hypothesis.key, []).append(ch)
-        found = []
-        for key, chans in by_key.items():
-            axes: Dict[str, List[str]] = {}
-            for c in chans:
-                axes.setdefault(axis(c), []).append(c)
-            for group in axes.values():
-                found.extend(self._group_findings(key, group))
-        found.sort(key=lambda f: (not BY_NAME[f.physics].priority, -f.explained_fraction))
-        return self._with_companions(found)
-
-    def _accepted(self, channel, key):
-        return next(a for a in self.outcomes[channel].accepted if a.hypothesis.key == key)
-
-    def _group_findings(self, key, group) -> List[Finding]:
-        singles = {c: self._accepted(c, key) for c in group}
-        for option in _groups(group):
-            if all(len(g) == 1 for g in option):
-                return [self._finding(key, [c], a.shape, a.coefficient, a.gain,
-                                      max(a.null_gains)) for c, a in singles.items()]
-            shared = [self._shared(key, g) for g in option]
-            ok = all(drop >= self.config.merge_ratio * sum(
-                singles[c].gain * singles[c].sse_before for c in g)
-                for g, (_, _, _, drop) in zip(option, shared))
-            if ok:
-                return [self._finding(key, g, shape, coef, gain,
-                                      max(max(singles[c].null_gains) for c in g))
-                        for g, (shape, gain, coef, _) in zip(option, shared)]
-        return []
-
-    def pooled_finding(self, key, group, shape, coef, gain, null) -> Finding:
-        """Return a finding of ``key`` fitted with shared parameters on ``group``."""
-        return self._finding(key, list(group), shape, coef, gain, null)
-
-    def _finding(self, key, group, shape, coef, gain, null) -> Finding:
-        hyp = BY_KEY[key]
-        physics = hyp.physics
-        params = term_parameters(hyp, shape, coef, self.fs_hz)
-        idx = [self.channels.index(c) for c in group]
-        causal = not (physics == 'time_delay' and params['delay_s'] < 0.0)
-        terms = ()
-        if causal:
-            terms = (PhysicsTerm(
-                physics=physics, channels=tuple(group), parameters=params,
-                sources=tuple(self.sources[i] for i in idx),
-                partners=tuple(self.partners[i] for i in idx) if physics == 'anti_roll_bar'
-                else (), input_quantity=self.quantity, highpass_hz=self.hp,
-                lowpass_hz=self.lp, state=hyp.state,
-                state_lowpass_hz=shape.get('state_lowpass_hz', 0.0)),)
-        ratios = {}
-        for c in group:
-            o = self.channels.index(c)
-            residuals = [p.residual for p in pieces(self.prep, o, c)]
-            ratios[c] = dict(regime_ratios(residuals, [ctx[o] for ctx in self.prep.contexts]))
-        evidence = text.evidence(hyp, group, params, gain, null, ratios, causal)
-        return Finding(physics, tuple(group), params, gain, evidence, terms, null)
-
-    def _with_companions(self, found: List[Finding]) -> List[Finding]:
-        """Attach each channel's refitted linear companions to its first finding."""
-        if not self.companions:
-            return found
-        done = set()
-        out = []
-        for f in found:
-            extra = []
-            for c in f.channels:
-                if c in done:
-                    continue
-                done.add(c)
-                i = self.channels.index(c)
-                for name, coef in self.outcomes[c].companions.items():
-                    params = BY_NAME[name].parameters({}, coef)
-                    extra.append(PhysicsTerm(name, (c,), params, sources=(self.sources[i],),
-                                             input_quantity=self.quantity,
-                                             highpass_hz=self.hp, lowpass_hz=self.lp))
-            out.append(replace(f, terms=f.terms + tuple(extra)))
-        return out
-
-
-def without_duplicates(findings, structural):
-    """
-    Drop per-channel findings of a physics a whole-vehicle finding names on the same channels.
-
-    Both would carry a term for the same effect on the same channels (a roll bar as a
-    per-channel displacement-difference stiffness and as the cross-corner load term), so
-    the model would count it twice, and the holdout gate, judging each on top of the
-    other, finds either harmful.  The whole-vehicle form is kept: it passed a test across
-    all corners.
-    """
-    named = [(f.physics, set(f.channels)) for f in structural]
-    return [f for f in findings
-            if not any(f.physics == p and set(f.channels) & c for p, c in named)]
 
 
 def ranked(findings, prep, channels, hp, fs_hz, structural=(), pooled=None):

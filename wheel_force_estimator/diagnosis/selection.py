@@ -3,19 +3,18 @@
 """
 Cross-validated ranking of candidate physics and the significance test that guards it.
 
-The residual of a channel (real force minus reference prediction) is cut into time blocks;
-blocks are dealt to ``n_folds`` folds (the same time block of every channel and recording goes
-to the same fold).  Inside each block an offset and a linear trend are projected out of the
-residual and of every column, so sensor offsets and slow drifts can never pass as physics.  A
-candidate's *gain* is the fraction of the residual sum of squares it removes on held-out
-folds, with its strength fitted on the other folds.
+The residual of a channel (real force minus reference prediction) is cut into time blocks
+(:mod:`diagnosis.blocks`).  A candidate's *gain* is the fraction of the residual sum of
+squares it removes on held-out folds, with its strength fitted on the other folds.
 
-A candidate is accepted only when its gain beats ``null_factor`` times the best gain the same
-candidate (same grid search) reaches when its features are circularly shifted against the
-force - an unrelated signal with the same distribution and spectrum, shifted where the feature
-is least like itself (:func:`null_lags`: a sine test's feature repeats every period) - and when
-it lowers the cross-validated RMSE by a practical amount.  Candidates are added greedily; a
-simpler candidate (fewer shape parameters) wins when it is within a small margin of the best.
+A candidate is accepted by the rule of :mod:`finders.acceptance`: its gain beats
+``null_factor`` times the best gain the same candidate (same grid search) reaches when its
+features are circularly shifted against the force - an unrelated signal with the same
+distribution and spectrum, shifted where the feature is least like itself
+(:func:`blocks.null_lags`: a sine test's feature repeats every period) - and it lowers the
+cross-validated RMSE by a practical amount.  Candidates are added greedily; a simpler
+candidate (fewer shape parameters) wins when it is within a small margin of the best.
+:func:`pooled_selector` runs the same selection over several channels with shared parameters.
 """
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -23,11 +22,19 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from wheel_force_estimator.core.errors import ConfigError
-from wheel_force_estimator.core.errors import DiagnosisError
-from wheel_force_estimator.core.metrics import highpass
-from wheel_force_estimator.diagnosis.features import ChannelContext
-from wheel_force_estimator.diagnosis.hypotheses import Hypothesis
-from wheel_force_estimator.diagnosis.hypotheses import LINEAR_RATES
+from wheel_force_estimator.diagnosis.blocks import block_stats
+from wheel_force_estimator.diagnosis.blocks import cv_sse
+from wheel_force_estimator.diagnosis.blocks import CvData
+from wheel_force_estimator.diagnosis.blocks import full_fit
+from wheel_force_estimator.diagnosis.blocks import null_lags
+from wheel_force_estimator.diagnosis.blocks import NullShift
+from wheel_force_estimator.diagnosis.blocks import Piece
+from wheel_force_estimator.diagnosis.blocks import solve
+from wheel_force_estimator.diagnosis.candidates import BY_KEY
+from wheel_force_estimator.diagnosis.candidates import Candidate
+from wheel_force_estimator.diagnosis.candidates import LINEAR_RATES
+from wheel_force_estimator.diagnosis.finders.acceptance import rejection
+from wheel_force_estimator.diagnosis.prepared import group_pieces
 
 
 @dataclass(frozen=True)
@@ -89,28 +96,6 @@ class SelectionConfig:
     highpass_hz: float = 0.0
     linear_tolerance: float = 0.04
 
-    def rejection(self, gain: float, null: Optional[float] = None,
-                  drop_pct: Optional[float] = None) -> Optional[str]:
-        """
-        Return why a candidate is not accepted, or None: the one acceptance rule.
-
-        ``gain`` is the fraction of the residual it explains on held-out blocks, ``null`` the
-        best fraction the same candidate explains with time-shifted features, ``drop_pct``
-        how much it lowers the cross-validated RMSE [points of %].  A figure not known yet
-        (None) is not judged, so a caller may reject on the gain before paying for the null.
-        Used by the per-channel selection and by the search inside the structure
-        (:mod:`diagnosis.dynamic`).
-        """
-        if gain < self.min_gain:
-            return f'explains {gain:.1%} < {self.min_gain:.0%} of the residual'
-        if null is not None and gain <= self.null_factor * max(null, 0.0):
-            return (f'explains {gain:.1%}, not {self.null_factor:g}x above the '
-                    f'{null:.1%} an unrelated (time-shifted) feature explains')
-        if drop_pct is not None and drop_pct < self.min_improvement_pct:
-            return (f'lowers the cross-validated RMSE by only {drop_pct:.2f} points '
-                    f'(< {self.min_improvement_pct:g})')
-        return None
-
     def __post_init__(self):
         if self.n_folds < 2 or self.n_null < 1 or self.max_terms < 1:
             raise ConfigError('n_folds must be >= 2, n_null and max_terms >= 1')
@@ -122,212 +107,10 @@ class SelectionConfig:
 
 
 @dataclass(frozen=True)
-class NullShift:
-    """Circular shift [samples] of every piece's features for one null repetition."""
-
-    data: Tuple[int, ...]
-    sim: Optional[Tuple[int, ...]] = None
-
-
-def null_lags(feature: np.ndarray, n_null: int) -> Tuple[int, ...]:
-    """
-    Return up to ``n_null`` circular shifts [samples] of ``feature`` for the shifted-feature null.
-
-    The null must be a feature *unrelated* to the force.  A shift where the feature is still
-    like itself is not: under periodic excitation (a rig's sine test) a shift by a whole
-    period reproduces the feature and a half period its negative, and either explains as much
-    as the true feature (measured on the friction-damper sine tests: the fixed quarter-record
-    shift explained 26 % of the residual, the aligned backlash 46 %).  So the shifts are the
-    lags of the middle half of the record where the least of the feature's energy stays in
-    phase, frequency by frequency (a per-frequency measure: the harmonics of a periodic
-    feature must each be out of phase, not cancel in a sum), at least ``n / (4 n_null)``
-    apart, and only lags keeping at most half in phase (what a signal of random phase keeps on
-    average; the best lag is always kept), so a short periodic record may give fewer than
-    ``n_null``.  Under broadband excitation every lag keeps about half in phase and the
-    choice changes nothing but which unrelated lags are used.  A constant feature keeps
-    evenly spread lags.
-    """
-    x = np.asarray(feature, dtype=np.float64)
-    n = x.size
-    lo, hi = n // 4, max(3 * n // 4, n // 4 + 1)
-    x = x - x.mean()
-    power = np.abs(np.fft.rfft(x, n)) ** 2
-    if not power.sum() > 0.0:
-        return tuple(int(round(f * n)) for f in 0.25 + 0.5 * np.arange(n_null)
-                     / max(n_null - 1, 1))
-    # Per frequency, a shift by ``lag`` keeps cos^2(2 pi f lag) of the feature's energy in
-    # phase; weighted by the squared power that is (1 + rho2(2 lag)) / 2, rho2 the
-    # normalised autocorrelation of a signal with power spectrum |X|^4.  Summing per
-    # frequency (not |rho| of the whole feature, where harmonics can cancel) keeps every
-    # harmonic of a periodic feature out of phase as far as one shift can.
-    auto2 = np.fft.irfft(power * power, n)
-    rho = auto2[(2 * np.arange(lo, hi)) % n] / auto2[0]
-    gap = max(1, n // (4 * n_null))
-    chosen: List[int] = []
-    for lag in (lo + np.argsort(rho, kind='stable')):
-        if chosen and rho[lag - lo] > 0.0:
-            # More than half the energy in phase: more like the feature than a signal of
-            # random phase (which keeps half on average).  A short periodic record has few
-            # unrelated shifts; fewer nulls (repeated by the caller) beat related ones.
-            break
-        if all(abs(int(lag) - c) >= gap for c in chosen):
-            chosen.append(int(lag))
-            if len(chosen) == n_null:
-                break
-    return tuple(sorted(chosen))
-
-
-@dataclass
-class Piece:
-    """One output channel of one recording: its features, residual and target force."""
-
-    ctx: ChannelContext
-    residual: np.ndarray
-    target: np.ndarray
-    recording: int
-    channel: str
-
-
-class CvData:
-    """Block and fold structure of a set of pieces, with per-block detrending."""
-
-    def __init__(self, pieces: Sequence[Piece], config: SelectionConfig):
-        self.pieces = list(pieces)
-        self.config = config
-        fs = self.pieces[0].ctx.fs_hz
-        sizes = {}
-        for p in self.pieces:
-            sizes.setdefault(p.recording, p.residual.size)
-        # Short records: shorter blocks rather than a refusal.  Blocks shorter than the
-        # residual's correlation time make the held-out score optimistic for every candidate
-        # alike; the shifted-feature null, scored the same way, keeps the test honest.
-        length = max(min(int(round(config.block_s * fs)), sum(sizes.values()) // config.n_folds,
-                         min(sizes.values())), config.min_block_samples)
-        n_blocks = {rec: n // length for rec, n in sizes.items()}
-        first_block, total = {}, 0
-        for rec, nb in n_blocks.items():
-            first_block[rec] = total
-            total += nb
-        self.starts, folds = [], []
-        for p in self.pieces:
-            nb = p.residual.size // length
-            self.starts.append(np.arange(nb) * length)
-            folds.append((first_block[p.recording] + np.arange(nb)) % config.n_folds)
-        n_time_blocks = total
-        if n_time_blocks < config.n_folds or any(s.size == 0 for s in self.starts):
-            raise DiagnosisError(
-                f'too little data to cross-validate: {n_time_blocks} time blocks of '
-                f'{length / fs:.2f} s ({length} samples), need at least {config.n_folds} and '
-                f'one per recording')
-        self.fold = np.concatenate(folds)
-        self._design = [self._detrend_design(i) for i in range(len(self.pieces))]
-        self.residual = [self.prepare(i, p.residual) for i, p in enumerate(self.pieces)]
-        self.target_ss = float(sum(np.sum(self.prepare(i, p.target) ** 2)
-                                   for i, p in enumerate(self.pieces)))
-        self.n_samples = sum(p.residual.size for p in self.pieces)
-
-    def _detrend_design(self, i):
-        n = self.pieces[i].residual.size
-        starts = self.starts[i]
-        idx = np.arange(n)
-        block = np.searchsorted(starts, idx, side='right') - 1
-        counts = np.diff(np.append(starts, n))
-        tau = idx - (starts[block] + 0.5 * (counts[block] - 1))
-        tt = np.add.reduceat(tau * tau, starts)
-        return block, counts, tau, np.where(tt > 0.0, tt, 1.0)
-
-    def detrend(self, i: int, x: np.ndarray) -> np.ndarray:
-        """Remove an offset and a linear trend inside every block of piece ``i``."""
-        block, counts, tau, tt = self._design[i]
-        starts = self.starts[i]
-        mean = np.add.reduceat(x, starts) / counts
-        slope = np.add.reduceat(x * tau, starts) / tt
-        return x - mean[block] - slope[block] * tau
-
-    def prepare(self, i: int, x: np.ndarray) -> np.ndarray:
-        """High-pass (when configured) and detrend a column of piece ``i``."""
-        if self.config.highpass_hz > 0.0 and np.any(x):
-            x = highpass(x[np.newaxis], self.pieces[i].ctx.fs_hz, self.config.highpass_hz,
-                         'diagnosis column')[0]
-        return self.detrend(i, x)
-
-    def block_sums(self, i: int, x: np.ndarray) -> np.ndarray:
-        """Sum of ``x`` over every block of piece ``i``."""
-        return np.add.reduceat(x, self.starts[i])
-
-
-@dataclass(frozen=True)
-class Stats:
-    """Per-block normal equations: ``g[b] = D_b'D_b``, ``h[b] = D_b'r_b``, ``s[b] = r_b'r_b``."""
-
-    g: np.ndarray
-    h: np.ndarray
-    s: np.ndarray
-
-
-def block_stats(data: CvData, columns: Sequence[Sequence[np.ndarray]],
-                offset: Optional[Sequence[np.ndarray]] = None) -> Stats:
-    """Return per-block normal equations of detrended columns and residual minus offset."""
-    gs, hs, ss = [], [], []
-    for i in range(len(data.pieces)):
-        r = data.residual[i] if offset is None else data.residual[i] - offset[i]
-        cols = list(columns[i])
-        p = len(cols)
-        nb = data.starts[i].size
-        g = np.zeros((nb, p, p))
-        h = np.zeros((nb, p))
-        for a in range(p):
-            h[:, a] = data.block_sums(i, cols[a] * r)
-            for b in range(a, p):
-                g[:, a, b] = g[:, b, a] = data.block_sums(i, cols[a] * cols[b])
-        gs.append(g)
-        hs.append(h)
-        ss.append(data.block_sums(i, r * r))
-    return Stats(np.concatenate(gs), np.concatenate(hs), np.concatenate(ss))
-
-
-def _solve(g, h):
-    """
-    Least squares from the normal equations, with a tiny ridge relative to each column.
-
-    Columns are scaled to unit Gram diagonal first: a cubic term of a displacement in metres
-    (~1e-6) next to an acceleration companion (~1) would otherwise be ridged away by a ridge
-    set from the average diagonal.
-    """
-    p = h.size
-    if p == 0:
-        return h
-    d = np.sqrt(np.abs(np.diag(g)))
-    d = np.where(d > 0.0, d, 1.0)
-    gn = g / np.outer(d, d)
-    return np.linalg.solve(gn + 1e-10 * np.eye(p), h / d) / d
-
-
-def cv_sse(stats: Stats, fold: np.ndarray, n_folds: int) -> float:
-    """Held-out sum of squared residuals after the fold-wise least-squares fit."""
-    if stats.h.shape[1] == 0:
-        return float(stats.s.sum())
-    total = 0.0
-    for k in range(n_folds):
-        test = fold == k
-        if not test.any():
-            continue
-        theta = _solve(stats.g[~test].sum(0), stats.h[~test].sum(0))
-        total += float(stats.s[test].sum() - 2.0 * np.sum(stats.h[test] @ theta)
-                       + np.einsum('bij,i,j->', stats.g[test], theta, theta))
-    return total
-
-
-def full_fit(stats: Stats) -> np.ndarray:
-    """Least-squares coefficients on all blocks."""
-    return _solve(stats.g.sum(0), stats.h.sum(0))
-
-
-@dataclass(frozen=True)
 class Evaluated:
     """Best shape of one hypothesis at one greedy step."""
 
-    hypothesis: Hypothesis
+    hypothesis: Candidate
     shape: Dict[str, float]
     gain: float
 
@@ -336,7 +119,7 @@ class Evaluated:
 class Accepted:
     """A term accepted for a channel (or a pooled group of channels)."""
 
-    hypothesis: Hypothesis
+    hypothesis: Candidate
     shape: Dict[str, float]
     gain: float
     null_gains: Tuple[float, ...]
@@ -370,7 +153,7 @@ class Selector:
     """
 
     def __init__(self, pieces: Sequence[Piece], config: SelectionConfig,
-                 companions: Sequence[Hypothesis] = (),
+                 companions: Sequence[Candidate] = (),
                  sim_pieces: Optional[Sequence[Piece]] = None):
         self.data = CvData(pieces, config)
         self.config = config
@@ -477,7 +260,7 @@ class Selector:
                 load = self.data.prepare(i, p.ctx.load)
                 g += np.array([[float(np.dot(a, b)) for b in cols] for a in cols])
                 h += np.array([float(np.dot(a, load)) for a in cols])
-            self._rates = dict(zip(names, (float(v) for v in _solve(g, h))))
+            self._rates = dict(zip(names, (float(v) for v in solve(g, h))))
         return self._rates
 
     def _within_tolerance(self, hyp, shape) -> Optional[str]:
@@ -500,7 +283,21 @@ class Selector:
             return 0.0
         return 100.0 * float(np.sqrt(max(sse, 0.0) / self.data.target_ss))
 
-    def run(self, hypotheses: Sequence[Hypothesis]) -> Outcome:
+    def _add(self, hyp: Candidate, shape) -> None:
+        """Keep an accepted candidate in the design (real and simulated) of later steps."""
+        cols = self._columns(hyp, shape)
+        if hyp.fixed_coefficient:
+            self._offset = [o + c for o, c in zip(self._offset, cols)]
+        else:
+            self._base_cols = [b + [c] for b, c in zip(self._base_cols, cols)]
+        if self.sim is not None:
+            sim_cols = self._columns_of(self.sim, hyp, shape)
+            if hyp.fixed_coefficient:
+                self._sim_offset = [o + c for o, c in zip(self._sim_offset, sim_cols)]
+            else:
+                self._sim_cols = [b + [c] for b, c in zip(self._sim_cols, sim_cols)]
+
+    def run(self, hypotheses: Sequence[Candidate]) -> Outcome:
         """Add candidates greedily while they pass the significance test."""
         cfg = self.config
         contexts = [p.ctx for p in self.data.pieces]
@@ -531,22 +328,12 @@ class Selector:
             nulls = self.null_gains(hyp, grids[hyp.key], base_sse, choice.shape)
             after_sse = base_sse * (1.0 - choice.gain)
             drop = self._pct(base_sse) - self._pct(after_sse)
-            reason = (cfg.rejection(choice.gain, max(nulls), drop)
+            reason = (rejection(cfg, choice.gain, max(nulls), drop)
                       or self._within_tolerance(hyp, choice.shape))
             if reason is not None:
                 rejected = (choice, nulls, reason)
                 break
-            cols = self._columns(hyp, choice.shape)
-            if hyp.fixed_coefficient:
-                self._offset = [o + c for o, c in zip(self._offset, cols)]
-            else:
-                self._base_cols = [b + [c] for b, c in zip(self._base_cols, cols)]
-            if self.sim is not None:
-                sim_cols = self._columns_of(self.sim, hyp, choice.shape)
-                if hyp.fixed_coefficient:
-                    self._sim_offset = [o + c for o, c in zip(self._sim_offset, sim_cols)]
-                else:
-                    self._sim_cols = [b + [c] for b, c in zip(self._sim_cols, sim_cols)]
+            self._add(hyp, choice.shape)
             accepted.append(Accepted(hyp, choice.shape, choice.gain, nulls, 1.0,
                                      self._pct(base_sse), self._pct(after_sse), base_sse))
             candidates = [h for h in candidates if h.physics != hyp.physics]
@@ -561,7 +348,7 @@ class Selector:
         return Outcome(final, companions, ranking, rejected, self._pct(start_sse),
                        self._pct(self._sse()))
 
-    def fit_single(self, hyp: Hypothesis) -> Tuple[Dict[str, float], float, float, float]:
+    def fit_single(self, hyp: Candidate) -> Tuple[Dict[str, float], float, float, float]:
         """Best shape, held-out gain, coefficient and starting SSE of one hypothesis alone."""
         base_sse = self._sse()
         grid = hyp.grid([p.ctx for p in self.data.pieces])
@@ -574,7 +361,7 @@ class Selector:
         coef = full_fit(block_stats(self.data, cols, self._offset))[-1]
         return dict(shape), float(gain), float(coef), base_sse
 
-    def null_gains(self, hyp: Hypothesis, grid=None, base_sse=None,
+    def null_gains(self, hyp: Candidate, grid=None, base_sse=None,
                    shape=None) -> Tuple[float, ...]:
         """
         Best gains of ``hyp`` on features circularly shifted against the force (the null).
@@ -606,3 +393,14 @@ class Selector:
         margin = max(self.config.parsimony_abs, self.config.parsimony_rel * best.gain)
         close = [e for e in evaluated if e.gain >= best.gain - margin]
         return min(close, key=lambda e: (e.hypothesis.n_shape, -e.gain))
+
+
+def pooled_selector(prep, sim_prep, channels, group, config) -> Selector:
+    """Return a :class:`Selector` over the pieces of every channel in ``group``."""
+    sim = None if sim_prep is None else group_pieces(sim_prep, channels, group)
+    return Selector(group_pieces(prep, channels, group), config.selection, (), sim)
+
+
+def pooled_gain(prep, sim_prep, channels, group, key, config) -> float:
+    """Held-out gain of one candidate fitted with shared parameters over ``group``."""
+    return pooled_selector(prep, sim_prep, channels, group, config).fit_single(BY_KEY[key])[1]

@@ -3,8 +3,8 @@
 """Plain-language sentences for findings, rejections and the summary."""
 from typing import Dict, List, Mapping, Sequence
 
-from wheel_force_estimator.diagnosis.hypotheses import describe_shape
-from wheel_force_estimator.diagnosis.hypotheses import Hypothesis
+from wheel_force_estimator.diagnosis.candidates import Candidate
+from wheel_force_estimator.diagnosis.candidates import describe_shape
 
 
 def channel_list(channels: Sequence[str]) -> str:
@@ -16,7 +16,7 @@ def channel_list(channels: Sequence[str]) -> str:
     return ', '.join(channels)
 
 
-def evidence(hyp: Hypothesis, channels: Sequence[str], params: Mapping[str, float],
+def evidence(hyp: Candidate, channels: Sequence[str], params: Mapping[str, float],
              gain: float, null: float, ratios: Mapping[str, Dict[str, float]],
              causal: bool) -> str:
     """One paragraph: what, shape, strength on held-out data, null, where it shows."""

@@ -127,7 +127,7 @@ def partialled(columns: Sequence[np.ndarray], recordings: Sequence,
     each column no linear model of the inputs can explain: the regressor of a joint
     least-squares fit of the FIR with the column.  The one home of the step, for the
     backfit's joint strengths (:func:`_partialled_fit`) and the search inside the structure
-    (:mod:`diagnosis.dynamic`).
+    (:mod:`diagnosis.finders.structure`).
     """
     names = tuple(f'column {j}' for j in range(np.shape(columns[0])[0]))
     fitted = refit([replace(rec, outputs=c, output_channels=names)

@@ -1,7 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Physics inside a structure: a term whose force reaches the sensor through the structure.
+The inside-the-structure finder: a term whose force reaches the sensor through the structure.
 
 A friction joint or a hardening spring between the measured base and an unmeasured mass does
 not add its force to the measured one.  It changes the motion of the mass, and the force at
@@ -24,13 +24,14 @@ Each basis column is *partialled* against the linear design (the reference's FIR
 with the column as its output, the Frisch-Waugh-Lovell step of
 :func:`diagnosis.written.backfitted_model`), so a column scores only what the linear model
 cannot already explain.  A candidate is judged by the acceptance rule of every other one
-(:meth:`selection.SelectionConfig.rejection`): its gain on held-out time blocks must reach
+(:func:`finders.acceptance.rejection`): its gain on held-out time blocks must reach
 ``min_gain``, beat ``null_factor`` times the best gain of the same grid with the feature
-circularly shifted (:func:`selection.null_lags`) and lower the cross-validated RMSE by
+circularly shifted (:func:`blocks.null_lags`) and lower the cross-validated RMSE by
 ``min_improvement_pct``.
 
 Only without a simulation or model (the reference is the real-data FIR) and only on channels
-the static selection left unexplained: what a static term explains needs no structure.
+the static selection left unexplained: what a static term explains needs no structure
+(:func:`find`).
 """
 import dataclasses
 from dataclasses import dataclass
@@ -46,15 +47,17 @@ from wheel_force_estimator.core.physics import PhysicsTerm
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.spectra import power_quantile_hz
-from wheel_force_estimator.diagnosis.hypotheses import load_state
-from wheel_force_estimator.diagnosis.hypotheses import lowpassed_load
+from wheel_force_estimator.diagnosis.blocks import block_stats
+from wheel_force_estimator.diagnosis.blocks import cv_sse
+from wheel_force_estimator.diagnosis.blocks import CvData
+from wheel_force_estimator.diagnosis.blocks import full_fit
+from wheel_force_estimator.diagnosis.blocks import null_lags
+from wheel_force_estimator.diagnosis.candidates import BY_KEY
+from wheel_force_estimator.diagnosis.finders.acceptance import rejection
+from wheel_force_estimator.diagnosis.grids import load_state
+from wheel_force_estimator.diagnosis.grids import lowpassed_load
 from wheel_force_estimator.diagnosis.prepared import pieces
 from wheel_force_estimator.diagnosis.result import Finding
-from wheel_force_estimator.diagnosis.selection import block_stats
-from wheel_force_estimator.diagnosis.selection import cv_sse
-from wheel_force_estimator.diagnosis.selection import CvData
-from wheel_force_estimator.diagnosis.selection import full_fit
-from wheel_force_estimator.diagnosis.selection import null_lags
 from wheel_force_estimator.diagnosis.written import partialled
 
 #: Load-state corners tried, as multiples of the frequency below which 99 % of the load's
@@ -272,6 +275,14 @@ class _Channel:
         return 100.0 * float(np.sqrt(max(sse, 0.0) / ts)) if ts > 0.0 else 0.0
 
 
+def find(run, found=()) -> List[Finding]:
+    """Return the findings inside the structure (without a simulation or model only)."""
+    if run.mode != 'linear':
+        return []
+    return dynamic_findings(run.prep, run.reference, run.channels, run.sources, run.outcomes,
+                            run.config)
+
+
 def dynamic_findings(prep, reference, channels: Sequence[str], sources: Sequence[str],
                      outcomes, config) -> List[Finding]:
     """
@@ -300,7 +311,7 @@ def dynamic_findings(prep, reference, channels: Sequence[str], sources: Sequence
             scores = chan.gains(cands, units)
             best = int(np.argmax([s[0] for s in scores]))
             gain, coef, sse, base = scores[best]
-            if cfg.rejection(gain) is not None:
+            if rejection(cfg, gain) is not None:
                 continue
             # Shifted record by record (a shift of the concatenation could move a record by
             # about its own length, i.e. not at all).
@@ -311,7 +322,7 @@ def dynamic_findings(prep, reference, channels: Sequence[str], sources: Sequence
             # A basis the design cannot fit (a record shorter than its segment): no finding.
             continue
         drop = chan.pct(base) - chan.pct(sse)
-        if cfg.rejection(gain, null, drop) is not None:
+        if rejection(cfg, gain, null, drop) is not None:
             continue
         try:
             coef = chan.refined(cands[best], coef)
@@ -332,9 +343,7 @@ def _finding(chan: _Channel, cand: _Candidate, coef, gain: float, null: float,
     params = dict(cand.params)
     params[chan.term(cand).kind.strength] = peak
     term = chan.term(cand, params, tuple(taps / peak))
-    what = ('friction in the load path (the rate of the predicted load, i.e. of the '
-            'deflection)' if cand.physics == 'coulomb_friction'
-            else 'hardening in the load path (the cube of the predicted load change)')
+    what = BY_KEY[f'{cand.physics}:load'].inside
     evidence = (f'{chan.channel}: {what} acting inside the structure, reaching the sensor '
                 f'through its own response (largest at {peak_hz:.3g} Hz); explains '
                 f'{gain:.1%} of the residual on held-out blocks vs {null:.1%} with time-shifted '

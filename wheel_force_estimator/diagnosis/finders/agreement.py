@@ -1,7 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Effects too weak to name on any one corner, named when the corners of an axis agree.
+The agreement finder: effects too weak to name on any one corner, named when corners agree.
 
 Per-channel selection (:mod:`diagnosis.selection`) asks a term to explain ``min_gain`` of one
 channel's residual.  A small clearance present in every hub bushing explains a few percent on
@@ -11,15 +11,19 @@ shared parameters over those channels and accepted when the pooled term passes t
 as a per-channel one (held-out gain over its time-shifted null, RMSE drop, linear-rate
 tolerance) with the lower ``min_gain`` of :class:`AgreementConfig`: agreement of independent
 corners is evidence one channel cannot give.  The holdout gate still judges the finding.
+
+Against a simulation or a given model only (:func:`find`); the channels it names had nothing
+accepted, so its findings never overlap the per-channel ones.
 """
 from dataclasses import dataclass
 from dataclasses import replace
 from typing import Dict, List
 
 from wheel_force_estimator.core.errors import ConfigError
-from wheel_force_estimator.diagnosis.hardening import pooled_selector
-from wheel_force_estimator.diagnosis.hypotheses import BY_KEY
+from wheel_force_estimator.diagnosis.candidates import BY_KEY
+from wheel_force_estimator.diagnosis.finders.per_channel import builder
 from wheel_force_estimator.diagnosis.prepared import axis
+from wheel_force_estimator.diagnosis.selection import pooled_selector
 
 
 @dataclass(frozen=True)
@@ -92,3 +96,11 @@ def agreed_findings(outcomes, channels, prep, sim_prep, builder, config,
             found.append(builder.pooled_finding(key, group, a.shape, a.coefficient, a.gain,
                                                 max(a.null_gains)))
     return found
+
+
+def find(run, found=()) -> list:
+    """Return the agreed findings of the run (not against a fit on the real data itself)."""
+    if run.mode == 'linear':
+        return []
+    return agreed_findings(run.outcomes, run.channels, run.prep, run.sim_prep, builder(run),
+                           run.config, run.config.agreement)

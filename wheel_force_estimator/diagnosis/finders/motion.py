@@ -1,7 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Physics that changes the motion, not the map: a clipped sensor and a wheel in the air.
+The motion finder: physics that changes the motion, not the map (clipped sensor, tyre in air).
 
 A clipped accelerometer and a tyre that leaves the ground hardly change the
 acceleration-to-force map a linear model fits, so the residual ranking cannot see them; the
@@ -192,6 +192,39 @@ def supporting_mass(fz: np.ndarray, az: np.ndarray) -> Optional[float]:
     return float(r)
 
 
+def _flights(real, o: int, i: int, m_real: float, band: float) -> list:
+    """Spans ``(start_s, end_s, samples)`` where the tyre force stays within ``band``."""
+    spans = []
+    for rec in real:
+        t = np.asarray(rec.outputs)[o] + m_real * np.asarray(rec.inputs)[i]
+        need = max(int(math.ceil(FLIGHT_MIN_S * rec.fs_hz)), 2)
+        for a, b in runs(np.abs(t) <= band):
+            if b - a >= need:
+                spans.append((rec.start_s + a / rec.fs_hz, rec.start_s + b / rec.fs_hz, b - a))
+    return spans
+
+
+def _corner(real, sim, o: int, i: int):
+    """
+    Return ``(m_real, static, n_sim_below, n_real_below, flights)`` of one corner, or None.
+
+    None when either record has no supporting line or the real static load is not positive.
+    """
+    fz_r, az_r = _concat(real, 'outputs', o), _concat(real, 'inputs', i)
+    fz_s, az_s = _concat(sim, 'outputs', o), _concat(sim, 'inputs', i)
+    m_real, m_sim = supporting_mass(fz_r, az_r), supporting_mass(fz_s, az_s)
+    if m_real is None or m_sim is None or m_real <= 0.0:
+        return None
+    static = float(np.median(fz_r + m_real * az_r))
+    if static <= 0.0:
+        return None
+    band = FLIGHT_BAND * static
+    # Exchangeable counts: each record's runs below the other record's supporting line.
+    n_sim_below = len(runs(fz_s + m_real * az_s < -band))
+    n_real_below = len(runs(fz_r + max(m_sim, 0.0) * az_r < -band))
+    return m_real, static, n_sim_below, n_real_below, _flights(real, o, i, m_real, band)
+
+
 def lift_off_finding(real: Sequence, sim: Sequence, config: MotionConfig) -> Optional[Finding]:
     """
     Name ``tire_lift_off`` when the real tyres fly where the simulated ones pull the road.
@@ -211,51 +244,39 @@ def lift_off_finding(real: Sequence, sim: Sequence, config: MotionConfig) -> Opt
     Returns
     -------
     Finding or None
+        None when no corner flew where the simulated tyre pulled, or the pooled binomial test
+        is not significant at ``config.alpha``.
 
     """
     rec0 = real[0]
     if not sim or rec0.input_quantity != 'acceleration':
         return None
-    n_real = sum(r.n_samples for r in real)
-    n_sim = sum(r.n_samples for r in sim)
     pooled_sim = pooled_real = 0
     corners = []
     for corner in CORNERS:
         rows = _corner_rows(rec0, corner)
-        if rows is None:
+        found = None if rows is None else _corner(real, sim, *rows)
+        if found is None:
             continue
-        o, i = rows
-        fz_r, az_r = _concat(real, 'outputs', o), _concat(real, 'inputs', i)
-        fz_s, az_s = _concat(sim, 'outputs', o), _concat(sim, 'inputs', i)
-        m_real, m_sim = supporting_mass(fz_r, az_r), supporting_mass(fz_s, az_s)
-        if m_real is None or m_sim is None or m_real <= 0.0:
-            continue
-        static = float(np.median(fz_r + m_real * az_r))
-        if static <= 0.0:
-            continue
-        band = FLIGHT_BAND * static
-        # Exchangeable counts: each record's runs below the other record's supporting line.
-        n_sim_below = len(runs(fz_s + m_real * az_s < -band))
-        n_real_below = len(runs(fz_r + max(m_sim, 0.0) * az_r < -band))
+        m_real, static, n_sim_below, n_real_below, spans = found
         pooled_sim += n_sim_below
         pooled_real += n_real_below
-        spans = []
-        for rec in real:
-            t = np.asarray(rec.outputs)[o] + m_real * np.asarray(rec.inputs)[i]
-            need = max(int(math.ceil(FLIGHT_MIN_S * rec.fs_hz)), 2)
-            for a, b in runs(np.abs(t) <= band):
-                if b - a >= need:
-                    spans.append((rec.start_s + a / rec.fs_hz, rec.start_s + b / rec.fs_hz,
-                                  b - a))
         if spans and n_sim_below > n_real_below:
             corners.append((corner, m_real, static, n_sim_below, n_real_below, spans))
     total = pooled_sim + pooled_real
     if not corners or total == 0:
         return None
-    share = n_sim / (n_sim + n_real)
-    p = float(stats.binom.sf(pooled_sim - 1, total, share))
+    n_real = sum(r.n_samples for r in real)
+    n_sim = sum(r.n_samples for r in sim)
+    p = float(stats.binom.sf(pooled_sim - 1, total, n_sim / (n_sim + n_real)))
     if p >= config.alpha:
         return None
+    return _lift_off(corners, pooled_sim, pooled_real, p, n_real, config)
+
+
+def _lift_off(corners, pooled_sim: int, pooled_real: int, p: float, n_real: int,
+              config: MotionConfig) -> Finding:
+    """Return the lift-off finding of the corners that flew."""
     flown = sum(s[2] for c in corners for s in c[5])
     windows = _windows([s[:2] for c in corners for s in c[5]], config.merge_s,
                        config.max_windows)
@@ -307,22 +328,6 @@ def motion_findings(real: Sequence, sim: Sequence, sources: Sequence[str],
     return [f for f in found if f is not None]
 
 
-def merge_motion(findings: Sequence[Finding], motion: Sequence[Finding]) -> List[Finding]:
-    """
-    Put motion findings first; one already named by the residual ranking keeps its term.
-
-    A physics named both ways stays one finding: the ranked one (with its term and holdout
-    figures), given the motion finding's time windows and evidence.
-    """
-    from dataclasses import replace
-    out = list(findings)
-    first = []
-    for m in motion:
-        same = [k for k, f in enumerate(out) if f.physics == m.physics]
-        if same:
-            k = same[0]
-            out[k] = replace(out[k], evidence=out[k].evidence + ' | ' + m.evidence,
-                             time_windows_s=m.time_windows_s)
-        else:
-            first.append(m)
-    return first + out
+def find(run, found=()) -> List[Finding]:
+    """Return the run's motion findings (``found`` unused: they read the recordings only)."""
+    return motion_findings(run.real, run.sim, run.sources, run.config.motion)
