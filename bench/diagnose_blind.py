@@ -294,6 +294,17 @@ NO_NAIVE = False
 NO_HOLDOUT = False
 
 
+def holdout_figures(model, holdout):
+    """Return per-channel RMSE % of ``model`` on ``holdout``: (unfiltered, 1 Hz HP) arrays."""
+    import numpy as np
+    from wheel_force_estimator.core.evaluation import rmse_figures
+    from wheel_force_estimator.core.predict import predict_forces
+    preds = [predict_forces(model, r.inputs) for r in holdout]
+    raw, hp = rmse_figures([np.asarray(r.outputs) for r in holdout], preds, holdout[0].fs_hz,
+                           holdout[0].output_channels)
+    return np.asarray(raw), np.asarray(hp)
+
+
 def _unseen_figures(result, real, ref, holdout, chans, config):
     """
     Mean RMSE % over ``chans`` on the whole ``holdout`` (nothing saw it), both figures.
@@ -302,15 +313,11 @@ def _unseen_figures(result, real, ref, holdout, chans, config):
     FRF, the model the diagnosis writes, a plain ``wheel-force fit`` on ``real`` (its design).
     """
     import numpy as np
-    from wheel_force_estimator.core.evaluation import rmse_figures
-    from wheel_force_estimator.core.predict import predict_forces
     from wheel_force_estimator.diagnosis.run import real_linear_fit
     plain = real_linear_fit(real, config).model  # fit's design: the search included
     out = []
     for model in (ref.model, result.model, plain):
-        preds = [predict_forces(model, r.inputs) for r in holdout]
-        raw, hp = rmse_figures([np.asarray(r.outputs) for r in holdout], preds,
-                               holdout[0].fs_hz, holdout[0].output_channels)
+        raw, hp = holdout_figures(model, holdout)
         index = [holdout[0].output_channels.index(c) for c in chans]
         out += [float(np.mean(raw[index])), float(np.mean(hp[index]))]
     return tuple(out)

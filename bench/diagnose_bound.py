@@ -23,8 +23,6 @@ import sys
 import numpy as np
 
 from wheel_force_estimator import OUTPUT_CHANNELS
-from wheel_force_estimator.core.evaluation import rmse_figures
-from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis.run import real_linear_fit
 from wheel_force_estimator.sim.api import simulate
 
@@ -41,11 +39,8 @@ def plain_fit_figures(physics, params, seed: int):
                                 effect_params=params), 'real')]
     hold = [blind._rec(simulate('proving_ground', physics, seed + 100, 0.5, vehicle=blind.CAR,
                                 effect_params=params), 'holdout')]
-    model = real_linear_fit(real, blind.BAG_CONFIG).model
-    preds = [predict_forces(model, r.inputs) for r in hold]
-    raw, hp = rmse_figures([np.asarray(r.outputs) for r in hold], preds, hold[0].fs_hz,
-                           hold[0].output_channels)
-    return np.asarray(raw), np.asarray(hp), np.asarray(hold[0].outputs)
+    raw, hp = blind.holdout_figures(real_linear_fit(real, blind.BAG_CONFIG).model, hold)
+    return raw, hp, np.asarray(hold[0].outputs)
 
 
 def main() -> int:
