@@ -5,6 +5,7 @@ import json
 
 import numpy as np
 import pytest
+import scipy.signal
 from support.diagnosis_synthetic import make_recording
 
 from wheel_force_estimator.cli.main import main
@@ -76,6 +77,41 @@ def test_generic_without_sim_fits_linear_on_real(generic_files, tmp_path):
     assert doc['fit']['model'] in ('real_frf+physics', 'per_channel')
     assert doc['fit']['after']['fa'] < doc['fit']['real_linear']['fa']
     assert doc['fit']['real_linear']['fa'] < 20.0
+
+
+def test_records_too_short_to_hold_out_blocks_write_the_plain_fit_and_say_why(tmp_path,
+                                                                              capsys):
+    # Two 5 s rig records (displacement in, force out) with Coulomb friction, and a 512-sample
+    # segment imposed in the params file: the finders' blocks shrink to fit, the friction is
+    # named, but a quarter held out leaves no training piece one segment long.  The plain fit
+    # is written, and the JSON (fit.data) and stderr say why, naming the recordings and their
+    # lengths (before: "too little data to cross-validate", exit 1).
+    rng = np.random.default_rng(4)
+    fs = 200.0
+    b, a = scipy.signal.butter(2, [0.3, 4.0], 'bandpass', fs=fs)
+    paths = []
+    for k in range(2):
+        x = scipy.signal.lfilter(b, a, rng.standard_normal(int(5 * fs)))
+        x *= 0.01 / x.std()
+        force = (2e4 * x + 300.0 * np.tanh(np.gradient(x, 1 / fs) / 0.002)
+                 + 15.0 * rng.standard_normal(x.size))
+        paths.append(tmp_path / f'r{k}.npz')
+        np.savez(paths[-1], x=x, f=force)
+    params = tmp_path / 'p.yaml'
+    params.write_text('wheel_force_fit:\n  ros__parameters:\n    segment_length: 512\n')
+    out = tmp_path / 'd.json'
+    rc = main(['diagnose', '--real', *map(str, paths), '--json', str(out), '--out-model',
+               str(tmp_path / 'm.npz'), '--config', str(params), '--input',
+               'x:displacement:m', '--output', 'f:force:N', '--fs', '200'])
+    assert rc == 0
+    doc = json.loads(out.read_text())
+    assert [f['physics'] for f in doc['findings']] == ['coulomb_friction']
+    assert doc['fit']['data'] == 'too_short'
+    assert doc['fit']['model'] == 'real_linear'
+    err = capsys.readouterr().err
+    assert 'too short to hold out blocks' in err, err
+    assert 'r0.npz (5.0 s)' in err and 'r1.npz (5.0 s)' in err, err
+    assert not load_model(tmp_path / 'm.npz').physics
 
 
 def test_usage_errors_exit_2(generic_files, tmp_path, capsys):

@@ -13,6 +13,7 @@ from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
 from wheel_force_estimator.diagnosis import MotionRecording
+from wheel_force_estimator.diagnosis.blocks import block_layout
 from wheel_force_estimator.diagnosis.features import FeatureConfig
 
 CONFIG = DiagnosisConfig(linear='regression')
@@ -48,22 +49,41 @@ def test_different_channels_are_refused(pair):
         diagnose(real, sim, [_relabel(holdout[0], fs_hz=512.0)], CONFIG)
 
 
-def test_too_little_data_to_cross_validate(pair):
+def test_short_records_are_diagnosed_with_shorter_blocks(pair):
     sim, _, _ = pair
-    # 16 s: 15 s settle for the 0.2 Hz integrators leaves 1 s, less than 5 blocks of 2 s.
+    # 16 s: the 15 s settle of the 0.2 Hz integrators leaves 1 s, less than 5 blocks of 2 s.
+    # The blocks shrink until 5 fit (0.2 s) instead of refusing (before: "too little data to
+    # cross-validate"); the concealed bump stop is still named where it is.
     short, _ = make_recording('bump_stop', 5, duration_s=16.0)
-    with pytest.raises(DiagnosisError, match='cross-validate|settle'):
-        diagnose([short], sim, (), CONFIG)
+    result = diagnose([short], sim, (), CONFIG)
+    assert [(f.physics, f.channels) for f in result.findings] == [('bump_stop', ('lf_fz',))]
+
+
+def test_a_record_within_its_settling_time_is_refused_naming_the_corner(pair):
+    sim, _, _ = pair
     tiny, _ = make_recording('bump_stop', 5, duration_s=10.0)
     with pytest.raises(DiagnosisError, match='settle') as refused:
         diagnose([tiny], sim, (), CONFIG)
-    # The error names the integrator corner that would fit, and that corner does get past
-    # the settle check (10 s cannot hold 5 cross-validation blocks after it, which is said).
+    # The error names the integrator corner that would fit; at that corner the record gets
+    # past the settle check, and what is left cannot hold 2 blocks, which is said, naming
+    # the channel and the record.
     corner = re.search(r'--highpass-hz ([0-9.e+-]+) or above', str(refused.value))
     assert corner, str(refused.value)
     higher = replace(CONFIG, features=FeatureConfig(float(corner.group(1))))
-    with pytest.raises(DiagnosisError, match='cross-validate'):
+    with pytest.raises(DiagnosisError, match=rf'cross-validate lf_fz: .*{tiny.name}: \d+ '
+                       r'samples \(0\.\d+ s\), fewer than 2 time blocks'):
         diagnose([tiny], sim, (), higher)
+
+
+@pytest.mark.parametrize('sizes, expected', [
+    ({0: 5000}, (1000, 5)),          # 5 blocks of 1000 rather than 4 of 1024
+    ({0: 800, 1: 800}, (266, 5)),    # 3 + 3: 320 (the old rule) gave 2 + 2
+    ({0: 3000, 1: 300}, (300, 5)),   # every record holds a block: none longer than 300
+    ({0: 200}, (64, 3)),             # 3 blocks of the shortest length: 3 folds
+    ({0: 100}, (None, 0)),           # 1 block: nothing to hold out
+])
+def test_block_layout(sizes, expected):
+    assert block_layout(sizes, 1024, 5, 64) == expected
 
 
 def test_no_overlap_in_operating_range(pair):

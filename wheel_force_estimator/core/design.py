@@ -365,8 +365,10 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
         detail = '; '.join(skipped[:3]) + (' ...' if len(skipped) > 3 else '')
         raise InsufficientDataError(
             f'no recording holds one Welch segment of {config.segment_length} samples '
-            f'({config.segment_length / fs_hz:g} s at {fs_hz:g} Hz): {detail}; pass '
-            f'--segment-length N (N <= the record length) for a coarser frequency grid')
+            f'({config.segment_length / fs_hz:g} s at {fs_hz:g} Hz): {detail}; for a coarser '
+            f'frequency grid set a shorter segment N (N <= the record length): `fit '
+            f'--segment-length N`, or `segment_length: N` under `wheel_force_fit` in the '
+            f'--config params file (fit, diagnose)')
     notes = []
     if short_record_fallback:
         config, note = _short_record_fallback(config, used, fs_hz)

@@ -12,7 +12,7 @@ squares of a least-squares fit on the other folds (:func:`cv_sse`).  The shifted
 shifts a candidate's features where they are least like themselves (:func:`null_lags`).
 """
 from dataclasses import dataclass
-from typing import List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -77,6 +77,27 @@ def null_lags(feature: np.ndarray, n_null: int) -> Tuple[int, ...]:
     return tuple(sorted(chosen))
 
 
+def block_layout(sizes: Dict[int, int], block_samples: int, n_folds: int,
+                 min_block_samples: int) -> Tuple[Optional[int], int]:
+    """
+    Return ``(block length [samples], number of folds)`` for records of ``sizes`` samples.
+
+    The longest block up to ``block_samples`` that gives every record one block and
+    ``n_folds`` blocks in all; records too short for that at ``min_block_samples`` get as
+    many folds as they hold blocks of ``min_block_samples`` (leave one block out, at least
+    2).  ``(None, 0)`` when not even 2 such blocks fit.
+    """
+    counts = list(sizes.values())
+    shortest = min(counts)
+    for length in range(min(block_samples, shortest), min_block_samples - 1, -1):
+        if sum(n // length for n in counts) >= n_folds:
+            return length, n_folds
+    blocks = sum(n // min_block_samples for n in counts)
+    if shortest < min_block_samples or blocks < 2:
+        return None, 0
+    return min_block_samples, min(blocks, n_folds)
+
+
 @dataclass
 class Piece:
     """One output channel of one recording: its features, residual and target force."""
@@ -86,6 +107,7 @@ class Piece:
     target: np.ndarray
     recording: int
     channel: str
+    record_name: str = ''
 
 
 class CvData:
@@ -95,30 +117,31 @@ class CvData:
         self.pieces = list(pieces)
         self.config = config
         fs = self.pieces[0].ctx.fs_hz
-        sizes = {}
+        sizes, names = {}, {}
         for p in self.pieces:
             sizes.setdefault(p.recording, p.residual.size)
+            names.setdefault(p.recording, p.record_name or f'record {p.recording + 1}')
         # Short records: shorter blocks rather than a refusal.  Blocks shorter than the
         # residual's correlation time make the held-out score optimistic for every candidate
         # alike; the shifted-feature null, scored the same way, keeps the test honest.
-        length = max(min(int(round(config.block_s * fs)), sum(sizes.values()) // config.n_folds,
-                         min(sizes.values())), config.min_block_samples)
-        n_blocks = {rec: n // length for rec, n in sizes.items()}
+        length, self.n_folds = block_layout(sizes, int(round(config.block_s * fs)),
+                                            config.n_folds, config.min_block_samples)
+        if length is None:
+            held = ', '.join(f'{names[r]}: {n} samples ({n / fs:.2f} s)'
+                             for r, n in sizes.items())
+            raise DiagnosisError(
+                f'too little data to cross-validate {self.pieces[0].channel}: after the '
+                f"features' settling and the reference's edges the records hold {held}, "
+                f'fewer than 2 time blocks of {config.min_block_samples} samples')
         first_block, total = {}, 0
-        for rec, nb in n_blocks.items():
+        for rec, n in sizes.items():
             first_block[rec] = total
-            total += nb
+            total += n // length
         self.starts, folds = [], []
         for p in self.pieces:
             nb = p.residual.size // length
             self.starts.append(np.arange(nb) * length)
-            folds.append((first_block[p.recording] + np.arange(nb)) % config.n_folds)
-        n_time_blocks = total
-        if n_time_blocks < config.n_folds or any(s.size == 0 for s in self.starts):
-            raise DiagnosisError(
-                f'too little data to cross-validate: {n_time_blocks} time blocks of '
-                f'{length / fs:.2f} s ({length} samples), need at least {config.n_folds} and '
-                f'one per recording')
+            folds.append((first_block[p.recording] + np.arange(nb)) % self.n_folds)
         self.fold = np.concatenate(folds)
         self._design = [self._detrend_design(i) for i in range(len(self.pieces))]
         self.residual = [self.prepare(i, p.residual) for i, p in enumerate(self.pieces)]

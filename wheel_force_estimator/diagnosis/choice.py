@@ -233,8 +233,10 @@ def _cross_validated(findings, real, reference, ref_model, mode, channels, real_
     try:
         scores, blocks = held_out_scores(fold_build, real, folds)
     except DiagnosisError as err:
-        notes.append(f'training recordings too short to hold out blocks ({err}); the plain '
-                     f'fit on the real data is written, the findings are named only')
+        lengths = ', '.join(f'{r.name} ({r.n_samples / r.fs_hz:.1f} s)' for r in real)
+        notes.append(f'training recordings too short to hold out blocks of a quarter each: '
+                     f'{lengths} ({err}); the plain fit on the real data is written, the '
+                     f'findings are named only')
         return findings, _comparison(None, None, None, 'too_short', metric,
                                      model='real_linear', notes=tuple(notes)), lin_model
     final = build(real, lin_model)

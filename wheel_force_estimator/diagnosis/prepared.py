@@ -138,7 +138,8 @@ def trim(ctx, skip, stop=None):
 def pieces(prep: Prepared, o: int, channel: str) -> List[Piece]:
     """Return output ``o`` (named ``channel``) of every record as selection pieces."""
     return [Piece(prep.contexts[i][o], prep.targets[i][o] - prep.predictions[i][o],
-                  prep.targets[i][o], i, channel) for i in range(len(prep.recordings))]
+                  prep.targets[i][o], i, channel, prep.recordings[i].name)
+            for i in range(len(prep.recordings))]
 
 
 def group_pieces(prep: Prepared, channels: Sequence[str], group) -> List[Piece]:

@@ -49,8 +49,9 @@ class SelectionConfig:
     block_s : float
         Length of a time block [s] (blocks hold at least ``min_block_samples`` samples).
         Records too short for ``n_folds`` such blocks (rig sine tests of a few seconds) get
-        shorter blocks, just enough for ``n_folds`` in all and one per recording, down to
-        ``min_block_samples``.
+        shorter blocks, the longest that give ``n_folds`` in all and one per recording, down
+        to ``min_block_samples``; records too short even for that get one fold per block of
+        ``min_block_samples`` (at least 2, :func:`blocks.block_layout`).
     min_block_samples : int
         Shortest block [samples].
     n_null : int
@@ -189,7 +190,7 @@ class Selector:
         if extra_offset is not None:
             offset = [o + c for o, c in zip(self._offset, extra_offset)]
         return cv_sse(block_stats(self.data, cols, offset), self.data.fold,
-                      self.config.n_folds)
+                      self.data.n_folds)
 
     def sim_strength(self, hyp, shape, shift=None) -> float:
         """Strength the candidate has in the simulation's residual (0 without a simulation)."""
@@ -200,8 +201,8 @@ class Selector:
             stats = block_stats(self.sim, self._sim_cols, self._sim_offset)
             with_term = block_stats(self.sim, self._sim_cols,
                                     [o + c for o, c in zip(self._sim_offset, cols)])
-            return 1.0 if (cv_sse(with_term, self.sim.fold, self.config.n_folds)
-                           < cv_sse(stats, self.sim.fold, self.config.n_folds)) else 0.0
+            return 1.0 if (cv_sse(with_term, self.sim.fold, self.sim.n_folds)
+                           < cv_sse(stats, self.sim.fold, self.sim.n_folds)) else 0.0
         stats = block_stats(self.sim, [b + [c] for b, c in zip(self._sim_cols, cols)],
                             self._sim_offset)
         return float(full_fit(stats)[-1])
@@ -222,7 +223,7 @@ class Selector:
                                 self._offset)
             if hyp.positive and not full_fit(stats)[-1] > 0.0:
                 return 0.0
-            sse = cv_sse(stats, self.data.fold, self.config.n_folds)
+            sse = cv_sse(stats, self.data.fold, self.data.n_folds)
         reference = base_sse
         if self.sim is not None:
             strength = self.sim_strength(hyp, shape, shift)

@@ -90,6 +90,8 @@ def _strengths(units, free, recordings, base, hp: float, skip: int) -> np.ndarra
                                         _figure_weights(y, fs, hp, skip))):
             a_rows.append(np.stack([(c[v] * w).ravel() for c in cols], axis=1))
             b_rows.append((rv * w).ravel())
+    if not a_rows:
+        return beta  # every piece within its settling time: the strengths found stand
     q, rr = np.linalg.qr(np.concatenate(a_rows))
     sol, _ = scipy.optimize.nnls(rr, q.T @ np.concatenate(b_rows))
     beta[idx] = sol

@@ -129,7 +129,7 @@ class _Channel:
         self.response = _causal_response(self.model, o, rec0.input_channels.index(source))
         self.data = CvData(pieces(prep, o, channel), config.selection)
         self.base_sse = cv_sse(block_stats(self.data, [[] for _ in self.data.pieces]),
-                               self.data.fold, config.selection.n_folds)
+                               self.data.fold, self.data.n_folds)
 
     def term(self, cand: _Candidate, params=None, taps=()) -> PhysicsTerm:
         rec0 = self.prep.recordings[0]
@@ -171,7 +171,7 @@ class _Channel:
         for i, (part, (a, b)) in enumerate(zip(partialled, self.prep.spans)):
             cols.append([self.data.prepare(i, part[r, a:b]) for r in rows])
         stats = block_stats(self.data, cols)
-        return cv_sse(stats, self.data.fold, self.config.selection.n_folds), full_fit(stats)
+        return cv_sse(stats, self.data.fold, self.data.n_folds), full_fit(stats)
 
     def linear_companions(self, corners: Sequence[float]):
         """
