@@ -118,3 +118,36 @@ def test_a_candidate_worse_than_the_plain_fit_in_one_block_keeps_the_plain_fit()
     # better in every block as well: the candidate is written
     better = {'sim_frf': [both(10.0)] * 4, 'real_linear': blocks['real_linear']}
     assert pick_rows(*args, blocks=better) == {'out0': 'sim_frf'}
+
+
+def test_the_joint_strengths_are_a_candidate_written_under_the_public_name():
+    # The joint least-squares strengths compete as a candidate of their own (before: a
+    # post-gate swap with its own margin, on the gate half only and never without a
+    # holdout).  They must be no worse than the alternation's strengths in either figure,
+    # and are reported as `real_frf+physics` with a note.
+    from wheel_force_estimator.diagnosis.choice import _bases
+    from wheel_force_estimator.diagnosis.choice import JOINT
+    from wheel_force_estimator.diagnosis.choice import written_rows
+    from wheel_force_estimator.diagnosis.crossval import pick_rows
+
+    def figs(unfiltered, hp):
+        return {'rmse_pct': {'a': unfiltered, 'b': 20.0},
+                'rmse_hp1_pct': {'a': hp, 'b': 20.0}}
+    names = ['real_frf+physics', JOINT, 'real_linear']
+    bases = _bases(dict.fromkeys(names))
+    assert bases == {'real_frf+physics': 'real_linear', JOINT: 'real_frf+physics'}
+    args = ([['a'], ['b']], {'a'}, 'real_linear', 'rmse_hp1_pct', ['real_linear'])
+    scores = {'real_frf+physics': figs(10.0, 8.0), JOINT: figs(9.5, 7.0),
+              'real_linear': figs(12.0, 10.0)}
+    pick = pick_rows(scores, *args, bases=bases)
+    assert pick == {'a': JOINT, 'b': 'real_linear'}
+    notes = []
+    assert written_rows(pick, 'per_channel', notes) == {'a': 'real_frf+physics',
+                                                         'b': 'real_linear'}
+    assert len(notes) == 1 and 'joint least-squares step' in notes[0] and 'for a.' in notes[0]
+    # better high-passed but worse unfiltered than the alternation: not eligible
+    scores[JOINT] = figs(10.5, 6.0)
+    assert pick_rows(scores, *args, bases=bases)['a'] == 'real_frf+physics'
+    notes = []
+    assert written_rows({'a': 'real_frf+physics'}, 'real_frf+physics', notes) == {}
+    assert notes == []

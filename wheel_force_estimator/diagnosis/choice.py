@@ -44,7 +44,7 @@ from wheel_force_estimator.diagnosis.result import FitComparison
 from wheel_force_estimator.diagnosis.written import backfitted_model
 from wheel_force_estimator.diagnosis.written import gate_dynamic
 from wheel_force_estimator.diagnosis.written import is_dynamic
-from wheel_force_estimator.diagnosis.written import joint_if_better
+from wheel_force_estimator.diagnosis.written import has_joint_step
 from wheel_force_estimator.diagnosis.written import term_dicts
 
 
@@ -91,7 +91,7 @@ def combine(candidates: Mapping[str, object], pick: Mapping[str, str],
     names = list(candidates)
     if len(set(pick.values())) < 2:
         name = next(iter(pick.values()))
-        return candidates[name], name, ''
+        return candidates[name], public_name(name), ''
     models = [candidates[n] for n in names]
     ok, why = compatible(models)
     if not ok:
@@ -101,9 +101,27 @@ def combine(candidates: Mapping[str, object], pick: Mapping[str, str],
              if all(pick[c] == n for c in t.channels)]
     base = max(names, key=lambda n: sum(v == n for v in pick.values()))
     fit = dict(candidates[base].fit)
-    fit['rows_from'] = dict(pick)
+    fit['rows_from'] = {c: public_name(n) for c, n in pick.items()}
     model = compose_rows(models, [names.index(pick[c]) for c in channels], terms, fit)
     return model, PER_CHANNEL, ''
+
+
+def written_rows(pick: Mapping[str, str], choice: str, notes: List[str]) -> Dict[str, str]:
+    """
+    Return ``fit.rows_from`` of the written model (public names), noting the joint strengths.
+
+    ``choice`` is :func:`combine`'s ``fit.model``: rows only for a per-channel model.
+    """
+    joint = [c for c, n in pick.items() if n == JOINT]
+    if joint:
+        notes.append('Backfit strengths: the joint least-squares step, chosen over the '
+                     'alternation on held-out data, for ' + ', '.join(joint) + '.')
+    return {c: public_name(n) for c, n in pick.items()} if choice == PER_CHANNEL else {}
+
+
+def public_name(name: str) -> str:
+    """Return the ``fit.model`` / ``fit.rows_from`` name of candidate ``name``."""
+    return 'real_frf+physics' if name == JOINT else name
 
 
 #: ``fit.model`` of the reference written unchanged, per diagnosis mode.
@@ -112,6 +130,9 @@ UNCHANGED = {'sim': 'sim_frf', 'model': 'model', 'linear': 'real_linear'}
 PER_CHANNEL = 'per_channel'
 #: ``fit.model`` of the reference FRF plus the findings' terms, per mode.
 AUGMENTED = {'sim': 'sim_frf+physics', 'model': 'model+physics', 'linear': 'real_frf+physics'}
+#: The real-data FRF plus the terms from the joint least-squares strengths: a candidate of its
+#: own, written (and reported) as ``real_frf+physics`` with a note.
+JOINT = 'real_frf+physics (joint strengths)'
 
 
 def _reference_with_terms(with_terms, recordings, ref_model, real_fit, hp, skip):
@@ -138,11 +159,14 @@ def candidate_builder(findings, ref_model, mode: str, real_fit, hp: float, skip:
     of ``ref_model``, e.g. one fitted on the simulation's training blocks).
 
     In order of preference on a tie: the reference FRF plus the findings' terms, the real-data
-    FRF plus the terms fitted jointly (:func:`backfitted_model`), the reference unchanged,
-    the real-data linear model (``linear``, or ``real_fit(recordings)``).  Without a finding
-    that carries terms, the last two only; without a reference FRF, the real-data ones.
+    FRF plus the terms fitted jointly (:func:`backfitted_model`), the same from the joint
+    least-squares strengths (:data:`JOINT`, when :func:`written.has_joint_step`), the
+    reference unchanged, the real-data linear model (``linear``, or
+    ``real_fit(recordings)``).  Without a finding that carries terms, the last two only;
+    without a reference FRF, the real-data ones.
     """
     with_terms = [f for f in findings if f.terms]
+    joint = bool(with_terms) and has_joint_step(with_terms)
 
     def build(recordings, linear=None, reference=None):
         linear = real_fit(recordings) if linear is None else linear
@@ -154,6 +178,9 @@ def candidate_builder(findings, ref_model, mode: str, real_fit, hp: float, skip:
         if with_terms:
             out['real_frf+physics'] = backfitted_model(with_terms, recordings, linear,
                                                        real_fit, hp, skip)[0]
+        if joint:
+            out[JOINT] = backfitted_model(with_terms, recordings, linear, real_fit, hp, skip,
+                                          joint=True)[0]
         if ref is not None and mode != 'linear':
             out[UNCHANGED[mode]] = ref
         out['real_linear'] = linear
@@ -164,7 +191,7 @@ def candidate_builder(findings, ref_model, mode: str, real_fit, hp: float, skip:
 def _bases(candidates) -> Dict[str, str]:
     """Return candidate -> the candidate it adds terms to (both present)."""
     pairs = [(AUGMENTED[m], UNCHANGED[m]) for m in ('sim', 'model')]
-    pairs.append(('real_frf+physics', 'real_linear'))
+    pairs += [('real_frf+physics', 'real_linear'), (JOINT, 'real_frf+physics')]
     return {n: b for n, b in pairs if n in candidates and b in candidates}
 
 
@@ -247,14 +274,14 @@ def _cross_validated(findings, real, reference, ref_model, mode, channels, real_
     if note:
         notes.append(note)
         pick = dict.fromkeys(channels, 'real_linear')
+    rows_from = written_rows(pick, choice, notes)
     after = {fig: _figures_of_pick(scores, pick, fig) for fig in FIGURES}
     if ref_model is not None:
         before = scores[UNCHANGED[mode]]
     else:
         before = fixed_figures(reference.predict, real, folds)
     fit = _comparison(before, scores['real_linear'], after, 'cross_validation', metric,
-                      model=choice, notes=tuple(notes),
-                      rows_from=pick if choice == PER_CHANNEL else {})
+                      model=choice, notes=tuple(notes), rows_from=rows_from)
     return findings, fit, model
 
 
@@ -325,12 +352,6 @@ def _held_out(findings, real, reference, ref_model, mode, holdout, channels, sou
     if lin_model is not None:
         candidates = candidate_builder(findings, ref_model, mode, real_fit, hp, skip)(
             real, lin_model)
-        if with_terms:
-            candidates['real_frf+physics'], note = joint_if_better(
-                candidates['real_frf+physics'], with_terms, real, lin_model, real_fit, hp,
-                skip, split.gate_half, metric)
-            if note:
-                notes.append(note)
     elif ref_model is not None:
         terms = term_dicts(t for f in with_terms for t in f.terms)
         candidates = {AUGMENTED[mode] if terms else UNCHANGED[mode]:
@@ -355,7 +376,8 @@ def _held_out(findings, real, reference, ref_model, mode, holdout, channels, sou
         model, choice, note = combine(candidates, pick, channels)
         if note:
             notes.append(note)
-        rows_from = pick if choice == PER_CHANNEL else {}
+            pick = dict.fromkeys(channels, 'real_linear')
+        rows_from = written_rows(pick, choice, notes)
     shown = split.report_half
     before = evaluate_figures(reference.predict, shown.records, shown.masks)
     real_lin = (evaluate_figures(lambda r: predict_forces(lin_model, r.inputs), shown.records,

@@ -8,8 +8,9 @@ Fitting the written model's candidates: the real-data FRF with the findings' ter
   ``real_frf+physics`` candidate, and the strengths of ``sim_frf+physics``);
 - :func:`partialled`: the Frisch-Waugh-Lovell step (a column minus what the linear design
   predicts of it);
-- :func:`joint_if_better`, :func:`gate_dynamic`: the gate half of a holdout on the joint
-  strengths and on terms inside the structure;
+- :func:`has_joint_step`: whether the joint least-squares strengths are a candidate of
+  their own;
+- :func:`gate_dynamic`: the gate half of a holdout on terms inside the structure;
 - :func:`with_live_estimators`: the written model's live estimators for the node.
 
 Which candidate is written is :mod:`diagnosis.choice`'s.
@@ -305,32 +306,19 @@ def mean_score(model, half: Scored, channels, metric: str) -> Tuple[float, Dict[
     return float(np.mean([scores[c] for c in channels])), scores
 
 
-def joint_if_better(alternated, findings, real, lin_model, real_fit, hp, skip, gate,
-                    metric):
+def has_joint_step(findings) -> bool:
     """
-    Return the backfit from the joint strengths instead when the gate half prefers it.
+    Return True when the joint least-squares strengths are a candidate of their own.
 
-    The joint least-squares strengths (:func:`_partialled_fit`) are the fixed point the
-    alternation's two refits approach from below; with a strong effect that is what unseen
-    data want (a force-driven Duffing rig: 20.1 -> 17.3 %), with a concealed one (below the
-    noise) the alternation's shrinkage generalises better (synthetic pairs: `cubic_stiffness`
-    and `coulomb_friction` lost to the plain fit in 3 of 6 cases with the joint strengths).
-    The gate half of the holdout decides, on the findings' channels: the joint step must
-    win by more than ``MAX_HOLDOUT_HARM_PCT`` (the gate's own noise tolerance; a 0.01-point
-    win on a clipped-sensor pair was 0.001 point worse on the report half).  Returns
-    ``(model, note)``.
+    The joint strengths (:func:`_partialled_fit`, ``backfitted_model(joint=True)``) are the
+    fixed point the alternation's two refits approach from below; with a strong effect that
+    is what unseen data want (a force-driven Duffing rig: 20.1 -> 17.3 %), with a concealed
+    one (below the noise) the alternation's shrinkage generalises better (synthetic pairs:
+    `cubic_stiffness` and `coulomb_friction` lost to the plain fit in 3 of 6 cases with the
+    joint strengths).  So both are candidates of the written model and held-out data choose
+    (:mod:`diagnosis.choice`); only motion-state groups with a free strength have the step.
     """
-    if not any(_joint_eligible(g) for g in _strength_groups(findings)):
-        return alternated, ''
-    joint, _ = backfitted_model(findings, real, lin_model, real_fit, hp, skip, joint=True)
-    channels = sorted({c for f in findings if f.terms for c in f.channels})
-    a = mean_score(alternated, gate, channels, metric)[0]
-    j = mean_score(joint, gate, channels, metric)[0]
-    if j < a - MAX_HOLDOUT_HARM_PCT:
-        return joint, (f'Backfit strengths: the joint least-squares step kept over the '
-                       f'alternation (gate half, mean RMSE over the named channels: {j:.2f} % '
-                       f'vs {a:.2f} %).')
-    return alternated, ''
+    return any(_joint_eligible(g) for g in _strength_groups(findings))
 
 
 def is_dynamic(finding) -> bool:
