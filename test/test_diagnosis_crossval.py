@@ -142,8 +142,8 @@ def test_the_joint_strengths_are_a_candidate_written_under_the_public_name():
     pick = pick_rows(scores, *args, bases=bases)
     assert pick == {'a': JOINT, 'b': 'real_linear'}
     notes = []
-    assert written_rows(pick, 'per_channel', notes) == {'a': 'real_frf+physics',
-                                                         'b': 'real_linear'}
+    rows = written_rows(pick, 'per_channel', notes)
+    assert rows == {'a': 'real_frf+physics', 'b': 'real_linear'}
     assert len(notes) == 1 and 'joint least-squares step' in notes[0] and 'for a.' in notes[0]
     # better high-passed but worse unfiltered than the alternation: not eligible
     scores[JOINT] = figs(10.5, 6.0)

@@ -43,8 +43,8 @@ from wheel_force_estimator.diagnosis.result import figure_keys
 from wheel_force_estimator.diagnosis.result import FitComparison
 from wheel_force_estimator.diagnosis.written import backfitted_model
 from wheel_force_estimator.diagnosis.written import gate_dynamic
-from wheel_force_estimator.diagnosis.written import is_dynamic
 from wheel_force_estimator.diagnosis.written import has_joint_step
+from wheel_force_estimator.diagnosis.written import is_dynamic
 from wheel_force_estimator.diagnosis.written import term_dicts
 
 
