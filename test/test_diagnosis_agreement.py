@@ -1,6 +1,8 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """Corners that agree name a weak effect none of them names alone; nulls stay silent."""
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -45,7 +47,8 @@ def _prepared(strength, seed=0, n=int(120 * FS_HZ)):
         contexts.append(ctx)
         predictions.append(load)
         targets.append(load + term + noise)
-    return Prepared((None,), [np.array(targets)], [np.array(predictions)], [contexts], [0.0],
+    record = SimpleNamespace(name='four corners')       # only its name is read here
+    return Prepared((record,), [np.array(targets)], [np.array(predictions)], [contexts], [0.0],
                     [np.array(predictions)], [(0, n)])
 
 

@@ -169,9 +169,14 @@ def test_short_records_get_shorter_cross_validation_blocks_down_to_the_floor():
     # Two recordings: every one keeps at least one block.
     two = CvData(pieces(900, 150), config)
     assert all(s.size >= 1 for s in two.starts) and np.unique(two.fold).size == 5
-    # Below min_block_samples (64) per fold it is still refused, with the reason.
-    with pytest.raises(DiagnosisError, match='too little data to cross-validate'):
-        CvData(pieces(300), config)
+    # Below min_block_samples (64) per fold: one fold per 64-sample block (4 here) ...
+    fewer = CvData(pieces(300), config)
+    assert fewer.n_folds == 4 and sorted(fewer.fold) == [0, 1, 2, 3]
+    assert np.array_equal(fewer.starts[0], np.arange(4) * 64)
+    # ... and below 2 such blocks it is refused, with the reason.
+    with pytest.raises(DiagnosisError, match='too little data to cross-validate f: .* '
+                       r'100 samples .* fewer than 2 time blocks of 64'):
+        CvData(pieces(100), config)
 
 
 def test_null_lags_of_a_periodic_feature_are_where_it_is_unlike_itself():
