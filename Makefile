@@ -48,6 +48,7 @@ bench: venv
 bench-diagnose: venv
 	$(BIN)/python bench/diagnose_blind.py
 	$(BIN)/python bench/diagnose_bound.py
+	$(BIN)/python bench/diagnose_joint.py
 
 clean:
 	rm -rf $(VENV) $(DEMO_DIR) build install log *.egg-info

@@ -264,6 +264,19 @@ def test_too_few_long_windows_for_the_inputs_fall_back_to_one_resolution(files, 
     assert load_model(one).fit['long_segment_length'] == 8192
 
 
+def test_a_live_look_ahead_beyond_the_longest_designed_exits_2(files, tmp_path, capsys):
+    # Before: a ConfigError from deep in the search, "look-ahead 77 is not within 64 .. 64".
+    params = tmp_path / 'p.yaml'
+    params.write_text('/**:\n  ros__parameters:\n    live_look_ahead_s: 0.3\n')
+    for extra, where in ((['--live-look-ahead-s', '0.3'], '--live-look-ahead-s = 0.3 s'),
+                         (['--config', str(params)], 'p.yaml: live_look_ahead_s = 0.3 s')):
+        rc = main(['fit', str(files['train.npz']), '-o', str(tmp_path / 'm.npz')] + extra
+                  + ROLES)
+        assert rc == 2
+        err = capsys.readouterr().err
+        assert where in err and 'outside 0 .. 0.25 s' in err, err
+
+
 def test_fit_refuses_records_shorter_than_one_segment(files, tmp_path, capsys):
     rc = main(['fit', str(files['tiny']), '-o', str(tmp_path / 'm.npz')] + ROLES)
     assert rc == 1

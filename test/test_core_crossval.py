@@ -24,6 +24,7 @@ from wheel_force_estimator.core.crossval import Piece
 from wheel_force_estimator.core.crossval import response_on_grid
 from wheel_force_estimator.core.crossval import splice
 from wheel_force_estimator.core.design import fit_design
+from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import design_causal
@@ -330,3 +331,11 @@ def test_a_shorter_live_history_must_be_no_worse_in_either_figure():
     crit = _live_criteria([[whole, short]], live)
     assert np.isinf(crit[1, 0]) and crit[1, 1] == pytest.approx(0.34)
     np.testing.assert_allclose(crit[0], [0.40, 0.40])
+
+
+def test_a_live_look_ahead_beyond_the_least_squares_fir_is_refused_naming_the_range():
+    x, y = _known_system(40000, 5)
+    cfg = FitConfig(segment_length=512, long_segment_length=0,
+                    live=LiveDesign(look_aheads_s=(0.3,), history_s=0.5))
+    with pytest.raises(ConfigError, match=r'live_look_ahead_s 0.3 s is outside 0 .. 0.25 s'):
+        fit_design([TrainingSegment(x, y, 'train')], FS_HZ, cfg, ('a', 'b'), ('f', 'g'))

@@ -170,7 +170,14 @@ def _with_live(config, args):
     from wheel_force_estimator.cli.common import configured_look_ahead_s
     from wheel_force_estimator.core.live_estimator import LiveDesign
     from wheel_force_estimator.core.live_estimator import SWEEP_LOOK_AHEADS_S
+    from wheel_force_estimator.cli.common import UsageError
+    from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
     look = configured_look_ahead_s(args.config, args.live_look_ahead_s)
+    if look > LS_LOOK_AHEAD_S:
+        where = ('--live-look-ahead-s' if args.live_look_ahead_s is not None
+                 else f'{args.config}: live_look_ahead_s')
+        raise UsageError(f'{where} = {look:g} s is outside 0 .. {LS_LOOK_AHEAD_S:g} s (the '
+                         f'longest look-ahead `fit` designs the live estimator for)')
     return dataclasses.replace(config, live=LiveDesign(look_aheads_s=(look,)
                                                        + SWEEP_LOOK_AHEADS_S))
 

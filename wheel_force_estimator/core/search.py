@@ -71,6 +71,7 @@ from wheel_force_estimator.core.crossval import N_BLOCKS
 from wheel_force_estimator.core.crossval import Piece
 from wheel_force_estimator.core.crossval import response_on_grid
 from wheel_force_estimator.core.crossval import splice
+from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import look_ahead_samples
@@ -316,11 +317,16 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
         blocks.
 
     """
+    live = config.live or LiveDesign()
+    too_long = [v for v in live.look_aheads_s if v > LS_LOOK_AHEAD_S]
+    if too_long:
+        raise ConfigError(f'live_look_ahead_s {too_long[0]:g} s is outside 0 .. '
+                          f'{LS_LOOK_AHEAD_S:g} s: the live estimators are solved from the '
+                          f'factorisation of the {LS_LOOK_AHEAD_S:g} s least-squares FIR')
     lengths = [s.accel_mps2.shape[1] for s in used]
     n_score, blocks = scoring_blocks(lengths, config)
     if n_score is None:
         return None
-    live = config.live or LiveDesign()
     sp = space(config, imposed, n_score, live.look_aheads_s[0], input_channels, live.history_s)
     # the scorer's window: the longest power of two every chunk holds (the finest grid)
     n_score = 1 << int(np.log2(min(p.stop - p.start for b in blocks for p in b)))
