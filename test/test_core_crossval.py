@@ -18,7 +18,6 @@ from wheel_force_estimator.core.crossval import blend_weight
 from wheel_force_estimator.core.crossval import BlendScorer
 from wheel_force_estimator.core.crossval import block_pieces
 from wheel_force_estimator.core.crossval import held_out_power
-from wheel_force_estimator.core.crossval import HeldOutPower
 from wheel_force_estimator.core.crossval import hp_power_weight
 from wheel_force_estimator.core.crossval import Piece
 from wheel_force_estimator.core.crossval import response_on_grid
@@ -289,48 +288,6 @@ def test_response_on_grid_wraps_taps_longer_than_the_grid():
     lag = np.arange(21) - delay
     want = (taps[0][None, :, :] * np.exp(-2j * np.pi * k[:, :, None] * lag / 8)).sum(axis=2)
     np.testing.assert_allclose(h[:, 0, :], want, atol=1e-12)
-
-
-def test_the_live_history_is_chosen_per_row_and_cut_exactly():
-    # A memoryless system with noise: the whole 2 s history only adds variance, so the
-    # shortest history tried (a quarter of the bound) is no worse in either figure on the
-    # held-out blocks and is chosen for both rows.  The configured estimator then has
-    # exactly zero taps beyond it (the equations solved without the far past, from the same
-    # factorisation); the stored sweep's other look-ahead keeps the whole history.
-    n = 40000
-    x = coloured(2, n, 3)
-    rng = np.random.default_rng(4)
-    y = np.array([[1.0, 0.5], [-0.3, 2.0]]) @ x + 0.5 * rng.normal(size=(2, n))
-    cfg = FitConfig(segment_length=512, long_segment_length=0,
-                    live=LiveDesign(look_aheads_s=(0.05, 0.0), history_s=2.0))
-    fitted = fit_design([TrainingSegment(x, y, 'train')], FS_HZ, cfg, ('a', 'b'), ('f', 'g'))
-    design = fitted.model.fit['design']
-    assert {(c['regularisation'], c['history_s']) for c in design['live_candidates']} == {
-        (r, h) for r in (1e-4, 1e-3) for h in (None, 0.5, 1.0)}
-    assert [row['live_history_s'] for row in design['rows'].values()] == [0.5, 0.5]
-    configured, sweep = fitted.model.live
-    assert configured.info['history_s'] <= 0.5 < 2.0 == sweep.info['history_s']
-    d = look_ahead_samples(0.05, FS_HZ)
-    cut = d + int(round(configured.info['history_s'] * FS_HZ)) + 1
-    taps = configured.fir(FS_HZ).taps
-    assert np.any(taps[:, :, cut - 1]) and not np.any(taps[:, :, cut:])
-    assert np.any(sweep.fir(FS_HZ).taps[:, :, cut + 64:])
-
-
-def test_a_shorter_live_history_must_be_no_worse_in_either_figure():
-    # Known answer of the rule: the sum of the two relative errors alone would take the
-    # shorter history that trades the unfiltered figure for the high-passed one.
-    from wheel_force_estimator.core.search import _live_criteria
-    target = np.ones((2, 2))
-
-    def power(unfiltered, hp):
-        return HeldOutPower(np.array([unfiltered, hp]), target)
-    live = ((1e-4, None), (1e-4, 1.0))
-    whole = power([0.10, 0.10], [0.30, 0.30])
-    short = power([0.11, 0.09], [0.20, 0.25])    # row 0 trades figures, row 1 dominates
-    crit = _live_criteria([[whole, short]], live)
-    assert np.isinf(crit[1, 0]) and crit[1, 1] == pytest.approx(0.34)
-    np.testing.assert_allclose(crit[0], [0.40, 0.40])
 
 
 def test_a_live_look_ahead_beyond_the_least_squares_fir_is_refused_naming_the_range():

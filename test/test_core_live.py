@@ -138,43 +138,6 @@ def test_design_live_submatrices_equal_separate_designs():
         assert est.info == alone.info
 
 
-def test_split_factor_solves_shorter_histories_as_separate_designs():
-    # Known answer: the estimator at the split look-ahead with the history cut after past
-    # block q (a leading submatrix of the split-ordered factor) equals a design of its own
-    # with that history (zero taps beyond it); the whole history at look-aheads from the
-    # split on equals the plain factor's.  Bug caught: a prefix that kept a farther future
-    # lag or dropped a past block.
-    from wheel_force_estimator.core.live_estimator import LagOrderedFactor
-    from wheel_force_estimator.core.live_estimator import NormalEquations
-    x = coloured_inputs(30_000, 9)
-    design = LiveDesign(look_aheads_s=(6 / FS_HZ,), history_s=0.5, fine_s=0.05,
-                        blocks_per_octave=4)
-    corr = correlate([x], [x[:2] * 2.0 + np.roll(x[1:], 3, axis=1) - np.roll(x[:2], -20, 1)],
-                     design.max_lag(FS_HZ))
-    eq = NormalEquations(corr, 6, design)
-    split = LagOrderedFactor(eq, split=2)
-    plain = LagOrderedFactor(eq)
-    for d in (2, 4, 6):
-        np.testing.assert_allclose(split.theta(d), plain.theta(d), rtol=0,
-                                   atol=1e-9 * np.abs(plain.theta(d)).max())
-    n_past = split.n_past_blocks
-    for q in (2, 5, n_past // 2, n_past):
-        est = split.estimator(2, history_blocks=q)
-        history = int(round(est.info['history_s'] * FS_HZ))
-        alone = design_causal(corr, 2, dataclasses.replace(design, history_s=history / FS_HZ))
-        assert alone.history_samples == history
-        taps = est.fir(FS_HZ).taps
-        ref = alone.fir(FS_HZ).taps
-        np.testing.assert_allclose(taps[:, :, :ref.shape[2]], ref, rtol=0,
-                                   atol=1e-9 * np.abs(ref).max())
-        assert not np.any(taps[:, :, ref.shape[2]:])
-    assert split.history_blocks(history) == n_past
-    with pytest.raises(ConfigError, match='at look-ahead 2 only'):
-        split.theta(3, history_blocks=1)
-    with pytest.raises(ConfigError, match='not within 2 .. 6'):
-        split.theta(1)
-
-
 def random_estimator(look_ahead=3, seed=0):
     rng = np.random.default_rng(seed)
     edges = lag_edges(look_ahead, 8, 300, 4)

@@ -491,5 +491,5 @@ def announce(model, model_path, delay: Optional[int]) -> Optional[str]:
     elif delay != model.fir_delay_samples:
         est = find_live(model.live, delay)
         print(f'live estimator: look-ahead {delay} samples ({ms:.1f} ms), '
-              f'{est.info.get("method", "?")}, history {est.history_label(model.fs_hz)}')
+              f'{est.info.get("method", "?")}, history {est.history_samples / model.fs_hz:.2f} s')
     return fallback

@@ -228,7 +228,7 @@ def _print_summary(model, summary, fitted, data: _TrainingData) -> None:
                            for e in model.live[1:])
         print(f'live estimator: look-ahead {first.look_ahead_samples} samples '
               f'({1e3 * first.look_ahead_samples / model.fs_hz:.1f} ms), '
-              f'{first.info["method"]}, history {first.history_label(model.fs_hz)}; '
+              f'{first.info["method"]}, history {first.history_samples / model.fs_hz:.2f} s; '
               f'also stored: {others or "-"} ms')
 
 

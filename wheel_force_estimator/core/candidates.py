@@ -60,11 +60,6 @@ SPLICE_CROSSOVERS_HZ = (0.0, 1.0, 2.0, 4.0, 8.0, math.inf)
 SCORING = 'scoring'
 #: Look-ahead of the two-sided least-squares FIR [s] (the longest stored live look-ahead).
 LS_LOOK_AHEAD_S = 0.25
-#: Shorter live histories tried, as fractions of the design's ``history_s`` (which bounds
-#: the search and is tried too).  Each is a leading block of the one factorisation at the
-#: live look-ahead (:class:`.live_estimator.LagOrderedFactor` ``split``): no factorisation
-#: of its own.
-LIVE_HISTORY_FRACTIONS = (0.25, 0.5)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -76,7 +71,6 @@ class Candidate:
     ls_regularisation: float
     crossover_hz: float
     ls_look_ahead_s: float = LS_LOOK_AHEAD_S
-    ls_history_s: Optional[float] = None
 
     @property
     def family(self) -> str:
@@ -94,8 +88,6 @@ class Candidate:
         if self.family != 'h1':
             out.update(ls_regularisation=self.ls_regularisation,
                        ls_look_ahead_s=self.ls_look_ahead_s)
-            if self.ls_history_s is not None:
-                out.update(ls_history_s=self.ls_history_s)
         if self.family == 'spliced':
             out.update(crossover_hz=self.crossover_hz)
         return out
@@ -103,14 +95,12 @@ class Candidate:
 
 def candidates(segment_lengths: Sequence[int], long_regs: Sequence[float],
                ls_regs: Sequence[float], crossovers: Sequence[float],
-               live_look_ahead_s: Optional[float] = None,
-               live_histories_s: Sequence[float] = ()) -> List[Candidate]:
+               live_look_ahead_s: Optional[float] = None) -> List[Candidate]:
     """
     Return the distinct candidates of the grids (families ignore settings they lack).
 
-    ``live_look_ahead_s`` adds the live estimators themselves as offline candidates (the
-    ``ls`` family at that look-ahead, with the whole history and each of
-    ``live_histories_s``), so the offline choice can never score worse than the live
+    ``live_look_ahead_s`` adds the live estimator itself as an offline candidate (the ``ls``
+    family at that look-ahead), so the offline choice can never score worse than the live
     estimator on the held-out blocks.
     """
     seen, out = set(), []
@@ -127,9 +117,6 @@ def candidates(segment_lengths: Sequence[int], long_regs: Sequence[float],
         out.extend(Candidate(segment_lengths[0], long_regs[0], r, math.inf,
                              float(live_look_ahead_s))
                    for r in ls_regs if live_look_ahead_s != LS_LOOK_AHEAD_S)
-        out.extend(Candidate(segment_lengths[0], long_regs[0], r, math.inf,
-                             float(live_look_ahead_s), float(h))
-                   for r in ls_regs for h in live_histories_s)
     return out
 
 
@@ -263,23 +250,20 @@ class _RecentFactors:
         self._lock = threading.Lock()       # fleet workers may fit in threads
 
     @staticmethod
-    def key(corr: Correlations, d_max: int, design: LiveDesign, ridge: float,
-            split: int = 0, limit: Optional[int] = None) -> tuple:
+    def key(corr: Correlations, d_max: int, design: LiveDesign, ridge: float) -> tuple:
         digest = hashlib.blake2b(np.ascontiguousarray(corr.rxx).tobytes(),
                                  digest_size=20).hexdigest()
-        return (digest, corr.rxx.shape, float(corr.fs_hz), int(d_max), design, float(ridge),
-                int(split), limit)
+        return (digest, corr.rxx.shape, float(corr.fs_hz), int(d_max), design, float(ridge))
 
-    def factor(self, key: tuple, eq: NormalEquations, ridge: float, split: int = 0,
-               limit: Optional[int] = None) -> LagOrderedFactor:
+    def factor(self, key: tuple, eq: NormalEquations, ridge: float) -> LagOrderedFactor:
         """Return ``eq``'s factorisation at ``ridge``, reusing the factor stored at ``key``."""
         with self._lock:
             known = self._items.get(key)
             if known is not None:
                 self._items.move_to_end(key)
         if known is not None:
-            return LagOrderedFactor(eq, ridge, cholesky=known, split=split, limit=limit)
-        out = LagOrderedFactor(eq, ridge, split=split, limit=limit)
+            return LagOrderedFactor(eq, ridge, cholesky=known)
+        out = LagOrderedFactor(eq, ridge)
         with self._lock:
             self._items[key] = out.cholesky
             while len(self._items) > self._max:
@@ -295,60 +279,32 @@ class LsSolutions:
     The least-squares FIRs of one training set: one factorisation per ridge.
 
     ``equations``: the normal equations of ``corr`` already at hand (a subset's, taken from
-    the full set's by :meth:`.NormalEquations.subset`), else built here.  ``split``: the live
-    look-ahead [samples] whose shorter histories are solved from the same factorisation
-    (:class:`.live_estimator.LagOrderedFactor`); a look-ahead below it with the whole history
-    (the stored sweep) gets a second, smaller factorisation of the equations up to ``split``,
-    made on first use.
+    the full set's by :meth:`.NormalEquations.subset`), else built here.
     """
 
     def __init__(self, corr: Correlations, design: LiveDesign, ridges: Sequence[float],
-                 equations: Optional[NormalEquations] = None, split: int = 0):
+                 equations: Optional[NormalEquations] = None):
         self.fs_hz = corr.fs_hz
         self.d_max = look_ahead_samples(LS_LOOK_AHEAD_S, corr.fs_hz)
-        self.split = min(int(split), self.d_max)
         base = (float(ridges[0]) if equations is None
                 else float(equations.info['regularisation']))
         design = dataclasses.replace(design, look_aheads_s=(LS_LOOK_AHEAD_S,),
                                      regularisation=base)
         eq = NormalEquations(corr, self.d_max, design) if equations is None else equations
-        self._near = (corr, design, eq)
-        self.factors = {r: _FACTORS.factor(_FACTORS.key(corr, self.d_max, design, r,
-                                                        self.split), eq, r, self.split)
+        self.factors = {r: _FACTORS.factor(_FACTORS.key(corr, self.d_max, design, r), eq, r)
                         for r in ridges}
-        self._low: Dict[float, LagOrderedFactor] = {}
-        self._estimators: Dict[tuple, CausalEstimator] = {}
+        self._estimators: Dict[Tuple[float, int], CausalEstimator] = {}
 
-    def _factor_for(self, ridge: float, look_ahead: int) -> LagOrderedFactor:
-        if look_ahead >= self.split:
-            return self.factors[ridge]
-        if ridge not in self._low:
-            corr, design, eq = self._near
-            self._low[ridge] = _FACTORS.factor(
-                _FACTORS.key(corr, self.d_max, design, ridge, 0, self.split), eq, ridge, 0,
-                self.split)
-        return self._low[ridge]
-
-    def estimator(self, ridge: float, look_ahead: int,
-                  history_s: Optional[float] = None) -> CausalEstimator:
-        """
-        Return the estimator of ``ridge`` at ``look_ahead`` samples (solved once).
-
-        ``history_s``: the longest past lag [s] (cut at the last basis block ending there;
-        the taps beyond are zero), at the look-ahead ``split`` only; None: the whole history.
-        """
-        key = (ridge, int(look_ahead), history_s)
+    def estimator(self, ridge: float, look_ahead: int) -> CausalEstimator:
+        """Return the estimator of ``ridge`` at ``look_ahead`` samples (solved once)."""
+        key = (ridge, int(look_ahead))
         if key not in self._estimators:
-            factor = self._factor_for(ridge, int(look_ahead))
-            blocks = (None if history_s is None else
-                      factor.history_blocks(int(round(history_s * self.fs_hz))))
-            self._estimators[key] = factor.estimator(look_ahead, blocks)
+            self._estimators[key] = self.factors[ridge].estimator(look_ahead)
         return self._estimators[key]
 
-    def response(self, ridge: float, look_ahead: int, n_fft: int,
-                 history_s: Optional[float] = None) -> np.ndarray:
+    def response(self, ridge: float, look_ahead: int, n_fft: int) -> np.ndarray:
         """Return the realised response on the ``n_fft`` grid, shape (nf, n_out, n_in)."""
-        fir = self.estimator(ridge, look_ahead, history_s).fir(self.fs_hz)
+        fir = self.estimator(ridge, look_ahead).fir(self.fs_hz)
         return response_on_grid(fir.taps, fir.delay_samples, n_fft)
 
 
@@ -373,8 +329,8 @@ def set_equations(corr: Correlations, design: LiveDesign, columns: Sequence[Sequ
 
 
 def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
-               ls: Dict[tuple, np.ndarray],
-               live: Dict[tuple, np.ndarray], cands: Sequence[Candidate],
+               ls: Dict[Tuple[float, float], np.ndarray],
+               live: Dict[float, np.ndarray], cands: Sequence[Candidate],
                held_out: CrossSpectra) -> Tuple[List[HeldOutPower], List[HeldOutPower]]:
     """
     Score every candidate (and every live ridge) of one fold on its held-out block.
@@ -387,10 +343,9 @@ def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
     h1 : dict
         ``{(segment_length, long_regularisation): response}`` on the scoring grid.
     ls : dict
-        ``{(ridge, look_ahead_s, history_s or None): response}`` of the LS FIRs on the
-        scoring grid.
+        ``{(ridge, look_ahead_s): response}`` of the LS FIRs on the scoring grid.
     live : dict
-        ``{(ridge, history_s or None): response}`` of the live LS FIRs on the scoring grid.
+        ``{ridge: response}`` of the live LS FIR on the scoring grid.
     cands : sequence of Candidate
         Offline candidates.
     held_out : CrossSpectra
@@ -399,7 +354,7 @@ def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
     Returns
     -------
     (list of HeldOutPower, list of HeldOutPower)
-        Per candidate, per live (ridge, history) (in ``live`` order).
+        Per candidate, per live ridge (in ``live`` order).
 
     """
     f = held_out.f_hz
@@ -419,7 +374,7 @@ def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
     offline = []
     for c in cands:
         h1_key = ('h1', c.segment_length, c.long_regularisation)
-        ls_key = ('ls', c.ls_regularisation, c.ls_look_ahead_s, c.ls_history_s)
+        ls_key = ('ls', c.ls_regularisation, c.ls_look_ahead_s)
         if c.family == 'h1':
             offline.append(scorer.power(h1_key))
         elif c.family == 'ls':

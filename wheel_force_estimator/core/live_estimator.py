@@ -55,10 +55,7 @@ Defaults (``LiveDesign``), chosen on held-out simulated data (5 min training, 2.
 held-out, other seed; mean RMSE % x / y / z at 50 ms; offline two-sided 29.0 / 20.6 / 10.7):
 32 blocks per octave 29.3 / 13.7 / 8.2, 16 per octave 29.5 / 13.9 / 12.2 (Fz needs the
 resolution); ridge 1e-3 instead of 1e-4 (the FRF's own default) 29.6 / 13.8 / 10.8; history
-2 s 30.6 / 14.4 / 9.5, 8 s 28.6 / 13.5 / 8.0 (30 % dearer fit), so 4 s.  ``wheel-force fit``
-chooses the ridge and, within the 4 s, the history per output by blocked cross-validation
-(:mod:`.search`; :class:`LagOrderedFactor`'s ``split`` solves the shorter histories from
-the same factorisation).
+2 s 30.6 / 14.4 / 9.5, 8 s 28.6 / 13.5 / 8.0 (30 % dearer fit), so 4 s.
 """
 import dataclasses
 import functools
@@ -224,13 +221,6 @@ class CausalEstimator:
     def history_samples(self) -> int:
         """Return the longest past lag used [samples]."""
         return int(self.coarse_edges[-1]) - 1
-
-    def history_label(self, fs_hz: float) -> str:
-        """Return the history used [s] for messages: one value, or the range over outputs."""
-        used = self.info.get('history_s', self.history_samples / fs_hz)
-        values = [float(v) for v in np.atleast_1d(used)]
-        lo, hi = min(values), max(values)
-        return f'{hi:.2f} s' if lo == hi else f'{lo:.2f}-{hi:.2f} s by output'
 
     def fir(self, fs_hz: float) -> FirFilter:
         """Return the same filter as one full-rate FIR (lag zero at tap ``D``)."""
@@ -504,18 +494,11 @@ class LagOrderedFactor:
     One Cholesky factorisation that serves every look-ahead up to the longest.
 
     The look-ahead ``d`` equations are those of the longest look-ahead ``D`` without the
-    future lags ``-D .. -d-1``.  Ordering the unknowns lag by lag with the past first and
-    the future lags last, nearest first (all inputs of one lag together), makes each
-    look-ahead's equations a *leading* principal submatrix, and the Cholesky factor of a
-    leading principal submatrix is the leading block of the full factor.  So a shorter
-    look-ahead costs two triangular solves, not a factorisation.
-
-    With ``split`` > 0 the nearest ``split`` future lags come first, then the past in
-    increasing lag, then the farther future: the look-ahead ``split`` equations with the
-    history cut after any past block are then leading submatrices too (:meth:`theta`'s
-    ``history_blocks``), so one factorisation also scores every shorter history at that
-    look-ahead, and still serves every look-ahead from ``split`` to ``limit`` with the whole
-    history.  ``limit`` < ``D`` leaves the farther future lags out of the factorisation.
+    future lags ``-D .. -d-1`` (:meth:`NormalEquations.sub`).  Ordering the unknowns lag by
+    lag with the past first and the future lags last, nearest first (all inputs of one lag
+    together), makes each look-ahead's equations a *leading* principal submatrix, and the
+    Cholesky factor of a leading principal submatrix is the leading block of the full factor.
+    So a shorter look-ahead costs two triangular solves, not a factorisation.
 
     Parameters
     ----------
@@ -524,15 +507,10 @@ class LagOrderedFactor:
     regularisation : float, optional
         Ridge to use instead of the one ``eq`` was built with [-].
     cholesky : numpy.ndarray, optional
-        The lower Cholesky factor of these regularised equations in this order, from
+        The lower Cholesky factor of these regularised equations in lag order, from
         :attr:`cholesky` of a factorisation of equations with the same matrix (the same
-        inputs' correlations, look-ahead, design, ridge, ``split`` and ``limit``) and another
-        right-hand side: only the right-hand side of ``eq`` is new (two triangular solves,
-        no factorisation).
-    split : int
-        Look-ahead [samples] whose shorter histories are leading submatrices (0: none).
-    limit : int, optional
-        Longest look-ahead served [samples] (default: that of ``eq``).
+        inputs' correlations, look-ahead, design and ridge) and another right-hand side:
+        only the right-hand side of ``eq`` is new (two triangular solves, no factorisation).
 
     Raises
     ------
@@ -540,24 +518,14 @@ class LagOrderedFactor:
         The regularised equations are not positive definite.
     ShapeError
         ``cholesky`` does not have the shape of the equations.
-    ConfigError
-        ``split`` or ``limit`` outside ``0 .. D``, or ``split`` > ``limit``.
 
     """
 
     def __init__(self, eq: 'NormalEquations', regularisation: Optional[float] = None,
-                 cholesky: Optional[np.ndarray] = None, split: int = 0,
-                 limit: Optional[int] = None):
+                 cholesky: Optional[np.ndarray] = None):
         n_b = eq.edges.size - 1
         d_max = -int(eq.edges[0])
-        limit = d_max if limit is None else int(limit)
-        split = int(split)
-        if not 0 <= split <= limit <= d_max:
-            raise ConfigError(f'live factor: need 0 <= split {split} <= limit {limit} <= '
-                              f'look-ahead {d_max}')
-        blocks = np.concatenate([np.arange(d_max - 1, d_max - 1 - split, -1),
-                                 np.arange(d_max, n_b),
-                                 np.arange(d_max - 1 - split, d_max - 1 - limit, -1)])
+        blocks = np.concatenate([np.arange(d_max, n_b), np.arange(d_max - 1, -1, -1)])
         self._perm = (np.arange(eq.n_in)[None, :] * n_b + blocks[:, None]).ravel()
         if cholesky is not None:
             if cholesky.shape != (self._perm.size,) * 2:
@@ -578,7 +546,6 @@ class LagOrderedFactor:
                     f'not positive definite (inputs without power?)') from err
         self._rhs = eq.rhs[self._perm]
         self._blocks, self._eq, self._d_max, self._n_b = blocks, eq, d_max, n_b
-        self._split, self._limit = split, limit
         reg = eq.info['regularisation'] if regularisation is None else regularisation
         self._info = dict(eq.info, regularisation=float(reg))
 
@@ -589,61 +556,35 @@ class LagOrderedFactor:
         view.flags.writeable = False
         return view
 
-    @property
-    def n_past_blocks(self) -> int:
-        """Return the number of past basis blocks (lag 0 up to the history)."""
-        return self._n_b - self._d_max
-
-    def history_blocks(self, history_samples: int) -> int:
-        """Return how many past blocks end at or before lag ``history_samples`` (>= 1)."""
-        ends = self._eq.edges[self._d_max + 1:] - 1            # last lag of each past block
-        return max(1, int(np.searchsorted(ends, int(history_samples), side='right')))
-
-    def theta(self, look_ahead: int, history_blocks: Optional[int] = None) -> np.ndarray:
+    def theta(self, look_ahead: int) -> np.ndarray:
         """
         Return the coefficients for ``look_ahead`` samples, shape (n_out, n_in, n_basis).
 
         Basis block ``p`` of the result is block ``p + D - look_ahead`` of the longest
-        look-ahead's basis.  ``history_blocks``: keep only the first that many past blocks
-        (the taps of the others are exactly zero, the equations solved without them); only
-        at the look-ahead ``split``.
+        look-ahead's basis.
         """
         d = int(look_ahead)
-        n_past = self.n_past_blocks
-        if history_blocks is None:
-            if not (self._split <= d <= self._limit):
-                raise ConfigError(f'look-ahead {d} is not within {self._split} .. '
-                                  f'{self._limit}')
-            k = n_past + d
-        else:
-            q = int(history_blocks)
-            if d != self._split or not 1 <= q <= n_past:
-                raise ConfigError(f'a shorter history ({q} of {n_past} past blocks) is solved '
-                                  f'at look-ahead {self._split} only, asked at {d}')
-            k = self._split + q
+        if not 0 <= d <= self._d_max:
+            raise ConfigError(f'look-ahead {d} is not within 0 .. {self._d_max}')
         n_in = self._eq.n_in
-        m = n_in * k
+        m = n_in * (self._n_b - self._d_max + d)
         lead = self._l[:m, :m]
         z = scipy.linalg.solve_triangular(lead, self._rhs[:m], lower=True, check_finite=False)
         sol = scipy.linalg.solve_triangular(lead, z, lower=True, trans='T', check_finite=False)
-        used = self._blocks[:k]                                         # basis block per lag
-        theta = np.zeros((self._eq.n_out, n_in, n_past + d))
-        theta[:, :, used - (self._d_max - d)] = sol.reshape(k, n_in,
+        used = self._blocks[:m // n_in]                                   # basis block per lag
+        theta = np.empty((self._eq.n_out, n_in, self._n_b - self._d_max + d))
+        theta[:, :, used - (self._d_max - d)] = sol.reshape(used.size, n_in,
                                                             self._eq.n_out).transpose(2, 1, 0)
         return theta
 
-    def estimator(self, look_ahead: int, history_blocks: Optional[int] = None
-                  ) -> CausalEstimator:
-        """Return the live estimator for ``look_ahead`` samples (see :meth:`theta`)."""
+    def estimator(self, look_ahead: int) -> CausalEstimator:
+        """Return the live estimator for ``look_ahead`` samples."""
         d = int(look_ahead)
-        theta = self.theta(d, history_blocks)
+        theta = self.theta(d)
         edges = self._eq.edges[self._d_max - d:]
         n_fine = _fine_count(edges)
         info = dict(self._info, look_ahead_s=d / self._eq.fs_hz,
                     n_basis_per_input=int(edges.size - 1))
-        if history_blocks is not None:
-            info['history_s'] = float(self._eq.edges[self._d_max + int(history_blocks)] - 1
-                                      ) / self._eq.fs_hz
         return CausalEstimator(d, theta[:, :, :n_fine], edges[n_fine:], theta[:, :, n_fine:],
                                info)
 

@@ -20,24 +20,22 @@ fallbacks for records too short to search and builds the model):
    imposed ``inputs``).
 4. **held-out scores**, fold by fold and input set by input set: each candidate is fitted
    from the sums of the other blocks' statistics (the set's columns of them) and scored on
-   the held-out block (:mod:`.crossval`), both figures.  The live estimator's ridge and
-   history are scored on the same folds from the same factorisations (one per set and
-   ridge: the lag-ordered factor interleaves the inputs, so a subset needs its own; its
-   normal matrix is a sub-block of the full set's, built once per fold; the shorter
-   histories are leading blocks of the factor in its ``split`` order).
-5. **the chosen design**: per output row, the live estimator's input set, ridge and history
-   with the lowest held-out error of the live estimator (relative MSE, unfiltered plus 1 Hz
-   high-passed; a shorter history only where no worse in either figure); then the (input
-   set, candidate) pair with the lowest held-out error among those no worse than that live
-   estimator in either figure.
+   the held-out block (:mod:`.crossval`), both figures.  The live estimator's ridge is
+   scored on the same folds from the same factorisations (one per set and ridge: the
+   lag-ordered factor interleaves the inputs, so a subset needs its own; its normal matrix
+   is a sub-block of the full set's, built once per fold).
+5. **the chosen design**: per output row, the live estimator's input set and ridge with the
+   lowest held-out error of the live estimator (relative MSE, unfiltered plus 1 Hz
+   high-passed); then the (input set, candidate) pair with the lowest held-out error among
+   those no worse than that live estimator in either figure.
 6. **the estimate** (:func:`fit_chosen`): the chosen H1 variants and LS factorisations on
    all the data, per input set (one factorisation per set and ridge serves the offline FIR
    and every live look-ahead).
 7. **the FIR**: the rows composed into one FRF over every input (exactly zero for the
    inputs outside a row's set) and realised exactly (:func:`_realised`).
 8. **the live estimators**: every stored look-ahead, each row with its chosen set and ridge
-   (zero taps outside the set), and its chosen history at the configured look-ahead; the
-   caller builds the model (:func:`.pipeline.build_model`) with ``fit.design``.
+   (zero taps outside the set); the caller builds the model
+   (:func:`.pipeline.build_model`) with ``fit.design``.
 """
 import dataclasses
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -51,7 +49,6 @@ from wheel_force_estimator.core.candidates import candidates
 from wheel_force_estimator.core.candidates import combine_correlations
 from wheel_force_estimator.core.candidates import embedded_estimator
 from wheel_force_estimator.core.candidates import embedded_response
-from wheel_force_estimator.core.candidates import LIVE_HISTORY_FRACTIONS
 from wheel_force_estimator.core.candidates import LONG_REGULARISATIONS
 from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
 from wheel_force_estimator.core.candidates import LS_REGULARISATIONS
@@ -106,8 +103,6 @@ class Space:
     input_sets : tuple of (str, tuple of int)
         The nested input sets tried (:func:`.spindle.input_sets`): name and the columns of
         the inputs; the last one is every input.
-    live : tuple of (float, float or None)
-        Live-estimator candidates: (ridge, history [s]; None = the design's whole history).
 
     """
 
@@ -116,7 +111,6 @@ class Space:
     offline: Tuple[Candidate, ...]
     imposed: Tuple[str, ...]
     input_sets: Tuple[Tuple[str, Tuple[int, ...]], ...] = ()
-    live: Tuple[Tuple[float, Optional[float]], ...] = ()
 
     @property
     def needs_ls(self) -> bool:
@@ -139,11 +133,9 @@ class Choice:
         Live-estimator ridge per output row.
     live_sets : tuple of int
         Input set per output row of the live estimator.
-    live_histories : tuple of (float or None)
-        Live-estimator history per output row [s] (None: the design's whole history).
     scores, live_scores : tuple of tuple of HeldOutPower
         Per input set, the held-out power per offline candidate (``space.offline`` order)
-        and per live candidate (``space.live`` order).
+        and per live ridge (``space.ridges`` order).
     space : Space
         What was searched.
     n_score : int
@@ -157,7 +149,6 @@ class Choice:
     row_sets: Tuple[int, ...]
     live_ridges: Tuple[float, ...]
     live_sets: Tuple[int, ...]
-    live_histories: Tuple[Optional[float], ...]
     scores: Tuple[Tuple[HeldOutPower, ...], ...]
     live_scores: Tuple[Tuple[HeldOutPower, ...], ...]
     space: Space
@@ -193,7 +184,6 @@ class Choice:
                               cv_rmse_pct=round(float(pct[0, o]), 3),
                               cv_rmse_hp1_pct=round(float(pct[1, o]), 3),
                               live_regularisation=self.live_ridges[o],
-                              live_history_s=self.live_histories[o],
                               live_inputs=sets[self.live_sets[o]][0], input_sets=per_set)
         return {'method': 'blocked_cross_validation', 'n_blocks': len(self.blocks_s),
                 'blocks_s': [round(b, 3) for b in self.blocks_s],
@@ -204,10 +194,9 @@ class Choice:
                 'candidates': [dict(c.as_dict(), inputs=n, **figures(sc))
                                for (n, _), per in zip(sets, self.scores)
                                for c, sc in zip(self.space.offline, per)],
-                'live_candidates': [dict({'regularisation': r, 'history_s': h, 'inputs': n},
-                                         **figures(sc))
+                'live_candidates': [dict({'regularisation': r, 'inputs': n}, **figures(sc))
                                     for (n, _), per in zip(sets, self.live_scores)
-                                    for (r, h), sc in zip(self.space.live, per)]}
+                                    for r, sc in zip(self.space.ridges, per)]}
 
 
 def scoring_blocks(lengths: Sequence[int], config: FitConfig
@@ -224,15 +213,12 @@ def scoring_blocks(lengths: Sequence[int], config: FitConfig
 
 
 def space(config: FitConfig, imposed: frozenset, n_score: int,
-          live_look_ahead_s: Optional[float], input_channels: Sequence[str],
-          live_history_s: Optional[float] = None) -> Space:
+          live_look_ahead_s: Optional[float], input_channels: Sequence[str]) -> Space:
     """
     Return the candidates: the grids of the defaults, imposed settings kept.
 
     The input sets: the nested groups of :func:`.spindle.input_sets`, or every input alone
-    when the user imposed them (:data:`INPUTS_KEY`).  The live histories: the design's
-    ``live_history_s`` (None: the whole history) and :data:`.candidates.LIVE_HISTORY_FRACTIONS`
-    of it.
+    when the user imposed them (:data:`INPUTS_KEY`).
     """
     long = config.long_segment_length
     if 'segment_length' in imposed:
@@ -247,13 +233,10 @@ def space(config: FitConfig, imposed: frozenset, n_score: int,
     sets = input_sets(input_channels)
     if INPUTS_KEY in imposed:
         sets = sets[-1:]
-    histories = (tuple(f * live_history_s for f in LIVE_HISTORY_FRACTIONS)
-                 if live_history_s else ())
     return Space(tuple((s, lr) for s in segs for lr in lregs), LS_REGULARISATIONS,
                  tuple(candidates(segs, lregs, LS_REGULARISATIONS, crossovers,
-                                  live_look_ahead_s, histories)),
-                 tuple(sorted(imposed)), sets,
-                 tuple((r, h) for r in LS_REGULARISATIONS for h in (None,) + histories))
+                                  live_look_ahead_s)),
+                 tuple(sorted(imposed)), sets)
 
 
 def h1_fits(stats: Sequence[BlockStats], config: FitConfig, variants, fs_hz: float,
@@ -327,7 +310,7 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     n_score, blocks = scoring_blocks(lengths, config)
     if n_score is None:
         return None
-    sp = space(config, imposed, n_score, live.look_aheads_s[0], input_channels, live.history_s)
+    sp = space(config, imposed, n_score, live.look_aheads_s[0], input_channels)
     # the scorer's window: the longest power of two every chunk holds (the finest grid)
     n_score = 1 << int(np.log2(min(p.stop - p.start for b in blocks for p in b)))
     lags = max_lag(live, fs_hz) if (sp.needs_ls or config.live is not None) else 0
@@ -352,12 +335,11 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
             ls_resp, live_resp = {}, {}
             if lags:
                 ls = LsSolutions(subset_correlations(corr, cols), live, sp.ridges,
-                                 eqs.pop(cols), split=d_live)
-                live_resp = {(r, h): ls.response(r, d_live, n_score, h) for r, h in sp.live}
-                ls_resp = {(r, LS_LOOK_AHEAD_S, None): ls.response(r, d_ls, n_score)
+                                 eqs.pop(cols))
+                live_resp = {r: ls.response(r, d_live, n_score) for r in sp.ridges}
+                ls_resp = {(r, LS_LOOK_AHEAD_S): ls.response(r, d_ls, n_score)
                            for r in sp.ridges}
-                ls_resp.update({(r, live.look_aheads_s[0], h): live_resp[(r, h)]
-                                for r, h in sp.live})
+                ls_resp.update({(r, live.look_aheads_s[0]): live_resp[r] for r in sp.ridges})
                 del ls
             off, lv = score_fold(h1, ls_resp, live_resp, sp.offline,
                                  subset_spectra(stats[k].spectra[SCORING], cols))
@@ -365,69 +347,38 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
             live_scores[i] = (lv if live_scores[i] is None
                               else [a + b for a, b in zip(live_scores[i], lv)])
     n_out = stats[0].sum_y.size
-    n_live = len(sp.live)
+    n_ridges = len(sp.ridges)
     if lags:
-        # the live estimator's input set, ridge and history per row: its own held-out
-        # criterion, a shorter history only where it is no worse in either figure
-        flat = best_rows(_live_criteria(live_scores, sp.live))[0]
-        live_sets, live_rows = flat // n_live, flat % n_live
+        # the live estimator's input set and ridge per row: its own held-out criterion
+        flat = best_rows(np.stack([p.criterion() for per in live_scores for p in per]))[0]
+        live_sets, live_rows = flat // n_ridges, flat % n_ridges
     else:
         live_sets = live_rows = np.zeros(n_out, dtype=int)
-    live_of_row = [sp.live[r] for r in live_rows]
     row_sets, rows = _offline_rows(scores, sp, live.look_aheads_s[0],
-                                   [(int(i), r, h) for i, (r, h) in zip(live_sets, live_of_row)]
+                                   [(int(i), sp.ridges[r]) for i, r in zip(live_sets, live_rows)]
                                    if lags else None)
     choice = Choice(tuple(sp.offline[i] for i in rows), tuple(int(i) for i in row_sets),
-                    tuple(float(r) for r, _ in live_of_row),
+                    tuple(float(sp.ridges[i]) for i in live_rows),
                     tuple(int(i) for i in live_sets),
-                    tuple(h for _, h in live_of_row),
                     tuple(tuple(per) for per in scores), tuple(tuple(per) for per in live_scores),
                     sp, n_score, tuple(s.n / fs_hz for s in stats))
     return choice, welch, lags
 
 
-def _live_criteria(live_scores: Sequence[Sequence[HeldOutPower]],
-                   live: Sequence[Tuple[float, Optional[float]]]) -> np.ndarray:
-    """
-    Return the criterion of every (input set, live candidate) per output, set-major.
-
-    A shorter history is a restriction of the whole one (the same equations without the
-    far past): it is eligible for an output only when it is no worse than the whole history
-    (same set and ridge) in either figure, else its criterion is infinite.  The sum of the
-    two relative errors alone traded the unfiltered figure for the high-passed one: on three
-    simulated cars a 2 s history won the folds' sum on most Fx and Fy rows and lost the
-    held-out course unfiltered on all three (compact x 30.4 -> 30.9 %, SUV y 15.6 -> 16.3 %).
-    """
-    whole = {r: k for k, (r, h) in enumerate(live) if h is None}
-    out = []
-    for per in live_scores:
-        rel = [p.error / np.maximum(p.target, np.finfo(float).tiny) for p in per]
-        for k, ((r, h), p) in enumerate(zip(live, per)):
-            crit = p.criterion()
-            if h is not None and r in whole:
-                worse = np.any(rel[k] > rel[whole[r]] * (1.0 + 1e-12), axis=0)
-                crit = np.where(worse, np.inf, crit)
-            out.append(crit)
-    return np.stack(out)
-
-
 def _offline_rows(scores: Sequence[Sequence[HeldOutPower]], sp: Space,
                   live_look_ahead_s: float,
-                  live: Optional[Sequence[Tuple[int, float, Optional[float]]]]
-                  ) -> Tuple[np.ndarray, np.ndarray]:
+                  live: Optional[Sequence[Tuple[int, float]]]) -> Tuple[np.ndarray, np.ndarray]:
     """
     Return the input set and offline candidate per output, never worse than live held out.
 
     Every (input set, candidate) pair competes: the lowest criterion among the pairs no
-    worse than that output's live estimator (its input set, ridge and history, ``live``) in
-    either figure.
+    worse than that output's live estimator (its input set and ridge, ``live``) in either
+    figure.
 
     The live estimator is itself a candidate in its input set, so the pairs kept are never
     empty: offline can never score worse than live, unfiltered or high-passed (a lower sum
     alone could trade one figure for the other: measured on the van, z 11.6 % offline
-    against 10.6 % live unfiltered, bought with the high-passed figure).  Pooled over the
-    folds, not in every fold: requiring every fold made offline x 1.1-1.3 points worse on
-    all three simulated cars (compact 29.1 -> 30.4 %), the H1 rows losing one fold each.
+    against 10.6 % live unfiltered, bought with the high-passed figure).
     """
     n_cand = len(sp.offline)
     flat = [p for per in scores for p in per]                       # set-major
@@ -435,10 +386,9 @@ def _offline_rows(scores: Sequence[Sequence[HeldOutPower]], sp: Space,
     criterion = rel.sum(axis=1)                                     # (n_set n_cand, n_out)
     best = best_rows(criterion)[0]
     if live is not None:
-        for o, (i_set, ridge, history) in enumerate(live):
+        for o, (i_set, ridge) in enumerate(live):
             same = [k for k, c in enumerate(sp.offline) if c.family == 'ls'
-                    and c.ls_regularisation == ridge and c.ls_look_ahead_s == live_look_ahead_s
-                    and c.ls_history_s == history]
+                    and c.ls_regularisation == ridge and c.ls_look_ahead_s == live_look_ahead_s]
             if not same:                  # no LS candidate (an imposed H1 estimator)
                 continue
             ref = i_set * n_cand + same[0]
@@ -495,9 +445,8 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
         used = {i: sorted(r) for i, r in ridges.items() if r}
         eqs = set_equations(whole.corr, live, [sets[i][1] for i in used],
                             min((r for rs in used.values() for r in rs), default=0.0))
-        d_live = look_ahead_samples(live.look_aheads_s[0], fs_hz)
         ls = {i: LsSolutions(subset_correlations(whole.corr, sets[i][1]), live, r,
-                             eqs[sets[i][1]], split=d_live) for i, r in used.items()}
+                             eqs[sets[i][1]]) for i, r in used.items()}
         span = (look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
                 + int(round(live.history_s * fs_hz)) + 1)
         n_model = max(n_model, 2 * int(2 ** np.ceil(np.log2(span))))
@@ -507,14 +456,10 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
     estimators = ()
     if config.live is not None and live_estimators:
         looks = list(dict.fromkeys(look_ahead_samples(v, fs_hz) for v in live.look_aheads_s))
-        # the chosen history at the configured look-ahead (the first); the stored sweep's
-        # other look-aheads keep the whole history
         estimators = tuple(
-            _rows_of([embedded_estimator(ls[i].estimator(r, d, h if k == 0 else None),
-                                         sets[i][1], n_in)
-                      for r, i, h in zip(choice.live_ridges, choice.live_sets,
-                                         choice.live_histories)])
-            for k, d in enumerate(looks))
+            _rows_of([embedded_estimator(ls[i].estimator(r, d), sets[i][1], n_in)
+                      for r, i in zip(choice.live_ridges, choice.live_sets)])
+            for d in looks)
     return (_indicators_on(ref_est, f_hz), h, fir, estimators, extra, whole.sum_x / whole.n,
             whole.sum_y / whole.n)
 
@@ -552,8 +497,7 @@ def _compose(choice: Choice, fits, ls, f_hz: np.ndarray, n_model: int, n_in: int
                 fir = fits[i][key[1:]][2]
                 h = response_on_grid(fir.taps, fir.delay_samples, n_model)
             else:
-                h = ls[i].response(key[1], look_ahead_samples(key[2], ls[i].fs_hz), n_model,
-                                   key[3])
+                h = ls[i].response(key[1], look_ahead_samples(key[2], ls[i].fs_hz), n_model)
             responses[(i, key)] = embedded_response(h, sets[i][1], n_in)
         return responses[(i, key)]
 
@@ -561,7 +505,7 @@ def _compose(choice: Choice, fits, ls, f_hz: np.ndarray, n_model: int, n_in: int
     h = np.empty((f_hz.size, n_out, n_in), dtype=np.complex128)
     for o, (c, i) in enumerate(zip(choice.rows, choice.row_sets)):
         h1 = ('h1', c.segment_length, c.long_regularisation)
-        ls_key = ('ls', c.ls_regularisation, c.ls_look_ahead_s, c.ls_history_s)
+        ls_key = ('ls', c.ls_regularisation, c.ls_look_ahead_s)
         if c.family == 'h1':
             h[:, o] = response(i, h1)[:, o]
         elif c.family == 'ls':
@@ -589,8 +533,6 @@ def _rows_of(estimators):
     rows = np.arange(first.n_out)
     fine = np.stack([e.fine_taps for e in estimators])[rows, rows]
     coarse = np.stack([e.coarse_taps for e in estimators])[rows, rows]
-    info = dict(first.info)
-    for key in ('regularisation', 'history_s'):
-        values = [float(e.info[key]) for e in estimators]
-        info[key] = values[0] if len(set(values)) == 1 else values
+    ridges = [float(e.info['regularisation']) for e in estimators]
+    info = dict(first.info, regularisation=ridges[0] if len(set(ridges)) == 1 else ridges)
     return dataclasses.replace(first, fine_taps=fine, coarse_taps=coarse, info=info)
