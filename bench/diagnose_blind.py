@@ -438,31 +438,38 @@ def run_travel(seeds, duration_scale, sizes, holdout_scale):
           f'nulls {alarms}/{sum(t == "none" for t, _ in rows)}')
 
 
-def run_real():
+def real_datasets():
+    """Yield ``(title, real, holdout)`` of the real datasets present in ../shared/data."""
     from wheel_force_estimator.diagnosis.generic import load_generic
     from wheel_force_estimator.diagnosis.generic import parse_spec
-    print('\n== real datasets (generic path, the FIR `fit` makes on the real data = reference)')
     friction = SHARED / 'friction_damper'
     if friction.is_dir():
         inp = [parse_spec('data[1]:displacement:in', 'input')]
         out = [parse_spec('data[2]:force:kip', 'output')]
-        real = [load_generic(friction / f, inp, out, 1024.0) for f in (
-            '1Hz30lbtension0.5amplitude.json', '1Hz30lbtension1.5amplitude.json',
-            '2Hz30lbtension0.5amplitude.json')]
-        hold = [load_generic(friction / f, inp, out, 1024.0) for f in (
-            '1Hz30lbtension1amplitude.json', '0.5Hz30lbtension1amplitude.json')]
-        _report_real('friction damper (Coble et al. 2022, CC BY-SA 4.0)', real, hold)
+
+        def load(names):
+            return [load_generic(friction / f, inp, out, 1024.0) for f in names]
+        yield ('friction damper (Coble et al. 2022, CC BY-SA 4.0)',
+               load(('1Hz30lbtension0.5amplitude.json', '1Hz30lbtension1.5amplitude.json',
+                     '2Hz30lbtension0.5amplitude.json')),
+               load(('1Hz30lbtension1amplitude.json', '0.5Hz30lbtension1amplitude.json')))
     else:
         print(f'friction damper: skipped, {friction} absent')
     mr = SHARED / 'mr_damper'
     if mr.is_dir():
         inp = [parse_spec('x_F[0]:displacement:mm', 'input')]
         out = [parse_spec('x_F[2]:force:N', 'output')]
-        real = [load_generic(mr / 'data_simulation_4.2_MRdamper.mat', inp, out, 100.0)]
-        hold = [load_generic(mr / 'data_simulation_4.4_MRdamper.mat', inp, out, 100.0)]
-        _report_real('MR damper (labcontrol-data/mr-damper, MIT)', real, hold)
+        yield ('MR damper (labcontrol-data/mr-damper, MIT)',
+               [load_generic(mr / 'data_simulation_4.2_MRdamper.mat', inp, out, 100.0)],
+               [load_generic(mr / 'data_simulation_4.4_MRdamper.mat', inp, out, 100.0)])
     else:
         print(f'MR damper: skipped, {mr} absent')
+
+
+def run_real():
+    print('\n== real datasets (generic path, the FIR `fit` makes on the real data = reference)')
+    for title, real, hold in real_datasets():
+        _report_real(title, real, hold)
 
 
 def _short(report_on):

@@ -43,12 +43,15 @@ import diagnose_blind as blind  # noqa: E402,I100
 OTHER = {'rmse_pct': 'rmse_hp1_pct', 'rmse_hp1_pct': 'rmse_pct'}
 
 
-def joint_model(result, real, config):
-    """Return the joint least-squares FIR + terms model of ``result``'s findings, or None."""
+def joint_model(result, real, reference, config):
+    """
+    Return the joint least-squares FIR + terms model of ``result``'s findings, or None.
+
+    ``reference``: the plain fit of ``real`` (:func:`diagnosis.run.real_linear_fit`).
+    """
     with_terms = [f for f in result.findings if f.terms]
     if not with_terms:
         return None
-    reference = real_linear_fit(real, config)
     rec0 = real[0]
     skip = settle_samples(rec0.fs_hz, rec0.input_quantity, config.features)
     model, _ = backfitted_model(with_terms, real, reference.model, reference.refit,
@@ -71,8 +74,9 @@ def report(title, real, hold, config=None):
 
     def mean(figures, fig):
         return float(np.mean([figures[fig][c] for c in chans]))
-    models = {'plain': real_linear_fit(real, config).model,
-              'joint LS': joint_model(result, real, config), 'written': result.model}
+    plain = real_linear_fit(real, config)
+    models = {'plain': plain.model, 'joint LS': joint_model(result, real, plain, config),
+              'written': result.model}
     scores = {}
     for name, model in models.items():
         if model is None:
@@ -90,30 +94,6 @@ def report(title, real, hold, config=None):
     print(f'{title:34s} {named:22s} {cell("plain")} {cell("joint LS")} {cell("written")}  '
           f'{result.fit.model}', flush=True)
     return scores
-
-
-def real_cases():
-    """Yield (title, real, holdout) of the real datasets present in ../shared/data."""
-    from wheel_force_estimator.diagnosis.generic import load_generic
-    from wheel_force_estimator.diagnosis.generic import parse_spec
-    friction = blind.SHARED / 'friction_damper'
-    if friction.is_dir():
-        inp = [parse_spec('data[1]:displacement:in', 'input')]
-        out = [parse_spec('data[2]:force:kip', 'output')]
-
-        def load(names):
-            return [load_generic(friction / f, inp, out, 1024.0) for f in names]
-        yield ('friction damper (real)', load(('1Hz30lbtension0.5amplitude.json',
-                                               '1Hz30lbtension1.5amplitude.json',
-                                               '2Hz30lbtension0.5amplitude.json')),
-               load(('1Hz30lbtension1amplitude.json', '0.5Hz30lbtension1amplitude.json')))
-    mr = blind.SHARED / 'mr_damper'
-    if mr.is_dir():
-        inp = [parse_spec('x_F[0]:displacement:mm', 'input')]
-        out = [parse_spec('x_F[2]:force:N', 'output')]
-        yield ('MR damper (real)',
-               [load_generic(mr / 'data_simulation_4.2_MRdamper.mat', inp, out, 100.0)],
-               [load_generic(mr / 'data_simulation_4.4_MRdamper.mat', inp, out, 100.0)])
 
 
 def rig_cases(seeds=(0, 1)):
@@ -141,7 +121,8 @@ def main():
     print(f'{"case":34s} {"named":22s} {"plain fit":>15s} {"joint LS":>15s} '
           f'{"written":>15s}  written model')
     rows = []
-    for title, real, hold in list(real_cases()) + list(rig_cases()) + list(structure_cases()):
+    cases = list(blind.real_datasets()) + list(rig_cases()) + list(structure_cases())
+    for title, real, hold in cases:
         scores = report(title, real, hold)
         if scores and 'joint LS' in scores:
             rows.append(scores)

@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-import scipy.signal
+from support.diagnosis_synthetic import friction_rig
 from support.diagnosis_synthetic import make_recording
 
 from wheel_force_estimator.cli.main import main
@@ -87,14 +87,9 @@ def test_records_too_short_to_hold_out_blocks_write_the_plain_fit_and_say_why(tm
     # is written, and the JSON (fit.data) and stderr say why, naming the recordings and their
     # lengths (before: "too little data to cross-validate", exit 1).
     rng = np.random.default_rng(4)
-    fs = 200.0
-    b, a = scipy.signal.butter(2, [0.3, 4.0], 'bandpass', fs=fs)
     paths = []
     for k in range(2):
-        x = scipy.signal.lfilter(b, a, rng.standard_normal(int(5 * fs)))
-        x *= 0.01 / x.std()
-        force = (2e4 * x + 300.0 * np.tanh(np.gradient(x, 1 / fs) / 0.002)
-                 + 15.0 * rng.standard_normal(x.size))
+        x, force = friction_rig(rng, 5.0)
         paths.append(tmp_path / f'r{k}.npz')
         np.savez(paths[-1], x=x, f=force)
     params = tmp_path / 'p.yaml'

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import scipy.io
 import scipy.signal
+from support.diagnosis_synthetic import friction_rig
 from support.shared_data import dataset
 from support.shared_data import SHARED_DATA
 
@@ -108,13 +109,9 @@ def test_generic_synthetic_friction_is_named(tmp_path):
     # only what it cannot represent may be reported.
     rng = np.random.default_rng(4)
     fs = 200.0
-    b, a = scipy.signal.butter(2, [0.3, 4.0], 'bandpass', fs=fs)
     recs = []
     for k in range(4):
-        x = scipy.signal.lfilter(b, a, rng.standard_normal(int(60 * fs)))
-        x *= 0.01 / x.std()
-        v = np.gradient(x, 1 / fs)
-        force = 2e4 * x + 300.0 * np.tanh(v / 0.002) + 15.0 * rng.standard_normal(x.size)
+        x, force = friction_rig(rng, 60.0, fs)
         np.savez(tmp_path / f'r{k}.npz', x=x, f=force)
         inp = [parse_spec('x:displacement:m', 'input')]
         recs.append(load_generic(tmp_path / f'r{k}.npz', inp,

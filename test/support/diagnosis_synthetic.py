@@ -89,6 +89,23 @@ def effect_force(name: str, m: Motion, lin: np.ndarray, fs_hz: float) -> np.ndar
     return e
 
 
+def friction_rig(rng: np.random.Generator, seconds: float, fs_hz: float = 200.0
+                 ) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Return one displacement-driven rig record: (x [m], force [N]).
+
+    Broadband motion (0.3-4 Hz, 10 mm RMS), a linear spring (2e4 N/m), Coulomb friction
+    (300 N, smoothed over 2 mm/s) and 15 N of noise, drawn from ``rng`` in that order.
+    """
+    import scipy.signal
+    b, a = scipy.signal.butter(2, [0.3, 4.0], 'bandpass', fs=fs_hz)
+    x = scipy.signal.lfilter(b, a, rng.standard_normal(int(seconds * fs_hz)))
+    x *= 0.01 / x.std()
+    v = np.gradient(x, 1 / fs_hz)
+    force = 2e4 * x + 300.0 * np.tanh(v / 0.002) + 15.0 * rng.standard_normal(x.size)
+    return x, force
+
+
 def make_recording(effect: str, seed: int, duration_s: float = 60.0, fs_hz: float = 256.0,
                    noise: float = 0.05, name: str = 'real') -> Tuple[MotionRecording, Dict]:
     """
