@@ -32,9 +32,12 @@ from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.ros.diagnostics import status_values
+from wheel_force_estimator.ros.node import HOUSEKEEPING_PERIOD_S
 from wheel_force_estimator.ros.pacing import CATCH_UP_FACTOR
 from wheel_force_estimator.ros.pacing import HURRY_FACTOR
 from wheel_force_estimator.ros.pacing import PACE_BURST_S
+from wheel_force_estimator.ros.pacing import RATE_MIN_SPAN_S
+from wheel_force_estimator.ros.pacing import RATE_WINDOW_TICKS
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(180)]
 
@@ -112,9 +115,11 @@ class Peer(SpinningParticipant):
         msgs = [encode_imu(stamps, accel[3 * c:3 * c + 3], f'{corner}_spindle')
                 for c, corner in enumerate(CORNERS)]
         start = time.monotonic()
+        self.sent_s = np.empty(stamps.size)       # when each sample's messages were sent
         for lo in range(0, stamps.size, burst):
             due = (stamps[lo] - stamps[0]) * 1e-9 / rate
             time.sleep(max(0.0, due - (time.monotonic() - start)))
+            self.sent_s[lo:lo + burst] = time.monotonic()
             if self.clock_pub is not None and clock_on(lo):
                 msg = Clock()
                 msg.clock.sec, msg.clock.nanosec = divmod(int(stamps[lo]), 10**9)
@@ -256,6 +261,30 @@ def densest(stamps_ns, window_s):
                 - np.arange(t.size)).max())
 
 
+def peak_input_hz(sent_s):
+    """
+    Return the highest input sample rate the node's pacer can have measured from ``sent_s`` [Hz].
+
+    The pacer measures the rate over its last ``RATE_WINDOW_TICKS`` housekeeping ticks, and over
+    at least ``RATE_MIN_SPAN_S`` at the start of a stream (``pacing.OutputPacer.measure``).  A
+    publisher that was descheduled catches up in a burst, so on a loaded machine the measured
+    rate, and with it the pacer's bound, can exceed the nominal rate for a while.
+    """
+    t = np.sort(np.asarray(sent_s, dtype=float))
+    span_s = np.clip(t - t[0], RATE_MIN_SPAN_S, RATE_WINDOW_TICKS * HOUSEKEEPING_PERIOD_S)
+    counts = np.arange(t.size) + 1 - np.searchsorted(t, t - span_s, 'right')
+    return float((counts / span_s).max())
+
+
+def test_peak_input_hz_of_a_steady_and_a_stalled_stream():
+    steady = np.arange(1024) / FS_HZ
+    assert peak_input_hz(steady) == pytest.approx(FS_HZ, rel=0.02)
+    # 30 ms without sending, then those 15 samples at once: more than the nominal rate
+    stalled = steady.copy()
+    stalled[500:515] = stalled[515]
+    assert peak_input_hz(stalled) == pytest.approx(FS_HZ + 15 / 0.24, rel=0.02)
+
+
 def test_output_leaves_at_the_input_rhythm_never_a_block_at_once_at_1x(
         ros_env, model_and_file, tmp_path, node_procs):
     """
@@ -300,10 +329,14 @@ def test_output_leaves_at_the_input_rhythm_never_a_block_at_once_at_1x(
     # The pacer's bound (pacing.py): at most CATCH_UP_FACTOR x the input rate with
     # PACE_BURST_S of it at once, both x HURRY_FACTOR while the node is more than two blocks
     # behind (this machine may be loaded); one more burst for a batch written across the
-    # window's start.  A block at once (64) breaks it, steady running holds ~1 per period.
-    cap = CATCH_UP_FACTOR * FS_HZ * PACE_BURST_S
+    # window's start.  The input rate is the one the pacer measured: above the nominal one
+    # after this publisher caught up a stall (CI: 13 in 2 ms against a nominal bound of 12.3).
+    # A block at once (64) breaks it, steady running holds ~1 per period.
+    input_hz = max(FS_HZ, peak_input_hz(peer.sent_s))
+    cap = CATCH_UP_FACTOR * input_hz * PACE_BURST_S
     window_s = 0.002
-    allowed = HURRY_FACTOR * (2 * cap + CATCH_UP_FACTOR * FS_HZ * window_s)
+    allowed = HURRY_FACTOR * (2 * cap + CATCH_UP_FACTOR * input_hz * window_s)
+    assert allowed < block / 2, (input_hz, allowed)     # still far from a block at once
     for corner, source_ns in zip(CORNERS, out['source_ns']):
         spacing_s = np.diff(np.sort(source_ns)) * 1e-9
         assert densest(source_ns, window_s) <= allowed, (corner, densest(source_ns, window_s))
