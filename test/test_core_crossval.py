@@ -177,6 +177,53 @@ def test_block_sums_equal_the_statistics_of_the_whole():
     assert both.n_samples == 4000
 
 
+def _masked_correlation(x, y, chunks, held_out, max_lag):
+    """Brute force: the training chunks (each mean-removed) as one signal, held-out zeroed."""
+    z = np.zeros((x.shape[0] + y.shape[0], x.shape[1]))
+    n = 0
+    for b, (a, e) in chunks:
+        if b != held_out:
+            piece = np.concatenate([x[:, a:e], y[:, a:e]])
+            z[:, a:e] = piece - piece.mean(axis=1, keepdims=True)
+            n += e - a
+    ni = x.shape[0]
+    full = np.zeros((z.shape[0], z.shape[0], 2 * max_lag + 1))
+    for t in range(-max_lag, max_lag + 1):
+        lo, hi = max(0, -t), min(z.shape[1], z.shape[1] - t)
+        full[:, :, max_lag + t] = z[:, lo:hi] @ z[:, lo + t:hi + t].T
+    return full[:ni, :ni] / n, full[:ni, ni:] / n
+
+
+@pytest.mark.parametrize('lengths', [(300, 250, 400, 350, 320, 380), (30, 25, 40, 35, 32, 38)],
+                         ids=['chunks longer than the lags', 'shorter: pairs skip a chunk'])
+def test_a_folds_correlations_are_its_chunks_as_one_signal(lengths):
+    """Known answer: blocks' sums plus straddling pairs == the masked signal's correlation."""
+    from wheel_force_estimator.core.candidates import fold_correlations
+    from wheel_force_estimator.core.candidates import straddling_sums
+    lag = 60
+    n = sum(lengths)
+    x, y = coloured(2, n, 7) + 3.0, coloured(1, n, 8) - 1.0     # means: removed per chunk
+    seg = [TrainingSegment(x, y, 's')]
+    edges = np.cumsum((0,) + lengths)
+    chunks = [(j % 3, (int(a), int(e))) for j, (a, e) in enumerate(zip(edges[:-1], edges[1:]))]
+    blocks = [[Piece(0, a, e) for b, (a, e) in chunks if b == k] for k in range(3)]
+    stats = [block_stats(seg, blk, {}, FS_HZ, lag) for blk in blocks]
+    straddling = straddling_sums(seg, blocks, lag)
+    for k in range(3):
+        train = [s.corr for j, s in enumerate(stats) if j != k]
+        got = fold_correlations(train, straddling.for_fold(k))
+        rxx, rxy = _masked_correlation(x, y, chunks, k, lag)
+        np.testing.assert_allclose(got.rxx, rxx, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(got.rxy, rxy, rtol=1e-9, atol=1e-12)
+        # without the straddling pairs the long lags are short of them
+        alone = combine_correlations(train)
+        assert not np.allclose(alone.rxx[:, :, 0], rxx[:, :, 0], rtol=1e-3)
+    # every chunk in training (no block held out): the whole record's correlation
+    whole = fold_correlations([s.corr for s in stats], straddling.total)
+    rxx, _ = _masked_correlation(x, y, chunks, -1, lag)
+    np.testing.assert_allclose(whole.rxx, rxx, rtol=1e-9, atol=1e-12)
+
+
 def test_candidates_drop_settings_a_family_does_not_use():
     cands = candidates((1024, 2048), (0.01, 0.05), (1e-4, 1e-3), (0.0, 2.0, math.inf), 0.05)
     fams = [c.family for c in cands]

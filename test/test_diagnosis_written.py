@@ -494,3 +494,44 @@ def test_term_strengths_are_fitted_on_both_figures():
     def unfiltered_error(beta):
         return np.sqrt(np.mean((rec.outputs - beta * units[0][0]) ** 2))
     assert unfiltered_error(both) < unfiltered_error(2.0)
+
+
+def test_live_estimators_of_a_written_model_follow_the_real_fits_chosen_design():
+    # Bug caught: the written model's live estimators took one fixed ridge on every input
+    # (LiveDesign's), where `fit` takes each row's input set and ridge chosen by the
+    # cross-validation; a written real-data linear model then differed from `fit`'s in live.
+    from wheel_force_estimator.core.design import fit_design
+    from wheel_force_estimator.core.design import product_fit_config
+    from wheel_force_estimator.core.live_estimator import LiveDesign
+    from wheel_force_estimator.core.pipeline import TrainingSegment
+    from wheel_force_estimator.diagnosis.written import with_live_estimators
+    rng = np.random.default_rng(11)
+    x = _motion(rng, int(60 * FS_HZ))
+    # two outputs: the rig's force, and a weak copy buried in noise (a stronger ridge pays)
+    f = np.stack([_rig_force(x, rng, 0.0), 0.02 * K * x + 400.0 * rng.standard_normal(x.size)])
+    design = LiveDesign(look_aheads_s=(0.05, 0.0))
+    fitted = fit_design([TrainingSegment(x[None], f, 'r')], FS_HZ,
+                        dataclasses.replace(product_fit_config(), segment_length=512,
+                                            long_segment_length=2048, live=design),
+                        ('x',), ('f', 'g'), 'displacement', show_progress=False)
+    assert fitted.chosen is not None
+    recs = [MotionRecording('real', FS_HZ, x[None], f, ('x',), ('f', 'g'),
+                            input_quantity='displacement')]
+    bare = dataclasses.replace(fitted.model, live=())
+    ours = with_live_estimators(bare, recs, design, fitted).live
+    # Known answer: no terms, so the same equations and the same rows as `fit`'s own.
+    assert [e.look_ahead_samples for e in ours] == [e.look_ahead_samples
+                                                    for e in fitted.model.live]
+    for a, b in zip(ours, fitted.model.live):
+        np.testing.assert_array_equal(a.coarse_edges, b.coarse_edges)
+        for name in ('fine_taps', 'coarse_taps'):
+            np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-9,
+                                       atol=1e-12 * np.abs(getattr(b, name)).max())
+    # The noisy row's chosen ridge is the stronger one (the other keeps LiveDesign's 1e-4),
+    # so the fixed design differs from fit's there and only there (row 0: the same equations
+    # by another solver, the direct one of design_live, equal to ~1e-7).
+    assert fitted.chosen.choice.live_ridges == (design.regularisation, 1e-3)
+    fixed = with_live_estimators(bare, recs, design).live[0]
+    np.testing.assert_allclose(fixed.fine_taps[0], ours[0].fine_taps[0], rtol=1e-6,
+                               atol=1e-9 * np.abs(ours[0].fine_taps[0]).max())
+    assert not np.allclose(fixed.fine_taps[1], ours[0].fine_taps[1])

@@ -178,7 +178,7 @@ def command(args: argparse.Namespace) -> int:
             look = configured_look_ahead_s(args.config)
             try:
                 model = with_live_estimators(model, real, LiveDesign(
-                    look_aheads_s=(look,) + SWEEP_LOOK_AHEADS_S))
+                    look_aheads_s=(look,) + SWEEP_LOOK_AHEADS_S), result.real_fit)
             except DiagnosisError as err:
                 print(f'warning: {err}; written without them (a live look-ahead then cuts '
                       f'the offline FIR)', file=sys.stderr)

@@ -332,6 +332,11 @@ class CorrelationAccumulator:
             self._acc += u.conj()[:, None, :] * v[None, :, :]
         self._n += n
 
+    def lag_sums(self) -> Tuple[np.ndarray, np.ndarray]:
+        """Return the summed (not averaged) products as :class:`Correlations` holds them."""
+        return _lag_layout(scipy.fft.irfft(self._acc, n=self._n_fft, axis=2), self._t,
+                           self._n_in)
+
     def result(self, fs_hz: float) -> Correlations:
         """
         Return the correlations averaged over every sample added.
@@ -344,12 +349,48 @@ class CorrelationAccumulator:
         """
         if self._n == 0:
             raise InsufficientDataError('live estimator: no training samples')
-        t = self._t
-        c = scipy.fft.irfft(self._acc, n=self._n_fft, axis=2)[:, :, :t + 1] / self._n
-        full = np.concatenate([c.transpose(1, 0, 2)[:, :, :0:-1], c], axis=2)   # -T .. T
-        ni = self._n_in
-        return Correlations(np.ascontiguousarray(full[:ni, :ni]),
-                            np.ascontiguousarray(full[:ni, ni:]), float(fs_hz), self._n)
+        rxx, rxy = self.lag_sums()
+        return Correlations(rxx / self._n, rxy / self._n, float(fs_hz), self._n)
+
+
+def _lag_layout(c: np.ndarray, t: int, n_in: int) -> Tuple[np.ndarray, np.ndarray]:
+    """Return ``(rxx, rxy)`` at lags -T .. T from ``c[a, b, τ] = sum z_a(n) z_b(n + τ)``."""
+    c = c[:, :, :t + 1]
+    full = np.concatenate([c.transpose(1, 0, 2)[:, :, :0:-1], c], axis=2)   # -T .. T
+    return np.ascontiguousarray(full[:n_in, :n_in]), np.ascontiguousarray(full[:n_in, n_in:])
+
+
+def straddling_products(z_first: np.ndarray, z_second: np.ndarray, gap: int, n_in: int,
+                        max_lag: int) -> Tuple[np.ndarray, np.ndarray]:
+    """
+    Return the summed products of the pairs that straddle two pieces of one segment.
+
+    ``z_first`` is the end of the earlier piece and ``z_second`` the start of the later one
+    (inputs then outputs stacked, shape (n_in + n_out, n), each piece's own mean removed as
+    :meth:`CorrelationAccumulator.add` removes it), ``gap`` samples apart (0: adjacent).
+    Returns ``sum z_a(n) z_b(n + τ)`` over ``n`` in the first and ``n + τ`` in the second
+    (lags up to ``max_lag``; none within one piece), laid out as :meth:`CorrelationAccumulator
+    .lag_sums`.  Pieces added to an accumulator one by one, plus these, give the correlations
+    of the pieces as one signal (:func:`.candidates.straddling_sums`).
+
+    Raises
+    ------
+    ValueError
+        The pieces' ends are longer than the lags they can pair over.
+
+    """
+    n1, n2 = z_first.shape[1], z_second.shape[1]
+    if gap < 0 or n1 > max_lag or gap + n2 > max_lag:
+        raise ValueError(f'straddling pairs: {n1} + {gap} + {n2} samples do not fit lags '
+                         f'up to {max_lag}')
+    n_fft = scipy.fft.next_fast_len(2 * max_lag + 1, real=True)
+    u = scipy.fft.rfft(z_first, n=n_fft, axis=1)
+    second = np.zeros((z_second.shape[0], n1 + gap + n2))
+    second[:, n1 + gap:] = z_second
+    v = scipy.fft.rfft(second, n=n_fft, axis=1)
+    # the pairs' lags run from gap + 1 to n1 + gap + n2 - 1 < n_fft: no circular wrap
+    return _lag_layout(scipy.fft.irfft(u.conj()[:, None, :] * v[None, :, :], n=n_fft,
+                                       axis=2), max_lag, n_in)
 
 
 def design_causal(corr: Correlations, look_ahead: int, design: LiveDesign) -> CausalEstimator:

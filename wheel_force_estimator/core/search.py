@@ -12,7 +12,9 @@ fallbacks for records too short to search and builds the model):
    :data:`.crossval.N_BLOCKS` blocks.  Too short: ``None`` (the caller fits the defaults and
    says so).
 2. **statistics per block, once** (:func:`.candidates.block_stats`): Welch cross-spectra at
-   every resolution of the grid and the correlations of the least-squares FIRs.
+   every resolution of the grid and the correlations of the least-squares FIRs, plus the
+   pairs that straddle two chunks (:func:`.candidates.straddling_sums`), so a fold's
+   training correlations are those of its chunks as one signal.
 3. **candidates** (:func:`space`): input sets x H1 variants x LS ridges x splice
    crossovers; a setting the user imposed keeps its value.  The input sets are nested by
    group (:func:`.spindle.input_sets`: accelerations; + angular rates; + spin, those the
@@ -46,9 +48,9 @@ from wheel_force_estimator.core.candidates import block_stats
 from wheel_force_estimator.core.candidates import BlockStats
 from wheel_force_estimator.core.candidates import Candidate
 from wheel_force_estimator.core.candidates import candidates
-from wheel_force_estimator.core.candidates import combine_correlations
 from wheel_force_estimator.core.candidates import embedded_estimator
 from wheel_force_estimator.core.candidates import embedded_response
+from wheel_force_estimator.core.candidates import fold_correlations
 from wheel_force_estimator.core.candidates import LONG_REGULARISATIONS
 from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
 from wheel_force_estimator.core.candidates import LS_REGULARISATIONS
@@ -58,6 +60,7 @@ from wheel_force_estimator.core.candidates import SCORING
 from wheel_force_estimator.core.candidates import SEGMENT_FACTORS
 from wheel_force_estimator.core.candidates import set_equations
 from wheel_force_estimator.core.candidates import SPLICE_CROSSOVERS_HZ
+from wheel_force_estimator.core.candidates import straddling_sums
 from wheel_force_estimator.core.candidates import subset_correlations
 from wheel_force_estimator.core.candidates import subset_spectra
 from wheel_force_estimator.core.crossval import best_rows
@@ -316,13 +319,16 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     lags = max_lag(live, fs_hz) if (sp.needs_ls or config.live is not None) else 0
     welch = welch_configs(config, fs_hz, sp, n_score)
     stats = [block_stats(used, b, welch, fs_hz, lags) for b in progress(blocks, 'fit: blocks')]
+    # the pairs across chunk edges, so each fold's correlations are its chunks' as one signal
+    straddling = straddling_sums(used, blocks, lags) if lags else None
     d_ls = look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
     d_live = look_ahead_samples(live.look_aheads_s[0], fs_hz)
     scores = [None] * len(sp.input_sets)
     live_scores = [None] * len(sp.input_sets)
     for k in progress(range(len(stats)), 'fit: cross-validation'):
         train = [s for j, s in enumerate(stats) if j != k]
-        corr = combine_correlations([s.corr for s in train]) if lags else None
+        corr = (fold_correlations([s.corr for s in train], straddling.for_fold(k))
+                if lags else None)
         # every input set from the same block statistics: its columns of the spectra and
         # correlations (an LS subset needs its own factorisation: the lag-ordered factor
         # interleaves the inputs)
@@ -455,13 +461,60 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
     fir = _realised(f_hz, h, fs_hz, config.f_max_hz)
     estimators = ()
     if config.live is not None and live_estimators:
-        looks = list(dict.fromkeys(look_ahead_samples(v, fs_hz) for v in live.look_aheads_s))
-        estimators = tuple(
-            _rows_of([embedded_estimator(ls[i].estimator(r, d), sets[i][1], n_in)
-                      for r, i in zip(choice.live_ridges, choice.live_sets)])
-            for d in looks)
+        estimators = _live_rows(ls, choice, live, fs_hz, n_in)
     return (_indicators_on(ref_est, f_hz), h, fir, estimators, extra, whole.sum_x / whole.n,
             whole.sum_y / whole.n)
+
+
+def chosen_live(corr, choice: Choice, live: LiveDesign, n_in: int) -> tuple:
+    """
+    Return the live estimators of ``choice`` designed from ``corr``, as :func:`fit_chosen` does.
+
+    Every stored look-ahead of ``live`` (configured one first), each output row with the input
+    set and ridge the cross-validation chose for its live estimator (zero taps outside the
+    set).  For a caller whose targets differ from the search's but whose design should not (the
+    diagnosis: the real forces minus the written physics terms' force).
+
+    Parameters
+    ----------
+    corr : Correlations
+        Input and target correlations to :func:`max_lag` lags at least.
+    choice : Choice
+        The search's choice (its ``live_ridges`` and ``live_sets``).
+    live : LiveDesign
+        Look-aheads and filter design (the search's).
+    n_in : int
+        Inputs of the model (the search's ``input_channels``).
+
+    Raises
+    ------
+    ConfigError
+        ``corr`` has too few lags or the wrong number of inputs for the design.
+
+    """
+    sets = choice.space.input_sets
+    if corr.rxx.shape[0] != n_in or corr.max_lag < max_lag(live, corr.fs_hz):
+        raise ConfigError(f'correlations of {corr.rxx.shape[0]} inputs to lag '
+                          f'{corr.max_lag} cannot design live estimators of {n_in} inputs '
+                          f'needing lag {max_lag(live, corr.fs_hz)}')
+    ridges: Dict[int, set] = {}
+    for r, i in zip(choice.live_ridges, choice.live_sets):
+        ridges.setdefault(i, set()).add(r)
+    used = {i: sorted(r) for i, r in ridges.items()}
+    eqs = set_equations(corr, live, [sets[i][1] for i in used],
+                        min(r for rs in used.values() for r in rs))
+    ls = {i: LsSolutions(subset_correlations(corr, sets[i][1]), live, r, eqs[sets[i][1]])
+          for i, r in used.items()}
+    return _live_rows(ls, choice, live, corr.fs_hz, n_in)
+
+
+def _live_rows(ls, choice: Choice, live: LiveDesign, fs_hz: float, n_in: int) -> tuple:
+    """Return one estimator per stored look-ahead, each row from its chosen set and ridge."""
+    sets = choice.space.input_sets
+    looks = list(dict.fromkeys(look_ahead_samples(v, fs_hz) for v in live.look_aheads_s))
+    return tuple(_rows_of([embedded_estimator(ls[i].estimator(r, d), sets[i][1], n_in)
+                           for r, i in zip(choice.live_ridges, choice.live_sets)])
+                 for d in looks)
 
 
 def _realised(f_hz: np.ndarray, h: np.ndarray, fs_hz: float, f_max_hz) -> FirFilter:

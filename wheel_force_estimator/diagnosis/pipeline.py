@@ -307,4 +307,5 @@ def report_stage(run: Run, mismatch, findings, motion_found, fit,
     summary = text.summary(findings, fit, rejected)
     reference = run.reference
     return DiagnosisResult(tuple(mismatch), tuple(findings), fit, tuple(summary),
-                           f'{reference.name} ({reference.kind})', rejected, model, reference)
+                           f'{reference.name} ({reference.kind})', rejected, model, reference,
+                           getattr(run.real_linear, 'fitted', None))

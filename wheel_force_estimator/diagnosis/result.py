@@ -234,6 +234,9 @@ class DiagnosisResult:
         The model ``--out-model`` writes (``fit.model`` says which); None when no FRF exists.
     baseline : object or None
         The reference predictor (``.predict(recording)``), for reports.
+    real_fit : DesignedFit or None
+        The run's real-data linear fit (:class:`core.design.DesignedFit`), whose chosen
+        design the written model's live estimators follow; None when there is none.
 
     """
 
@@ -245,6 +248,7 @@ class DiagnosisResult:
     rejected: Tuple[str, ...] = ()
     model: Optional[object] = None
     baseline: Optional[object] = None
+    real_fit: Optional[object] = None
 
     @property
     def terms(self) -> Tuple[PhysicsTerm, ...]:

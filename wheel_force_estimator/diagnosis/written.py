@@ -352,7 +352,7 @@ def gate_dynamic(dynamic, real, lin_model, real_fit, gate, metric, hp, skip):
     return kept, gated
 
 
-def with_live_estimators(model, recordings: Sequence, design):
+def with_live_estimators(model, recordings: Sequence, design, real_fit=None):
     """
     Return ``model`` with live (causal) estimators designed as ``fit`` designs them.
 
@@ -368,6 +368,12 @@ def with_live_estimators(model, recordings: Sequence, design):
     prediction instead gave 53.3 % (its FIR ends, 8 s at each end of the record, had to be
     left out).
 
+    Each row's live input set and ridge are the ones the real-data linear fit's
+    cross-validation chose (``real_fit``, as ``fit`` writes them: :func:`core.search.chosen_live`);
+    they were scored on the real forces without the terms, at the search's look-ahead (the
+    default 50 ms).  Without a cross-validated ``real_fit`` (records too short to search, a
+    fit on other inputs) every row gets ``design``'s ridge on every input.
+
     Parameters
     ----------
     model : FrfModel
@@ -376,6 +382,8 @@ def with_live_estimators(model, recordings: Sequence, design):
         The real training recordings (the inputs the car gives the node).
     design : LiveDesign
         Look-aheads (configured one first) and filter design.
+    real_fit : DesignedFit, optional
+        The run's real-data linear fit (``DiagnosisResult.real_fit``).
 
     Raises
     ------
@@ -386,10 +394,17 @@ def with_live_estimators(model, recordings: Sequence, design):
     from wheel_force_estimator.core.errors import WheelForceError
     from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
     from wheel_force_estimator.core.live_estimator import design_live
+    from wheel_force_estimator.core.search import chosen_live
+    from wheel_force_estimator.core.search import max_lag
     linear = model.with_physics(())
     fs = model.fs_hz
-    corr = CorrelationAccumulator(len(model.input_channels), len(model.output_channels),
-                                  design.max_lag(fs))
+    chosen = getattr(real_fit, 'chosen', None)
+    if chosen is not None and tuple(real_fit.model.input_channels) != tuple(
+            model.input_channels):
+        chosen = None
+    n_in = len(model.input_channels)
+    corr = CorrelationAccumulator(n_in, len(model.output_channels),
+                                  design.max_lag(fs) if chosen is None else max_lag(design, fs))
     for rec in recordings:
         inputs = np.asarray(rec.inputs, dtype=np.float64)
         target = np.asarray(rec.outputs, dtype=np.float64)
@@ -397,7 +412,10 @@ def with_live_estimators(model, recordings: Sequence, design):
             target = target - (predict_forces(model, inputs) - predict_forces(linear, inputs))
         corr.add(inputs, target)
     try:
-        live = design_live(corr.result(fs), design)
+        if chosen is None:
+            live = design_live(corr.result(fs), design)
+        else:
+            live = chosen_live(corr.result(fs), chosen.choice, design, n_in)
     except WheelForceError as err:
         raise DiagnosisError(f'cannot design the live estimators of the written model: '
                              f'{err}') from err
