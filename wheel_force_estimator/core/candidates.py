@@ -248,7 +248,7 @@ def straddling_sums(segments, blocks: Sequence[Sequence[Piece]], max_lag: int) -
 
     Every two chunks of one segment less than ``max_lag`` samples apart contribute the pairs
     between the end of the first and the start of the second
-    (:meth:`.CorrelationAccumulator.add_straddling`), each chunk with its own mean removed as
+    (:func:`.live_estimator.straddling_products`), each chunk with its own mean removed as
     :func:`block_stats` removes it.  With them a fold's training correlations are those of
     its chunks as one piecewise signal: the per-chunk sums alone dropped the pairs across
     chunk edges, a fraction ~τ / chunk at lag τ (47 % at a 4 s lag on 7.5 s chunks), which
@@ -259,15 +259,15 @@ def straddling_sums(segments, blocks: Sequence[Sequence[Piece]], max_lag: int) -
     chunks = sorted((p.segment, p.start, p.stop, b) for b, block in enumerate(blocks)
                     for p in block)
 
-    def centred(seg, a, b):
+    def stacked(s, a, b):
+        seg = segments[s]
         return np.concatenate([seg.accel_mps2[:, a:b], seg.force_n[:, a:b]], axis=0)
 
+    means = {c[:3]: stacked(*c[:3]).mean(axis=1, keepdims=True) for c in chunks}
     shape = ((n_in, n_in, 2 * max_lag + 1), (n_in, n_out, 2 * max_lag + 1))
     total = [np.zeros(shape[0]), np.zeros(shape[1])]
     touching = [[np.zeros(shape[0]), np.zeros(shape[1])] for _ in blocks]
-    means = {}
     for i, (s, a, b, blk) in enumerate(chunks):
-        seg = segments[s]
         for s2, a2, b2, blk2 in chunks[i + 1:]:
             gap = a2 - b
             if s2 != s or gap >= max_lag:
@@ -275,14 +275,10 @@ def straddling_sums(segments, blocks: Sequence[Sequence[Piece]], max_lag: int) -
             if gap < 0:
                 raise ValueError(f'straddling pairs: chunks {a}..{b} and {a2}..{b2} of '
                                  f'segment {s} overlap')
-            for key in ((s, a, b), (s2, a2, b2)):
-                if key not in means:
-                    means[key] = centred(segments[key[0]], key[1], key[2]).mean(
-                        axis=1, keepdims=True)
             n1 = min(b - a, max_lag)
             n2 = min(b2 - a2, max_lag - gap)
-            sums = straddling_products(centred(seg, b - n1, b) - means[(s, a, b)],
-                                       centred(seg, a2, a2 + n2) - means[(s2, a2, b2)], gap,
+            sums = straddling_products(stacked(s, b - n1, b) - means[(s, a, b)],
+                                       stacked(s, a2, a2 + n2) - means[(s2, a2, b2)], gap,
                                        n_in, max_lag)
             for target in [total, touching[blk]] + ([touching[blk2]] if blk2 != blk else []):
                 target[0] += sums[0]

@@ -448,11 +448,7 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
     ls = {}
     n_model = max(ref_fir.n_taps, config.long_segment_length)
     if lags:
-        used = {i: sorted(r) for i, r in ridges.items() if r}
-        eqs = set_equations(whole.corr, live, [sets[i][1] for i in used],
-                            min((r for rs in used.values() for r in rs), default=0.0))
-        ls = {i: LsSolutions(subset_correlations(whole.corr, sets[i][1]), live, r,
-                             eqs[sets[i][1]]) for i, r in used.items()}
+        ls = _ls_solutions(whole.corr, sets, ridges, live)
         span = (look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
                 + int(round(live.history_s * fs_hz)) + 1)
         n_model = max(n_model, 2 * int(2 ** np.ceil(np.log2(span))))
@@ -500,12 +496,16 @@ def chosen_live(corr, choice: Choice, live: LiveDesign, n_in: int) -> tuple:
     ridges: Dict[int, set] = {}
     for r, i in zip(choice.live_ridges, choice.live_sets):
         ridges.setdefault(i, set()).add(r)
-    used = {i: sorted(r) for i, r in ridges.items()}
+    return _live_rows(_ls_solutions(corr, sets, ridges, live), choice, live, corr.fs_hz, n_in)
+
+
+def _ls_solutions(corr, sets, ridges: Dict[int, set], live: LiveDesign) -> Dict[int, LsSolutions]:
+    """Return the LS factorisations of each input set (index into ``sets``) at its ridges."""
+    used = {i: sorted(r) for i, r in ridges.items() if r}
     eqs = set_equations(corr, live, [sets[i][1] for i in used],
-                        min(r for rs in used.values() for r in rs))
-    ls = {i: LsSolutions(subset_correlations(corr, sets[i][1]), live, r, eqs[sets[i][1]])
-          for i, r in used.items()}
-    return _live_rows(ls, choice, live, corr.fs_hz, n_in)
+                        min((r for rs in used.values() for r in rs), default=0.0))
+    return {i: LsSolutions(subset_correlations(corr, sets[i][1]), live, r, eqs[sets[i][1]])
+            for i, r in used.items()}
 
 
 def _live_rows(ls, choice: Choice, live: LiveDesign, fs_hz: float, n_in: int) -> tuple:
