@@ -25,8 +25,12 @@ wheel speeds records - every output row chooses its input set by the same cross-
 as ``wheel-force fit`` does on such bags - while ``paper`` stays the paper's 12 accelerations;
 ``ls2s`` gets the same inputs as ``offline``, so the live comparison stays like for like.
 
+``--train-scale S`` trains on the whole course with every event shortened to ``S`` (0.1: a
+1-minute course with all 15 events) instead of ``--minutes`` of it; ``--val-scale`` sets the
+held-out course's (0.5 by default: events 5x longer than a 0.1 training course's).
+
 Run: ``python bench/bench_design.py [--minutes 10] [--cars compact,suv,van]
-[--inputs accel|accel+spin|accel+rates+spin]``
+[--inputs accel|accel+spin|accel+rates+spin] [--train-scale 1] [--val-scale 0.5]``
 """
 import argparse
 import dataclasses
@@ -100,11 +104,11 @@ def input_signals(result, inputs: str, n=None):
     return np.vstack(rows)[:, :n]
 
 
-def car_rows(name, minutes, inputs='accel'):
+def car_rows(name, minutes, inputs='accel', train_scale=1.0, val_scale=0.5):
     """Fit and judge one vehicle; return {estimator: (unfiltered, hp) per direction}."""
     vehicle = load_vehicle(CARS[name]) if CARS[name] else None
-    train = simulate(seed=1, vehicle=vehicle)
-    val = simulate(seed=2, vehicle=vehicle, duration_scale=0.5)
+    train = simulate(seed=1, vehicle=vehicle, duration_scale=train_scale)
+    val = simulate(seed=2, vehicle=vehicle, duration_scale=val_scale)
     fs = train.fs_hz
     n = min(train.accel_mps2.shape[1], int(minutes * 60 * fs))
     x, y = input_signals(train, inputs, n), train.force_n[:, :n]
@@ -151,6 +155,11 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--minutes', type=float, default=10.0,
                         help='training minutes of the proving-ground course (<= 10)')
+    parser.add_argument('--train-scale', type=float, default=1.0,
+                        help='duration_scale of the training course: every event shortened '
+                             '(0.1 = a 1-minute course with all 15 events)')
+    parser.add_argument('--val-scale', type=float, default=0.5,
+                        help='duration_scale of the held-out course (seed 2)')
     parser.add_argument('--cars', default='compact,suv,van')
     parser.add_argument('--no-mr-damper', action='store_true')
     parser.add_argument('--inputs', default='accel',
@@ -158,7 +167,8 @@ def main():
                         help='inputs of offline / live50 / ls2s (paper: the accelerations)')
     args = parser.parse_args()
     for name in args.cars.split(','):
-        rows, model, fitted, t_fit, train_s = car_rows(name, args.minutes, args.inputs)
+        rows, model, fitted, t_fit, train_s = car_rows(
+            name, args.minutes, args.inputs, args.train_scale, args.val_scale)
         print(f'\n== {name} ({args.inputs}): {train_s:.0f} s training, fit {t_fit:.1f} s '
               f'(cross-validation included); RMSE % unfiltered | 1 Hz high-passed, x y z')
         for k, (u, h) in rows.items():

@@ -14,6 +14,7 @@ from wheel_force_estimator.core.candidates import candidates
 from wheel_force_estimator.core.candidates import combine_correlations
 from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
 from wheel_force_estimator.core.candidates import LsSolutions
+from wheel_force_estimator.core.candidates import SCORING
 from wheel_force_estimator.core.crossval import blend_weight
 from wheel_force_estimator.core.crossval import BlendScorer
 from wheel_force_estimator.core.crossval import block_pieces
@@ -169,22 +170,46 @@ def test_block_sums_equal_the_statistics_of_the_whole():
     stats = [block_stats(seg, [p], {}, FS_HZ, 20) for p in pieces]
     both = combine_correlations([s.corr for s in stats])
     acc = CorrelationAccumulator(2, 1, 20)
-    acc.add(x[:, :1500], y[:, :1500])
-    acc.add(x[:, 1500:], y[:, 1500:])
+    mean = np.concatenate([x, y]).mean(axis=1)          # the segment's, not each piece's
+    acc.add(x[:, :1500], y[:, :1500], mean)
+    acc.add(x[:, 1500:], y[:, 1500:], mean)
     ref = acc.result(FS_HZ)
     np.testing.assert_allclose(both.rxx, ref.rxx, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(both.rxy, ref.rxy, rtol=1e-10, atol=1e-12)
     assert both.n_samples == 4000
 
 
+def test_a_piece_keeps_its_quasi_static_offset_in_the_held_out_scores():
+    """
+    Known answer: a piece's statistics have the segment's mean removed, not the piece's.
+
+    The force steps +c / -c between two halves (a braking event and its release): the held-out
+    target power of each half is c² plus the noise, as ``evaluate`` (record mean removed)
+    counts it, and the correlation at lag 0 holds the step too.  A piece's own mean would
+    have removed the step from both.
+    """
+    rng = np.random.default_rng(3)
+    n, c = 4096, 5.0
+    x = 0.1 * rng.normal(size=(1, n))
+    y = 0.1 * rng.normal(size=(1, n)) + np.where(np.arange(n) < n // 2, c, -c)
+    seg = [TrainingSegment(x, y, 's')]
+    welch = {SCORING: WelchConfig(fs_hz=FS_HZ, segment_length=512, detrend='none')}
+    for piece in (Piece(0, 0, n // 2), Piece(0, n // 2, n)):
+        stats = block_stats(seg, [piece], welch, FS_HZ, 4)
+        mean_square = stats.spectra[SCORING].syy[:, 0].sum() * (FS_HZ / 512)   # ∫ Syy df
+        assert mean_square == pytest.approx(c ** 2 + 0.01, rel=0.05)
+        assert stats.corr.rxy[0, 0, 4] == pytest.approx(0.0, abs=0.05)   # x: no step
+        assert stats.corr.n_samples == n // 2
+
+
 def _masked_correlation(x, y, chunks, held_out, max_lag):
-    """Brute force: the training chunks (each mean-removed) as one signal, held-out zeroed."""
+    """Brute force: the training chunks (the record's mean removed) as one signal, held-out 0."""
+    whole = np.concatenate([x, y])
     z = np.zeros((x.shape[0] + y.shape[0], x.shape[1]))
     n = 0
     for b, (a, e) in chunks:
         if b != held_out:
-            piece = np.concatenate([x[:, a:e], y[:, a:e]])
-            z[:, a:e] = piece - piece.mean(axis=1, keepdims=True)
+            z[:, a:e] = whole[:, a:e] - whole.mean(axis=1, keepdims=True)
             n += e - a
     ni = x.shape[0]
     full = np.zeros((z.shape[0], z.shape[0], 2 * max_lag + 1))
@@ -202,7 +227,7 @@ def test_a_folds_correlations_are_its_chunks_as_one_signal(lengths):
     from wheel_force_estimator.core.candidates import straddling_sums
     lag = 60
     n = sum(lengths)
-    x, y = coloured(2, n, 7) + 3.0, coloured(1, n, 8) - 1.0     # means: removed per chunk
+    x, y = coloured(2, n, 7) + 3.0, coloured(1, n, 8) - 1.0     # the record's mean removed
     seg = [TrainingSegment(x, y, 's')]
     edges = np.cumsum((0,) + lengths)
     chunks = [(j % 3, (int(a), int(e))) for j, (a, e) in enumerate(zip(edges[:-1], edges[1:]))]

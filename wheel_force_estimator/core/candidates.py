@@ -132,10 +132,24 @@ class BlockStats:
     n: int
 
 
+def segment_means(segments) -> List[np.ndarray]:
+    """Return each segment's mean, inputs then outputs stacked, shape (n_in + n_out,)."""
+    return [np.concatenate([s.accel_mps2.mean(axis=1), s.force_n.mean(axis=1)])
+            for s in segments]
+
+
 def block_stats(segments, pieces: Sequence[Piece], welch: Dict[int, object],
-                fs_hz: float, max_lag: int) -> BlockStats:
+                fs_hz: float, max_lag: int,
+                means: Optional[Sequence[np.ndarray]] = None) -> BlockStats:
     """
     Accumulate one block's statistics from its pieces (each statistic once per block).
+
+    A piece's correlations and scoring spectra have its *segment's* mean removed
+    (:func:`segment_means`), as the final fit on whole segments and ``evaluate`` (the
+    record's mean) remove it.  Until 2026-11-28 each piece had its own mean removed: on a
+    1-minute record (3.75 s chunks) that took the band below ~0.3 Hz (braking, cornering, the
+    static load transfer) out of every fold's fit and every held-out score, so the search
+    chose blind to the band that dominates the unfiltered error in x and z.
 
     Parameters
     ----------
@@ -150,10 +164,13 @@ def block_stats(segments, pieces: Sequence[Piece], welch: Dict[int, object],
         Sample rate [Hz].
     max_lag : int
         Correlation lags needed [samples] (0 = none).
+    means : sequence of numpy.ndarray, optional
+        :func:`segment_means` of ``segments`` (computed when not given).
 
     """
     first = segments[0]
     n_in, n_out = first.accel_mps2.shape[0], first.force_n.shape[0]
+    means = segment_means(segments) if means is None else means
     parts: Dict[int, list] = {k: [] for k in welch}
     acc = CorrelationAccumulator(n_in, n_out, max_lag) if max_lag else None
     sum_x, sum_y, n = np.zeros(n_in), np.zeros(n_out), 0
@@ -161,19 +178,18 @@ def block_stats(segments, pieces: Sequence[Piece], welch: Dict[int, object],
         seg = segments[p.segment]
         x = seg.accel_mps2[:, p.start:p.stop]
         y = seg.force_n[:, p.start:p.stop]
+        mean_x, mean_y = means[p.segment][:n_in, None], means[p.segment][n_in:, None]
         for key, cfg in welch.items():
             if x.shape[1] < cfg.segment_length:
                 continue
             if key == SCORING:
-                # the scorer's spectra: piece mean removed, windows not detrended, so the
-                # quasi-static band counts as in the unfiltered RMSE (whole-record mean)
-                parts[key].append(cross_spectra(x - x.mean(axis=1, keepdims=True),
-                                                y - y.mean(axis=1, keepdims=True), cfg,
-                                                name=seg.source))
+                # the scorer's spectra: the segment's mean removed, windows not detrended,
+                # so the quasi-static band counts as in the unfiltered RMSE
+                parts[key].append(cross_spectra(x - mean_x, y - mean_y, cfg, name=seg.source))
             else:
                 parts[key].append(cross_spectra(x, y, cfg, name=seg.source))
         if acc is not None:
-            acc.add(x, y)
+            acc.add(x, y, means[p.segment])
         sum_x += x.sum(axis=1)
         sum_y += y.sum(axis=1)
         n += x.shape[1]
@@ -242,14 +258,16 @@ class Straddling:
         return (self.total[0] - self.touching[k][0], self.total[1] - self.touching[k][1])
 
 
-def straddling_sums(segments, blocks: Sequence[Sequence[Piece]], max_lag: int) -> Straddling:
+def straddling_sums(segments, blocks: Sequence[Sequence[Piece]], max_lag: int,
+                    means: Optional[Sequence[np.ndarray]] = None) -> Straddling:
     """
     Return the straddling pairs' sums of the chunks of ``blocks`` (:class:`Straddling`).
 
     Every two chunks of one segment less than ``max_lag`` samples apart contribute the pairs
     between the end of the first and the start of the second
-    (:func:`.live_estimator.straddling_products`), each chunk with its own mean removed as
-    :func:`block_stats` removes it.  With them a fold's training correlations are those of
+    (:func:`.live_estimator.straddling_products`), with its segment's mean removed as
+    :func:`block_stats` removes it (``means``: :func:`segment_means`, computed when not
+    given).  With them a fold's training correlations are those of
     its chunks as one piecewise signal: the per-chunk sums alone dropped the pairs across
     chunk edges, a fraction ~τ / chunk at lag τ (47 % at a 4 s lag on 7.5 s chunks), which
     shrank the long lags of every fold's fit and so favoured short filters.
@@ -263,7 +281,7 @@ def straddling_sums(segments, blocks: Sequence[Sequence[Piece]], max_lag: int) -
         seg = segments[s]
         return np.concatenate([seg.accel_mps2[:, a:b], seg.force_n[:, a:b]], axis=0)
 
-    means = {c[:3]: stacked(*c[:3]).mean(axis=1, keepdims=True) for c in chunks}
+    means = [m[:, None] for m in (segment_means(segments) if means is None else means)]
     shape = ((n_in, n_in, 2 * max_lag + 1), (n_in, n_out, 2 * max_lag + 1))
     total = [np.zeros(shape[0]), np.zeros(shape[1])]
     touching = [[np.zeros(shape[0]), np.zeros(shape[1])] for _ in blocks]
@@ -277,8 +295,8 @@ def straddling_sums(segments, blocks: Sequence[Sequence[Piece]], max_lag: int) -
                                  f'segment {s} overlap')
             n1 = min(b - a, max_lag)
             n2 = min(b2 - a2, max_lag - gap)
-            sums = straddling_products(stacked(s, b - n1, b) - means[(s, a, b)],
-                                       stacked(s, a2, a2 + n2) - means[(s2, a2, b2)], gap,
+            sums = straddling_products(stacked(s, b - n1, b) - means[s],
+                                       stacked(s, a2, a2 + n2) - means[s2], gap,
                                        n_in, max_lag)
             for target in [total, touching[blk]] + ([touching[blk2]] if blk2 != blk else []):
                 target[0] += sums[0]

@@ -321,10 +321,18 @@ class CorrelationAccumulator:
         self._acc = np.zeros((nz, nz, self._n_fft // 2 + 1), dtype=np.complex128)
         self._n = 0
 
-    def add(self, x: np.ndarray, y: np.ndarray) -> None:
-        """Add one segment: ``x`` (n_in, n) inputs, ``y`` (n_out, n) outputs (validated)."""
+    def add(self, x: np.ndarray, y: np.ndarray, mean: Optional[np.ndarray] = None) -> None:
+        """
+        Add one segment: ``x`` (n_in, n) inputs, ``y`` (n_out, n) outputs (validated).
+
+        ``mean`` (n_in + n_out,): the offsets removed instead of the segment's own mean (a
+        piece of a longer segment keeps that segment's mean, as the whole-segment fit
+        removes it: a piece's own mean would take away the quasi-static band below
+        ~1 / piece length).
+        """
         z = np.concatenate([x, y], axis=0)
-        z = z - z.mean(axis=1, keepdims=True)
+        z = z - (z.mean(axis=1, keepdims=True) if mean is None
+                 else np.asarray(mean, dtype=np.float64)[:, None])
         n = z.shape[1]
         for s in range(0, n, self._block):
             u = scipy.fft.rfft(z[:, s:s + self._block], n=self._n_fft, axis=1)

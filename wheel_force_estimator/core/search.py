@@ -58,6 +58,7 @@ from wheel_force_estimator.core.candidates import LsSolutions
 from wheel_force_estimator.core.candidates import score_fold
 from wheel_force_estimator.core.candidates import SCORING
 from wheel_force_estimator.core.candidates import SEGMENT_FACTORS
+from wheel_force_estimator.core.candidates import segment_means
 from wheel_force_estimator.core.candidates import set_equations
 from wheel_force_estimator.core.candidates import SPLICE_CROSSOVERS_HZ
 from wheel_force_estimator.core.candidates import straddling_sums
@@ -271,7 +272,7 @@ def welch_configs(config: FitConfig, fs_hz: float, sp: Space, n_score: int) -> d
     Return ``{segment_length: WelchConfig}`` of every resolution the search needs.
 
     The scorer's (key :data:`.candidates.SCORING`): ``n_score``-sample windows without
-    per-window detrend (each chunk's mean is removed instead), so a window does not hide the
+    per-window detrend (the segment's mean is removed instead), so a window does not hide the
     quasi-static error below its own resolution from the unfiltered figure; measured, per-window
     detrend made the H1 rows of the van's Fz look 30 % better than the live estimator where
     a held-out course found them 7 % worse.
@@ -318,9 +319,11 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     n_score = 1 << int(np.log2(min(p.stop - p.start for b in blocks for p in b)))
     lags = max_lag(live, fs_hz) if (sp.needs_ls or config.live is not None) else 0
     welch = welch_configs(config, fs_hz, sp, n_score)
-    stats = [block_stats(used, b, welch, fs_hz, lags) for b in progress(blocks, 'fit: blocks')]
+    means = segment_means(used)         # removed from every piece, as the final fit does
+    stats = [block_stats(used, b, welch, fs_hz, lags, means)
+             for b in progress(blocks, 'fit: blocks')]
     # the pairs across chunk edges, so each fold's correlations are its chunks' as one signal
-    straddling = straddling_sums(used, blocks, lags) if lags else None
+    straddling = straddling_sums(used, blocks, lags, means) if lags else None
     d_ls = look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
     d_live = look_ahead_samples(live.look_aheads_s[0], fs_hz)
     scores = [None] * len(sp.input_sets)
