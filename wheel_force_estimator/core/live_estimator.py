@@ -374,8 +374,8 @@ def straddling_products(z_first: np.ndarray, z_second: np.ndarray, gap: int, n_i
     Return the summed products of the pairs that straddle two pieces of one segment.
 
     ``z_first`` is the end of the earlier piece and ``z_second`` the start of the later one
-    (inputs then outputs stacked, shape (n_in + n_out, n), each piece's own mean removed as
-    :meth:`CorrelationAccumulator.add` removes it), ``gap`` samples apart (0: adjacent).
+    (inputs then outputs stacked, shape (n_in + n_out, n), with the mean removed that
+    :meth:`CorrelationAccumulator.add` removes from them), ``gap`` samples apart (0: adjacent).
     Returns ``sum z_a(n) z_b(n + τ)`` over ``n`` in the first and ``n + τ`` in the second
     (lags up to ``max_lag``; none within one piece), laid out as :meth:`CorrelationAccumulator
     .lag_sums`.  Pieces added to an accumulator one by one, plus these, give the correlations
