@@ -183,22 +183,23 @@ def test_a_piece_keeps_its_quasi_static_offset_in_the_held_out_scores():
     """
     Known answer: a piece's statistics have the segment's mean removed, not the piece's.
 
-    The force steps +c / -c between two halves (a braking event and its release): the held-out
-    target power of each half is c² plus the noise, as ``evaluate`` (record mean removed)
-    counts it, and the correlation at lag 0 holds the step too.  A piece's own mean would
-    have removed the step from both.
+    The deceleration steps +1 / -1 and the force +c / -c between two halves (a braking event
+    and its release): the held-out target power of each half is c² plus the noise, as
+    ``evaluate`` (record mean removed) counts it, and the input/force correlation at lag 0 is
+    c.  A piece's own mean would have removed the step from both.
     """
     rng = np.random.default_rng(3)
     n, c = 4096, 5.0
-    x = 0.1 * rng.normal(size=(1, n))
-    y = 0.1 * rng.normal(size=(1, n)) + np.where(np.arange(n) < n // 2, c, -c)
+    step = np.where(np.arange(n) < n // 2, 1.0, -1.0)
+    x = 0.1 * rng.normal(size=(1, n)) + step
+    y = 0.1 * rng.normal(size=(1, n)) + c * step
     seg = [TrainingSegment(x, y, 's')]
     welch = {SCORING: WelchConfig(fs_hz=FS_HZ, segment_length=512, detrend='none')}
     for piece in (Piece(0, 0, n // 2), Piece(0, n // 2, n)):
         stats = block_stats(seg, [piece], welch, FS_HZ, 4)
         mean_square = stats.spectra[SCORING].syy[:, 0].sum() * (FS_HZ / 512)   # ∫ Syy df
         assert mean_square == pytest.approx(c ** 2 + 0.01, rel=0.05)
-        assert stats.corr.rxy[0, 0, 4] == pytest.approx(0.0, abs=0.05)   # x: no step
+        assert stats.corr.rxy[0, 0, 4] == pytest.approx(c, rel=0.05)      # lag 0
         assert stats.corr.n_samples == n // 2
 
 
