@@ -87,7 +87,10 @@ def _node_replay_equals_prediction(model, ros_env, tmp_path, pred_stamps, pred_f
                                        'input_qos_depth': 5000, 'flush_timeout_s': 1.0},
                       log_path=log)
     try:
-        settings = ReplaySettings(rate=4.0, wait_subscribers_s=30.0, settle_s=3.0, record=True)
+        # settle_s: how long the replay waits in silence for the look-ahead tail that Ctrl-C
+        # completes (it stops waiting as soon as every sample arrived).  3 s was short for 28
+        # inputs x 24 outputs on two cores busy with another job (1814 of 1880 seen, twice).
+        settings = ReplaySettings(rate=4.0, wait_subscribers_s=30.0, settle_s=10.0, record=True)
         # the node holds its look-ahead until more data comes; Ctrl-C completes it
         _, result = replay_bag(tmp_path / 'val', settings,
                                after_play=lambda: proc.send_signal(signal.SIGINT))

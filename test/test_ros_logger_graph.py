@@ -21,6 +21,7 @@ from support.ros_testing import stop_node
 from support.ros_testing import synthetic_accel
 from support.ros_testing import synthetic_model
 from support.ros_testing import wait_until
+from support.ros_testing import without_shared_memory
 
 from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.predict import predict_forces
@@ -218,12 +219,15 @@ def test_shutdown_under_a_stalled_subscriber_within_5_s_and_twice_at_once(
     stamps = sample_stamps(n)
     accel = synthetic_accel(n, FS_HZ, seed=57)
     elapsed = {}
+    # The node exits at once on the second Ctrl-C and the frozen reader is killed: neither
+    # may leave a shared-memory port behind for a later test (without_shared_memory).
+    killed_env = without_shared_memory(ros_env)
     for run in ('once', 'twice'):
         log = tmp_path / f'{run}.log'
-        proc = start_node(path, ros_env, NODE_PARAMS, log_path=log)
+        proc = start_node(path, killed_env, NODE_PARAMS, log_path=log)
         reader = subprocess.Popen(
             [sys.executable, str(counter), 'reliable', '5', str(10 * n), '60', *topics[:4]],
-            env=ros_env, stdout=subprocess.PIPE, text=True)
+            env=killed_env, stdout=subprocess.PIPE, text=True)
         peer = Loggers(f'stalled_{run}')
         try:
             assert reader.stdout.readline().strip() == 'ready'

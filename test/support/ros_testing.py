@@ -112,6 +112,22 @@ def isolated_ros_env(base: Optional[Mapping[str, str]] = None) -> Dict[str, str]
     return env
 
 
+def without_shared_memory(env: Mapping[str, str]) -> Dict[str, str]:
+    """
+    Return ``env`` with Fast DDS on UDP alone, for a process a test stops or kills on purpose.
+
+    A Fast DDS participant killed hard (SIGKILL, ``os._exit``, killed while SIGSTOPped) can
+    leave its shared-memory port in ``/dev/shm`` with its interprocess mutex held
+    (eProsima/Fast-DDS#1144, #5053, open on Fast DDS 2.14, Jazzy's).  A later participant
+    that gets the same domain and participant id blocks forever creating that port: its
+    node never comes up and ignores Ctrl-C.  Test domains are drawn at random, so the victim
+    was a random later test (seen once in CI: "node did not come up", then SIGKILL).  Only
+    the processes a test kills use UDP; every other participant keeps the default transports
+    (shared memory on one host), as on a vehicle's logger.
+    """
+    return dict(env, FASTDDS_BUILTIN_TRANSPORTS='UDPv4')
+
+
 def node_command(model_path, params: Mapping[str, object] = (),
                  params_file: Optional[Path] = None, ros_args: Sequence[str] = ()) -> list:
     """Return the command line running ``wheel_force_node`` with parameter overrides."""
@@ -137,15 +153,22 @@ def start_node(model_path, env: Mapping[str, str], params: Mapping[str, object] 
     """Start the node as a subprocess (stdout/stderr to ``log_path`` or discarded)."""
     out = open(log_path, 'w') if log_path is not None else subprocess.DEVNULL
     try:
-        return subprocess.Popen(node_command(model_path, params, params_file, ros_args),
+        proc = subprocess.Popen(node_command(model_path, params, params_file, ros_args),
                                 env=dict(env), stdout=out, stderr=subprocess.STDOUT)
+        proc.log_path = log_path        # stop_node shows it when the node will not stop
+        return proc
     finally:
         if log_path is not None:
             out.close()
 
 
 def stop_node(proc: subprocess.Popen, timeout_s: float = 10.0) -> int:
-    """Stop the node with SIGINT (like Ctrl-C) and return its exit code."""
+    """
+    Stop the node with SIGINT (like Ctrl-C) and return its exit code.
+
+    A node that does not stop within ``timeout_s`` is killed (-9), and the end of its log is
+    printed: pytest shows it under the failing test.
+    """
     if proc.poll() is None:
         proc.send_signal(2)
         try:
@@ -153,6 +176,10 @@ def stop_node(proc: subprocess.Popen, timeout_s: float = 10.0) -> int:
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
+            log_path = getattr(proc, 'log_path', None)
+            if log_path is not None and Path(log_path).exists():
+                print(f'node did not stop within {timeout_s} s; end of {log_path}:\n'
+                      + Path(log_path).read_text(errors='replace')[-4000:])
             return -9
     return proc.returncode
 
