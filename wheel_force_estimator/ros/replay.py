@@ -27,6 +27,7 @@ from geometry_msgs.msg import WrenchStamped
 import numpy as np
 import rclpy
 from rclpy.context import Context
+from rclpy.duration import Duration
 from rclpy.experimental import EventsExecutor
 from rclpy.qos import HistoryPolicy
 from rclpy.qos import QoSProfile
@@ -71,7 +72,8 @@ class ReplaySettings:
         Extra wait once every topic has a subscriber [s]: our side sees the subscriber
         before the subscriber sees us, and a best-effort reader drops what arrives earlier.
     settle_s : float
-        Recording: stop when no output arrived for this long after playing [s].
+        After playing, wait at most this long for the reliable readers to acknowledge every
+        message, then (recording) stop when no output arrived for this long [s].
     qos_depth : int
         History depth of the reliable publishers and recording subscriptions [messages].  A
         reliable KEEP_LAST writer drops a sample not yet acknowledged once its history is
@@ -216,7 +218,8 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
     ros_args : list of str, optional
         Arguments for ``rclpy.init`` (e.g. ``['--ros-args', ...]``).
     after_play : callable, optional
-        Called once everything is published, before the outputs are awaited.  The node
+        Called once everything is published and every reliable reader acknowledged it (or
+        ``settings.settle_s`` passed), before the outputs are awaited.  The node
         holds the estimates of its look-ahead until more data, a gap, deactivate or shutdown
         (a pause is not the end of the data): e.g. stop the node here to collect them.
     rate_radps : array_like, shape (12, n), optional
@@ -283,6 +286,10 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
         time.sleep(settings.match_delay_s)
         wall_s, behind_s = _play(pubs, event_pub, stamps, accel, settings, events, rate,
                                  None if spin is None else (joint_pub, spin))
+        # Published is not received: a busy node's reliable readers may still be behind.
+        # Stopping it now (after_play) or leaving (the writers go) would lose that tail.
+        _wait_for_acks(pubs + ([joint_pub] if joint_pub is not None else []),
+                       settings.settle_s)
         if after_play is not None:
             after_play()
         if settings.record:
@@ -304,6 +311,16 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
 def _spin(executor, stop: threading.Event):
     while not stop.is_set():
         executor.spin_once(timeout_sec=0.05)
+
+
+def _wait_for_acks(pubs, timeout_s: float):
+    """Wait until every reliable reader acknowledged every message, one deadline for all."""
+    deadline = time.monotonic() + timeout_s
+    for pub in pubs:
+        left = deadline - time.monotonic()
+        if left <= 0.0 or not pub.wait_for_all_acked(Duration(seconds=left)):
+            return False
+    return True
 
 
 def _wait_for_subscribers(pubs, timeout_s: float, node):
