@@ -78,8 +78,7 @@ class ReplaySettings:
         History depth of the reliable publishers and recording subscriptions [messages].  A
         reliable KEEP_LAST writer drops a sample not yet acknowledged once its history is
         full, so the depth is how long a stall of the node (or a late match) the replay
-        survives without losing data: 5000 is 2.4 s at 4x of 512 Hz (with 1000 the node once
-        received 255 messages per topic fewer than were published, in CI).
+        survives without losing data: 5000 is 2.4 s at 4x of 512 Hz.
 
     Raises
     ------
