@@ -19,18 +19,21 @@ Then the real MR damper (``../shared/data/mr_damper``, labcontrol-data/mr-damper
 on runs 4.1-4.3 (velocity -> force), judged on run 4.4.  Checks printed: offline <= 0.8x paper,
 live <= 1.25x offline (x, y) / 2x (z), live better than ls2s, offline <= live.
 
-``--inputs accel+spin`` (or ``accel+rates+spin``) fits ``offline``/``live50`` on the
-accelerations plus the wheel spin acceleration (and the spindle angular rates) a logger with
-wheel speeds records - every output row chooses its input set by the same cross-validation,
-as ``wheel-force fit`` does on such bags - while ``paper`` stays the paper's 12 accelerations;
-``ls2s`` gets the same inputs as ``offline``, so the live comparison stays like for like.
+``--inputs`` sets what ``offline``/``live50`` are fitted on, as ``wheel-force fit`` declares
+it on a bag: ``accel+split`` (the default: the 12 accelerations and the traction/braking
+split derived from them, what ``fit`` declares on every bag), ``accel`` (the accelerations
+alone, ``inputs: []``), and with the wheel spin acceleration (and the spindle angular rates)
+a logger with wheel speeds records, ``accel+spin+split`` / ``accel+rates+spin+split``.  Every
+output row chooses its nested input set by the same cross-validation, as ``fit`` does, while
+``paper`` stays the paper's 12 accelerations; ``ls2s`` gets the same inputs as ``offline``,
+so the live comparison stays like for like.
 
 ``--train-scale S`` trains on the whole course with every event shortened to ``S`` (0.1: a
 1-minute course with all 15 events) instead of ``--minutes`` of it; ``--val-scale`` sets the
 held-out course's (0.5 by default: events 5x longer than a 0.1 training course's).
 
 Run: ``python bench/bench_design.py [--minutes 10] [--cars compact,suv,van]
-[--inputs accel|accel+spin|accel+rates+spin] [--train-scale 1] [--val-scale 0.5]``
+[--inputs accel+split|accel|accel+spin+split|...] [--train-scale 1] [--val-scale 0.5]``
 """
 import argparse
 import dataclasses
@@ -44,6 +47,7 @@ from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.cli.common import load_fit_config
 from wheel_force_estimator.core.derived import spin_acceleration
+from wheel_force_estimator.core.derived import traction_braking
 from wheel_force_estimator.core.design import fit_design
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
@@ -101,6 +105,8 @@ def input_signals(result, inputs: str, n=None):
         rows.append(result.rate_radps)
     if 'spin' in inputs:
         rows.append(spin_acceleration(result.spin_radps, result.stamp_ns))
+    if 'split' in inputs:
+        rows.append(traction_braking(result.accel_mps2, result.fs_hz))
     return np.vstack(rows)[:, :n]
 
 
@@ -112,7 +118,7 @@ def car_rows(name, minutes, inputs='accel', train_scale=1.0, val_scale=0.5):
     fs = train.fs_hz
     n = min(train.accel_mps2.shape[1], int(minutes * 60 * fs))
     x, y = input_signals(train, inputs, n), train.force_n[:, :n]
-    channels = declared_inputs('rates' in inputs, 'spin' in inputs)
+    channels = declared_inputs('rates' in inputs, 'spin' in inputs, 'split' in inputs)
     paper = fit_model([TrainingSegment(x[:12], y, f'{name}_seed1')], fs, FitConfig(),
                       INPUT_CHANNELS, OUTPUT_CHANNELS)
     t0 = time.perf_counter()
@@ -162,8 +168,9 @@ def main():
                         help='duration_scale of the held-out course (seed 2)')
     parser.add_argument('--cars', default='compact,suv,van')
     parser.add_argument('--no-mr-damper', action='store_true')
-    parser.add_argument('--inputs', default='accel',
-                        choices=('accel', 'accel+spin', 'accel+rates+spin'),
+    parser.add_argument('--inputs', default='accel+split',
+                        choices=('accel+split', 'accel', 'accel+spin', 'accel+spin+split',
+                                 'accel+rates+spin', 'accel+rates+spin+split'),
                         help='inputs of offline / live50 / ls2s (paper: the accelerations)')
     args = parser.parse_args()
     for name in args.cars.split(','):

@@ -117,6 +117,27 @@ def test_gap_splits_into_segments(tmp_path, storage):
     assert '5 sample(s) missing' in rec.summary()
 
 
+def test_split_is_derived_per_segment_never_across_the_gap(tmp_path):
+    # issue 29: the traction/braking split of each gap-free segment is that segment's own
+    # (its low-pass starts at the segment's first sample); with no rate given, the segment's
+    # median step is the rate (bug caught: one filter run over the concatenated segments)
+    from wheel_force_estimator import INPUT_CHANNELS
+    from wheel_force_estimator import SPLIT_CHANNELS
+    from wheel_force_estimator.core.derived import traction_braking
+    stamp, accel, force = _data()
+    accel[0::3] += np.linspace(-3.0, 3.0, N)[None]          # braking, then traction
+    keep = np.r_[0:100, 105:N]
+    rec = read_recording(write_recording(tmp_path / 'bag', stamp[keep], accel[:, keep],
+                                         force[:, keep]))
+    for seg, (lo, hi) in zip(rec.segments, ((0, 100), (105, N))):
+        expected = traction_braking(accel[:, lo:hi], 512.0)
+        got = seg.signals(INPUT_CHANNELS + SPLIT_CHANNELS, 512.0)
+        np.testing.assert_array_equal(got[:12], accel[:, lo:hi])
+        np.testing.assert_array_equal(got[12:], expected)
+        np.testing.assert_allclose(seg.signals(SPLIT_CHANNELS[::-1]), expected[::-1],
+                                   rtol=0, atol=1e-12)
+
+
 def test_single_sample_segment_is_reported(tmp_path):
     stamp, accel, force = _data()
     keep = np.r_[0:95, 100, 106:N]  # sample 100 alone between two gaps

@@ -93,3 +93,70 @@ def test_bad_arguments():
         SpinAccelerationStream(4, [1, 1])
     with pytest.raises(ShapeError, match='expected'):
         SpinAccelerationStream(4, [3]).push(np.zeros(2, dtype=np.int64), np.zeros((3, 2)))
+
+
+# --- the traction/braking split (issue 29) ---------------------------------------------------
+
+FS_HZ = 512.0
+
+
+def _accel_with_ax(mean_ax, n, seed=0):
+    """12 accelerations whose four ax average to ``mean_ax``, other rows noise."""
+    rng = np.random.default_rng(seed)
+    x = rng.standard_normal((12, n))
+    ax = x[0::3]
+    x[0::3] = ax - ax.mean(axis=0) + mean_ax
+    return x
+
+
+def test_split_of_a_steady_specific_force_is_that_force_from_the_first_sample():
+    # the filter starts in the first sample's steady state: a constant f_x comes out as is,
+    # with no start transient, on the side of its sign (bugs caught: zero initial state, the
+    # parts swapped, ay/az rows taken for ax)
+    from wheel_force_estimator.core.derived import traction_braking
+    for f_x, expected in ((2.5, [[2.5], [0.0]]), (-4.0, [[0.0], [-4.0]])):
+        got = traction_braking(_accel_with_ax(np.full(400, f_x), 400), FS_HZ)
+        # the IIR rounds to ~1e-12; a start transient would be O(1)
+        np.testing.assert_allclose(got, np.repeat(expected, 400, axis=1), rtol=0, atol=1e-9)
+
+
+def test_split_passes_driver_inputs_and_stops_road_vibration():
+    # 2nd-order Butterworth at 1 Hz: |H| = 1/sqrt(1 + (f/fc)^4); 0.1 Hz passes (0.99995),
+    # 20 Hz is cut to 1/400.  Judged on the second half (the start state is the first
+    # sample's, not the sine's)
+    from wheel_force_estimator.core.derived import SPLIT_LOW_PASS_HZ
+    from wheel_force_estimator.core.derived import traction_braking
+    n = int(60 * FS_HZ)
+    t = np.arange(n) / FS_HZ
+    for f_hz in (0.1, 20.0):
+        got = traction_braking(_accel_with_ax(np.sin(2 * np.pi * f_hz * t), n), FS_HZ)
+        f_x = got[0] + got[1]
+        assert np.all(got[0] >= 0) and np.all(got[1] <= 0)
+        gain = np.abs(f_x[n // 2:]).max()
+        expected = 1 / np.sqrt(1 + (f_hz / SPLIT_LOW_PASS_HZ) ** 4)
+        assert gain == pytest.approx(expected, rel=0.02), f_hz
+
+
+@pytest.mark.parametrize('chunks', [[1] * 50, [7, 13, 1, 300], [5000]])
+def test_split_chunked_equals_batch_exactly(chunks):
+    from wheel_force_estimator.core.derived import traction_braking
+    from wheel_force_estimator.core.derived import TractionBrakingStream
+    rng = np.random.default_rng(8)
+    n = sum(chunks)
+    x = np.concatenate([_accel_with_ax(np.cumsum(rng.standard_normal(n)) * 0.05, n),
+                        rng.standard_normal((4, n))])       # rows after the 12 ride along
+    stream = TractionBrakingStream(FS_HZ)
+    edges = np.cumsum([0] + chunks)
+    got = np.concatenate([stream.push(x[:, a:b]) for a, b in zip(edges, edges[1:])], axis=1)
+    np.testing.assert_array_equal(got, traction_braking(x, FS_HZ))
+    stream.reset()      # a new segment starts in its own first sample's steady state
+    np.testing.assert_array_equal(stream.push(x[:, 10:]), traction_braking(x[:, 10:], FS_HZ))
+
+
+def test_split_bad_arguments():
+    from wheel_force_estimator.core.derived import traction_braking
+    from wheel_force_estimator.core.errors import ConfigError
+    with pytest.raises(ShapeError, match='12 spindle accelerations'):
+        traction_braking(np.zeros((11, 5)), FS_HZ)
+    with pytest.raises(ConfigError, match='twice the 1 Hz'):
+        traction_braking(np.zeros((12, 5)), 1.5)

@@ -20,6 +20,7 @@ from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator import RATE_CHANNELS
 from wheel_force_estimator import SPIN_ACCEL_CHANNELS
+from wheel_force_estimator import SPLIT_CHANNELS
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import read_wrench_topics
 from wheel_force_estimator.bagio import TopicConfig
@@ -207,7 +208,8 @@ def test_simulated_six_component_bag_default_fit_node_equals_predict_causal(ros_
                      '--duration-scale', str(scale)]) == 0
     assert main(['fit', str(tmp_path / 'train'), '-o', str(tmp_path / 'model.npz')]) == 0
     model = load_model(tmp_path / 'model.npz')
-    assert model.input_channels == INPUT_CHANNELS + RATE_CHANNELS + SPIN_ACCEL_CHANNELS
+    assert model.input_channels == (INPUT_CHANNELS + RATE_CHANNELS + SPIN_ACCEL_CHANNELS
+                                    + SPLIT_CHANNELS)
     assert model.output_channels == OUTPUT_CHANNELS + MOMENT_CHANNELS
     assert main(['predict', str(tmp_path / 'model.npz'), str(tmp_path / 'val'), '-o',
                  str(tmp_path / 'pred'), '--causal']) == 0

@@ -19,6 +19,7 @@ from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator import RATE_CHANNELS
 from wheel_force_estimator import SPIN_ACCEL_CHANNELS
 from wheel_force_estimator import SPIN_CHANNELS
+from wheel_force_estimator import SPLIT_CHANNELS
 from wheel_force_estimator.bagio import available_extras
 from wheel_force_estimator.bagio import read_recording
 from wheel_force_estimator.bagio import write_recording
@@ -197,7 +198,8 @@ def test_cli_fit_and_evaluate_a_24_output_model(tmp_path):
     assert main(['fit', str(tmp_path / 'train'), '-o', str(tmp_path / 'm.npz')]) == 0
     model = load_model(tmp_path / 'm.npz')
     assert model.output_channels == OUTPUT_CHANNELS + MOMENT_CHANNELS
-    assert model.input_channels == INPUT_CHANNELS         # no rates, no spin in this bag
+    # no rates, no spin in this bag; the split is derived from the accelerations (auto)
+    assert model.input_channels == INPUT_CHANNELS + SPLIT_CHANNELS
     assert channel_units(model)[1] == ('N',) * 12 + ('N*m',) * 12
     assert main(['evaluate', str(tmp_path / 'm.npz'), str(tmp_path / 'val'), '--json',
                  str(tmp_path / 'e.json'), '--sn-slope-moment', '7']) == 0

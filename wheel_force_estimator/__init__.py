@@ -21,3 +21,6 @@ SPIN_CHANNELS = tuple(f'{c}_spin' for c in CORNERS)
 # The spin enters a model as the spin acceleration derived from the recorded spin rate
 # (core.derived): the rate's large slow speed changes would leak into every Welch line.
 SPIN_ACCEL_CHANNELS = tuple(f'{c}_spin_accel' for c in CORNERS)
+# The traction/braking split (issue 29): the car's low-passed longitudinal specific force,
+# derived from the four spindle ax (core.derived), as its positive and negative parts [m/s^2].
+SPLIT_CHANNELS = ('traction_ax', 'braking_ax')

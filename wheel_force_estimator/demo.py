@@ -123,7 +123,7 @@ def _six_components(out: Path, scale: float) -> None:
     fitted = load_model(model)
     seg = max(read_recording(val, require_wft=True, extras=('moments', 'spin')).segments,
               key=lambda s: s.n_samples)
-    pred = predict_forces(fitted, seg.signals(fitted.input_channels))
+    pred = predict_forces(fitted, seg.signals(fitted.input_channels, fitted.fs_hz))
     row = fitted.output_channels.index('lf_my')
     t_s = (seg.stamp_ns - seg.stamp_ns[0]) * 1e-9
     mid = 0.5 * t_s[-1]

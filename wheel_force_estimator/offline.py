@@ -48,7 +48,7 @@ def predict_recording(model, recording, causal_delay_samples=None):
     every output of the model: the forces, then the moments if it has them (core.spindle).
     """
     from wheel_force_estimator.core.predict import predict_forces
-    return [(seg.stamp_ns, predict_forces(model, seg.signals(model.input_channels),
+    return [(seg.stamp_ns, predict_forces(model, seg.signals(model.input_channels, model.fs_hz),
                                           causal_delay_samples))
             for seg in recording.segments]
 
@@ -73,7 +73,7 @@ def stream_recording(model, recording, causal_delay_samples=None):
     def blocks():
         n = len(OUTPUT_CHANNELS)  # the forces; moments, if any, follow (core.spindle)
         for seg in segments:
-            for block in iter_forces(model, seg.signals(model.input_channels),
+            for block in iter_forces(model, seg.signals(model.input_channels, model.fs_hz),
                                      causal_delay_samples):
                 yield block[:n]
     return stamps, SignalBlocks(OUTPUT_CHANNELS, stamps.size, prefetched(blocks()))

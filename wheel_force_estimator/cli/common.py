@@ -66,7 +66,10 @@ def default_config_path() -> Optional[Path]:
 #: Keys of the fit section choosing the model's channels (six components, issue 33).
 _CHANNEL_KEYS = ('inputs', 'moments')
 #: Input groups a spindle model may declare beyond the 12 accelerations.
-INPUT_GROUPS = ('rates', 'spin')
+INPUT_GROUPS = ('rates', 'spin', 'split')
+#: Of those, the groups read from a recording's topics (``split`` is derived from the
+#: accelerations: core.derived).
+READ_GROUPS = ('rates', 'spin')
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,9 +78,11 @@ class FitChannels:
     The channels ``fit`` gives a spindle model (params file, ``wheel_force_fit`` section).
 
     ``inputs``: ``"auto"`` (default: the angular rates and the spin where every training
-    recording carries them) or a list among ``rates``, ``spin`` (``[]`` = the 12
-    accelerations only); a declared group that a recording lacks is an error naming its
-    topic.  ``moments``: ``"auto"`` (fitted when every recording's WFT messages carry a
+    recording carries them, and the traction/braking split, which every recording has) or
+    a list among ``rates``, ``spin``, ``split`` (``[]`` = the 12 accelerations only); a
+    declared group that a recording lacks is an error naming its topic.  With ``"auto"``
+    each output row takes the groups its blocked cross-validation chooses; a list imposes
+    them on every row.  ``moments``: ``"auto"`` (fitted when every recording's WFT messages carry a
     torque), ``true`` (required) or ``false``.
     """
 
@@ -86,11 +91,16 @@ class FitChannels:
 
     def extras(self, available) -> Tuple[str, ...]:
         """Return the reader's extras for recordings that all carry ``available``."""
-        groups = [g for g in INPUT_GROUPS
+        groups = [g for g in READ_GROUPS
                   if (g in available if self.inputs is None else g in self.inputs)]
         if self.moments or (self.moments is None and 'moments' in available):
             groups.insert(0, 'moments')
         return tuple(groups)
+
+    @property
+    def split(self) -> bool:
+        """Say if the model declares the traction/braking inputs (unless a list omits them)."""
+        return self.inputs is None or 'split' in self.inputs
 
 
 def fit_channels(path) -> FitChannels:

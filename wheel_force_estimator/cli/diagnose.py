@@ -69,9 +69,10 @@ def _generic(request, args):
     return load(args.real), (load(args.sim) if args.sim else None), load(args.holdout)
 
 
-def _bags(args):
+def _bags(args, reference=None):
     from wheel_force_estimator import INPUT_CHANNELS
     from wheel_force_estimator import OUTPUT_CHANNELS
+    from wheel_force_estimator import SPLIT_CHANNELS
     from wheel_force_estimator.bagio.travel import TRAVEL_CHANNELS
     from wheel_force_estimator.cli.common import read_recordings
     from wheel_force_estimator.diagnosis.recording import from_bag_recording
@@ -94,8 +95,13 @@ def _bags(args):
         print(f'suspension travel not used: {"no --sim reference" if not args.sim else ""}'
               f'{"; " if not args.sim and without else ""}'
               f'{"not in " + ", ".join(without) if without else ""}')
+    # the spindle accelerations; with the traction/braking split derived from them when the
+    # --model declares it (a model of `wheel-force fit`: its inputs are read as predict reads
+    # them)
+    inputs = INPUT_CHANNELS + (SPLIT_CHANNELS if reference is not None and tuple(
+        reference.input_channels) == INPUT_CHANNELS + SPLIT_CHANNELS else ())
     channels = ((TRAVEL_CHANNELS, tuple(c for c in OUTPUT_CHANNELS if c.endswith('fz')))
-                if travel else (INPUT_CHANNELS, OUTPUT_CHANNELS))
+                if travel else (inputs, OUTPUT_CHANNELS))
 
     def load(recs):
         out = []
@@ -130,7 +136,7 @@ def command(args: argparse.Namespace) -> int:
         if request is not None:
             from wheel_force_estimator.cli.evaluate import check_generic_model
             check_generic_model(reference, args.model, request)
-    real, sim, holdout = _bags(args) if request is None else _generic(request, args)
+    real, sim, holdout = _bags(args, reference) if request is None else _generic(request, args)
     if args.out_model and real and real[0].input_quantity == 'displacement' and (
             request is None):
         raise UsageError('--out-model: the travel diagnosis fits travel -> vertical force, '

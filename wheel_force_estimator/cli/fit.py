@@ -96,12 +96,14 @@ def _bag_data(args) -> _TrainingData:
         available = set()
     extras = channels.extras(available)
     recordings = read_recordings(args.recordings, topics, require_wft=True, extras=extras)
-    inputs = declared_inputs('rates' in extras, 'spin' in extras)
+    inputs = declared_inputs('rates' in extras, 'spin' in extras, channels.split)
     outputs = declared_outputs('moments' in extras)
-    segments = [TrainingSegment(seg.signals(inputs), seg.signals(outputs), f'{rec.path}#{i}')
+    fs_hz = nominal_fs_hz(recordings)
+    segments = [TrainingSegment(seg.signals(inputs, fs_hz), seg.signals(outputs),
+                                f'{rec.path}#{i}')
                 for rec in recordings for i, seg in enumerate(rec.segments)]
     return _TrainingData(segments, sum(s.accel_mps2.shape[1] for s in segments),
-                         len(recordings), nominal_fs_hz(recordings), inputs, outputs,
+                         len(recordings), fs_hz, inputs, outputs,
                          'acceleration',
                          {'bags': [str(Path(b)) for b in args.recordings]})
 

@@ -1,9 +1,10 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """
-Derived inputs: the wheel spin acceleration from the recorded spin rate (issue 33).
+Derived inputs: quantities a model takes that no sensor records as such.
 
-A model does not take the spin *rate* itself: it holds the vehicle speed (tens of rad/s
+**Spin acceleration** (issue 33), from the recorded spin rate.  A model does not take the spin
+*rate* itself: it holds the vehicle speed (tens of rad/s
 changing over tens of seconds), whose power leaks through the Welch window's side lobes into
 every frequency line and buries the spin dynamics there (measured: the held-out 1 Hz
 high-passed RMSE of ``Fy`` tripled with the rate as an input).  Its time derivative, the spin
@@ -21,11 +22,28 @@ One engine, two callers: :func:`spin_acceleration` on a whole segment (offline) 
 :class:`SpinAccelerationStream` on chunks as they arrive (the live node).  Sample ``k`` needs
 sample ``k + 1``, so the stream gives each value one sample late and the last one when the
 segment ends; its values equal :func:`spin_acceleration` of the concatenation bit for bit.
+
+**Traction/braking split** (issue 29), from the 12 spindle accelerations.  A wheel's
+longitudinal force is not one linear function of the car's longitudinal specific force
+``f_x``: braking loads all four wheels in the brake balance's ratio, traction only the driven
+ones, so each wheel's quasi-static ``Fx`` is piecewise linear in ``f_x`` with a kink at zero.
+No linear model (the paper's H1, a least-squares FIR) holds that kink.  Two derived inputs
+let the linear fit learn the two slopes: ``f_x`` = the mean of the four spindle ``ax``
+through a causal 2nd-order Butterworth low-pass at :data:`SPLIT_LOW_PASS_HZ` (driver-made
+braking and traction, not the road's vibration), then its positive part (traction) and its
+negative part (braking) [m/s²].  The fit offers them to every output row as one more nested
+input set, and each row takes them only when the blocked cross-validation says so
+(docs/fit_design.md).  Per gap-free segment the filter starts in the steady state of the
+segment's first sample (nothing invented before the record, no start transient);
+:class:`TractionBrakingStream` carries its state across chunks, so chunked == batch, and is
+restarted where the stream breaks, as the offline reader starts a new segment.
 """
 from typing import Sequence, Tuple
 
 import numpy as np
+import scipy.signal
 
+from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 
 _S_PER_NS = 1e-9
@@ -203,3 +221,106 @@ class SpinAccelerationStream:
         last = x[:, -1:].copy()
         last[self._rows] = _one_sided(x[self._rows][:, -2:], t[-2:])
         return t[-1:].copy(), last
+
+
+#: Low-pass corner of the longitudinal specific force the split is taken from [Hz].  Driver
+#: inputs (braking, traction) live below it, the road's vibration above.  Not tuned: 0.5, 1
+#: and 2 Hz gave the same held-out Fx within 1.7 points (bench/bench_split.py, 2026-11-28).
+SPLIT_LOW_PASS_HZ = 1.0
+#: Butterworth order of that low-pass.
+SPLIT_FILTER_ORDER = 2
+#: Rows of the four spindle ``ax`` among the 12 accelerations (corner-major x, y, z).
+_AX_ROWS = slice(0, 12, 3)
+
+
+def traction_braking(accel_mps2, fs_hz: float) -> np.ndarray:
+    """
+    Return the traction and braking parts of one gap-free segment's ``f_x`` (module notes).
+
+    Parameters
+    ----------
+    accel_mps2 : numpy.ndarray, shape (n_rows >= 12, n)
+        The 12 spindle accelerations [m/s²] first (package order), any rows after them.
+    fs_hz : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    numpy.ndarray, shape (2, n)
+        ``max(f_x, 0)`` and ``min(f_x, 0)`` [m/s²].
+
+    Raises
+    ------
+    ConfigError
+        A sample rate with the low-pass corner at or above Nyquist.
+    ShapeError
+        Fewer than 12 rows.
+
+    """
+    return TractionBrakingStream(fs_hz).push(accel_mps2)
+
+
+class TractionBrakingStream:
+    """
+    :func:`traction_braking` of a segment that arrives in chunks (no delay).
+
+    Causal, so every sample leaves with its chunk; the filter state carries across chunks and
+    the values equal :func:`traction_braking` of the concatenation.  :meth:`reset` starts a
+    new segment.
+
+    Parameters
+    ----------
+    fs_hz : float
+        Sample rate [Hz].
+
+    Raises
+    ------
+    ConfigError
+        A sample rate with the low-pass corner at or above Nyquist.
+
+    """
+
+    def __init__(self, fs_hz: float):
+        if not fs_hz > 2.0 * SPLIT_LOW_PASS_HZ:
+            raise ConfigError(f'traction/braking split: sample rate {fs_hz!r} Hz must exceed '
+                              f'twice the {SPLIT_LOW_PASS_HZ:g} Hz low-pass corner')
+        self._sos = scipy.signal.butter(SPLIT_FILTER_ORDER, SPLIT_LOW_PASS_HZ, fs=fs_hz,
+                                        output='sos')
+        self._zi_unit = scipy.signal.sosfilt_zi(self._sos)
+        self.reset()
+
+    def reset(self) -> None:
+        """Start a new segment: its first sample sets the filter's steady state."""
+        self._zi = None
+
+    def push(self, accel_mps2) -> np.ndarray:
+        """
+        Return the split of the next samples of the segment.
+
+        Parameters
+        ----------
+        accel_mps2 : array_like, shape (n_rows >= 12, m)
+            The 12 spindle accelerations [m/s²] first, any rows after them.
+
+        Returns
+        -------
+        numpy.ndarray, shape (2, m)
+            Traction ``max(f_x, 0)``, braking ``min(f_x, 0)`` [m/s²].
+
+        Raises
+        ------
+        ShapeError
+            Fewer than 12 rows.
+
+        """
+        x = np.asarray(accel_mps2, dtype=np.float64)
+        if x.ndim != 2 or x.shape[0] < 12:
+            raise ShapeError(f'traction/braking split: samples {x.shape} need the 12 spindle '
+                             'accelerations as their first rows')
+        if x.shape[1] == 0:
+            return np.empty((2, 0))
+        mean_ax = x[_AX_ROWS].mean(axis=0)
+        if self._zi is None:
+            self._zi = self._zi_unit * mean_ax[0]
+        f_x, self._zi = scipy.signal.sosfilt(self._sos, mean_ax, zi=self._zi)
+        return np.vstack([np.maximum(f_x, 0.0), np.minimum(f_x, 0.0)])

@@ -37,9 +37,11 @@ from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.resolution import choose_segment_length
 from wheel_force_estimator.core.search import fit_chosen
+from wheel_force_estimator.core.search import INPUTS_KEY
 from wheel_force_estimator.core.search import MIN_SCORING_SEGMENT
 from wheel_force_estimator.core.search import search
 from wheel_force_estimator.core.spindle import CHANNEL_UNITS
+from wheel_force_estimator.core.spindle import input_sets
 from wheel_force_estimator.core.validation import as_signals
 
 
@@ -125,8 +127,10 @@ class DesignedFit:
         # of 2-minute records judged that, 20 % unfiltered on Fz, where the written plain fit
         # scored 12 % on a new recording, so the simulation's rows won the blocks)
         config, _ = _short_record_fallback(self.config, used, model.fs_hz)
-        config, _ = _few_long_windows_fallback(config, used, model.fs_hz,
-                                               len(model.input_channels))
+        config, _ = _few_long_windows_fallback(
+            config, used, model.fs_hz, _guarded_inputs(
+                model.input_channels, self.chosen is not None
+                and len(self.chosen.choice.space.input_sets) > 1))
         info = dict(fit_info or {})
         if self.chosen is None:
             out = fit_model(used, model.fs_hz, config, model.input_channels,
@@ -222,6 +226,23 @@ def _few_long_windows_fallback(config: FitConfig, segments, fs_hz: float,
             f'with one resolution (segment {config.segment_length}). --long-segment-length 0 '
             f'silences this note.')
     return dataclasses.replace(config, long_segment_length=0), note
+
+
+def _guarded_inputs(input_channels, sets_searched: bool) -> int:
+    """
+    Return the inputs the few-long-windows fallback counts.
+
+    All of them, unless each output row chooses among nested input sets by blocked
+    cross-validation (:func:`.spindle.input_sets`): then the smallest set's.  That set is
+    every row's baseline; a bigger set fitted from too few windows shows it in its held-out
+    score and is not chosen.  Counting every set's inputs switched every row to one
+    resolution as soon as one optional group was offered (measured 2026-11-28: with the
+    traction/braking split's 2 inputs, 2-minute records' y and z rows got 0.2-3 points worse,
+    although they chose the accelerations alone; bench/bench_split.py).
+    """
+    if sets_searched:
+        return len(input_sets(input_channels)[0][1])
+    return len(input_channels)
 
 
 #: Shortest Welch segment the few-windows fallback goes down to [samples].
@@ -353,6 +374,7 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
         fallback) none holds the long segment.
 
     """
+    imposed = frozenset(imposed)
     used, skipped = [], []
     for seg in segments:
         n = seg.accel_mps2.shape[1]
@@ -374,7 +396,9 @@ def fit_design(segments: Sequence[TrainingSegment], fs_hz: float, config: FitCon
         config, note = _short_record_fallback(config, used, fs_hz)
         notes.append(note)
     if short_record_fallback if long_window_fallback is None else long_window_fallback:
-        config, note = _few_long_windows_fallback(config, used, fs_hz, len(input_channels))
+        config, note = _few_long_windows_fallback(
+            config, used, fs_hz, _guarded_inputs(
+                input_channels, cross_validate and INPUTS_KEY not in imposed))
         notes.append(note)
     if segment_fallback and not config.long_segment_length:
         config, note = _few_windows_fallback(config, used, fs_hz, len(input_channels))

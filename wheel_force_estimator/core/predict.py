@@ -30,12 +30,18 @@ No recorded sample is changed, added or dropped.  The output stream lags the inp
 ``j - delay_samples``.  Physics terms read from motion features are faded in after every
 (re)start while the feature filters settle (:func:`.physics.settle_weight`), counted from the
 first recorded sample (the stage's first ``delay_samples`` inputs are the rest level).
+
+A model whose inputs end with the traction/braking split (issue 29) may be given its inputs
+without those two rows: :func:`predict_forces` and :func:`iter_forces` derive them from the
+accelerations of the segment (:func:`.derived.traction_braking`, as the bag reader does).
 """
 from typing import Iterator, Optional
 
 import numpy as np
 
+from wheel_force_estimator import SPLIT_CHANNELS
 from wheel_force_estimator.core.causal_filter import CausalFilter
+from wheel_force_estimator.core.derived import traction_braking
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filtering import FirFilter
@@ -261,6 +267,31 @@ class Predictor:
         return self.process(np.repeat(held, self.delay_samples, axis=1))
 
 
+def model_inputs(model: FrfModel, accel_mps2) -> np.ndarray:
+    """
+    Return one gap-free segment's inputs to ``model``, checked.
+
+    As given, or, for a model whose inputs end with the traction/braking split given without
+    those two rows, with the split derived from the segment's accelerations at the model's
+    sample rate.
+
+    Raises
+    ------
+    ShapeError
+        Wrong channel count.
+    NonFiniteError
+        NaN or infinity in the input.
+
+    """
+    channels = tuple(model.input_channels)
+    n_split = len(SPLIT_CHANNELS)
+    if channels[-n_split:] == SPLIT_CHANNELS and np.ndim(accel_mps2) == 2 \
+            and np.shape(accel_mps2)[0] == len(channels) - n_split:
+        x = as_signals(accel_mps2, 'accelerations', channels[:-n_split], min_samples=0)
+        return np.concatenate([x, traction_braking(x, model.fs_hz)])
+    return as_signals(accel_mps2, 'accelerations', channels, min_samples=0)
+
+
 def predict_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[int] = None,
                    block_size: Optional[int] = None) -> np.ndarray:
     """
@@ -271,7 +302,8 @@ def predict_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[i
     model : FrfModel
         The fitted model.
     accel_mps2 : array_like, shape (n_inputs, n)
-        Specific force [m/s²] of one gap-free segment.
+        Specific force [m/s²] of one gap-free segment (a split model: with or without the
+        split's two rows, see the module notes).
     causal_delay_samples : int, optional
         As for :class:`Predictor`.
     block_size : int, optional
@@ -291,7 +323,7 @@ def predict_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[i
         NaN or infinity in the input.
 
     """
-    x = as_signals(accel_mps2, 'accelerations', model.input_channels, min_samples=0)
+    x = model_inputs(model, accel_mps2)
     # Filled in place (no list of blocks to join): a long record needs one output array.
     y = np.empty((len(model.output_channels), x.shape[1]))
     done = 0
@@ -331,7 +363,7 @@ def iter_forces(model: FrfModel, accel_mps2, causal_delay_samples: Optional[int]
         NaN or infinity in the input (checked before the first block).
 
     """
-    x = as_signals(accel_mps2, 'accelerations', model.input_channels, min_samples=0)
+    x = model_inputs(model, accel_mps2)
     predictor = Predictor(model, causal_delay_samples)
     if block_size is None:
         block_size = predictor.efficient_block

@@ -11,7 +11,9 @@ model fits when
   ``wheel-force fit`` writes them so; a model in another order is refused rather than guessed
   at), optionally followed by all 12 spindle angular rates (``lf_wx`` ... ``rr_wz``) and then
   by the four wheel spin accelerations (``lf_spin_accel`` ... ``rr_spin_accel``, derived
-  from the recorded spin rates: :mod:`.derived`) (six components, issue 33),
+  from the recorded spin rates: :mod:`.derived`) (six components, issue 33), and optionally
+  last by the traction/braking split (``traction_ax``, ``braking_ax``, derived from the 12
+  accelerations: :mod:`.derived`; issue 29),
 * its outputs are the 12 wheel forces in that order, optionally followed by all 12 wheel
   moments (``lf_mx`` ... ``rr_mz``), never some of them,
 * its units are those the messages carry: ``m/s^2`` (Imu linear acceleration), ``rad/s``
@@ -33,6 +35,7 @@ from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator import RATE_CHANNELS
 from wheel_force_estimator import SPIN_ACCEL_CHANNELS
+from wheel_force_estimator import SPLIT_CHANNELS
 from wheel_force_estimator.core.errors import ModelFileError
 
 __all__ = ['CHANNEL_UNITS', 'MOMENT_CHANNELS', 'SPINDLE_UNITS', 'SpindleLayout',
@@ -42,7 +45,7 @@ __all__ = ['CHANNEL_UNITS', 'MOMENT_CHANNELS', 'SPINDLE_UNITS', 'SpindleLayout',
 SPINDLE_UNITS = {'input': 'm/s^2', 'output': 'N'}
 #: The unit of every channel group, as the messages carry it (REP-103 SI).
 GROUP_UNITS = ((INPUT_CHANNELS, 'm/s^2'), (RATE_CHANNELS, 'rad/s'),
-               (SPIN_ACCEL_CHANNELS, 'rad/s^2'),
+               (SPIN_ACCEL_CHANNELS, 'rad/s^2'), (SPLIT_CHANNELS, 'm/s^2'),
                (OUTPUT_CHANNELS, 'N'), (MOMENT_CHANNELS, 'N*m'))
 #: Channel name -> unit of the messages.
 CHANNEL_UNITS = {name: unit for group, unit in GROUP_UNITS for name in group}
@@ -52,10 +55,17 @@ _SOURCES = {'m/s^2': 'Imu linear_acceleration', 'N': 'WrenchStamped force',
             'rad/s^2': 'JointState wheel velocity (differentiated)'}
 
 
-def declared_inputs(rates: bool, spin: bool) -> Tuple[str, ...]:
-    """Return the input channels of a spindle model with or without rates and spin."""
+def declared_inputs(rates: bool, spin: bool, split: bool = False) -> Tuple[str, ...]:
+    """Return the input channels of a spindle model with or without rates, spin and split."""
     return (INPUT_CHANNELS + (RATE_CHANNELS if rates else ())
-            + (SPIN_ACCEL_CHANNELS if spin else ()))
+            + (SPIN_ACCEL_CHANNELS if spin else ()) + (SPLIT_CHANNELS if split else ()))
+
+
+def _variants():
+    """Return ``{declared inputs: (rates, spin, split)}`` of every spindle model."""
+    flags = (False, True)
+    return {declared_inputs(r, sp, sl): (r, sp, sl)
+            for r in flags for sp in flags for sl in flags}
 
 
 def input_sets(input_channels) -> Tuple[Tuple[str, Tuple[int, ...]], ...]:
@@ -63,18 +73,19 @@ def input_sets(input_channels) -> Tuple[Tuple[str, Tuple[int, ...]], ...]:
     Return the nested input sets the fit's search tries: ``((name, columns), ...)``.
 
     A spindle model's inputs (:func:`declared_inputs`) give one set per group, nested in the
-    order the groups come: ``accel``; ``accel+rates``; ``accel+rates+spin`` (only the groups
-    present; ``accel+spin`` when the rates are absent).  Any other channel list (a generic
+    order the groups come: ``accel``; ``accel+rates``; ``accel+rates+spin``;
+    ``accel+rates+spin+split`` (only the groups present: ``accel+split`` for a model of the
+    accelerations and the split).  Any other channel list (a generic
     DAQ fit) is one set, ``all``, of every input.  ``columns`` index ``input_channels``.
     """
     names = tuple(input_channels)
     n_acc = len(INPUT_CHANNELS)
-    if names[:n_acc] != INPUT_CHANNELS or names not in {
-            declared_inputs(r, sp) for r in (False, True) for sp in (False, True)}:
+    if names[:n_acc] != INPUT_CHANNELS or names not in _variants():
         return (('all', tuple(range(len(names)))),)
     sets = [('accel', tuple(range(n_acc)))]
     stop = n_acc
-    for group, label in ((RATE_CHANNELS, 'rates'), (SPIN_ACCEL_CHANNELS, 'spin')):
+    for group, label in ((RATE_CHANNELS, 'rates'), (SPIN_ACCEL_CHANNELS, 'spin'),
+                         (SPLIT_CHANNELS, 'split')):
         if names[stop:stop + len(group)] == group:
             stop += len(group)
             sets.append((f'{sets[-1][0]}+{label}', tuple(range(stop))))
@@ -123,6 +134,9 @@ class SpindleLayout:
         Per corner, the rows of moment x, y, z; ``None`` when the model has no moments.
     rates, spin : bool
         The model's inputs include the spindle angular rates / the wheel spin rates.
+    split : bool
+        The model's inputs end with the traction/braking split, which the caller derives
+        from the accelerations (:mod:`.derived`); no topic or bag group carries it.
 
     """
 
@@ -130,6 +144,7 @@ class SpindleLayout:
     torque_rows: Optional[Tuple[Tuple[int, int, int], ...]]
     rates: bool = False
     spin: bool = False
+    split: bool = False
 
     @property
     def extras(self) -> Tuple[str, ...]:
@@ -162,13 +177,14 @@ def spindle_layout(model, where: str) -> SpindleLayout:
     """
     inputs = tuple(model.input_channels)
     outputs = tuple(model.output_channels)
-    variants = {declared_inputs(r, sp): (r, sp) for r in (False, True) for sp in (False, True)}
+    variants = _variants()
     if inputs not in variants:
         raise ModelFileError(
             f'{where}: model inputs {list(inputs)} are not the spindle accelerations '
             f'{INPUT_CHANNELS[0]} ... {INPUT_CHANNELS[-1]} (optionally followed by all of the '
             f'angular rates {RATE_CHANNELS[0]} ... {RATE_CHANNELS[-1]}, then the spin rates '
-            f'{SPIN_ACCEL_CHANNELS[0]} ... {SPIN_ACCEL_CHANNELS[-1]}) in that order; a model '
+            f'{SPIN_ACCEL_CHANNELS[0]} ... {SPIN_ACCEL_CHANNELS[-1]}, then the split '
+            f'{SPLIT_CHANNELS[0]}, {SPLIT_CHANNELS[1]}) in that order; a model '
             f'fitted on '
             f'generic recordings is applied to them with --input, --output and --fs')
     if outputs not in (OUTPUT_CHANNELS, OUTPUT_CHANNELS + MOMENT_CHANNELS):
@@ -197,5 +213,5 @@ def spindle_layout(model, where: str) -> SpindleLayout:
     force_rows = tuple(tuple(range(3 * c, 3 * c + 3)) for c in range(len(CORNERS)))
     torque_rows = None if len(outputs) == n else tuple(
         tuple(range(n + 3 * c, n + 3 * c + 3)) for c in range(len(CORNERS)))
-    rates, spin = variants[inputs]
-    return SpindleLayout(force_rows, torque_rows, rates, spin)
+    rates, spin, split = variants[inputs]
+    return SpindleLayout(force_rows, torque_rows, rates, spin, split)

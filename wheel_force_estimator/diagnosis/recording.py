@@ -118,7 +118,7 @@ def from_bag_recording(recording, input_channels, output_channels,
             raise DiagnosisError(f'{recording.path}: segment {i} has no suspension travel')
         out.append(MotionRecording(
             name=f'{recording.path}#{i}', fs_hz=recording.fs_hz,
-            inputs=seg.travel_m if travel else seg.accel_mps2,
+            inputs=seg.travel_m if travel else seg.signals(input_channels, recording.fs_hz),
             outputs=seg.force_n[rows] if travel else seg.force_n,
             input_channels=tuple(input_channels), output_channels=tuple(output_channels),
             input_quantity='displacement' if travel else 'acceleration',

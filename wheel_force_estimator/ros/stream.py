@@ -23,6 +23,12 @@ each estimate still carries the stamp of the sample it estimates.  A stretch of 
 sample has no derivative and no estimate (``counts['single_samples']``; the offline reader
 keeps no segment under two samples either).
 
+**Split inputs** (``split``, issue 29): a model whose inputs end with the traction/braking
+split gets those two rows derived here from the 12 accelerations
+(:class:`~wheel_force_estimator.core.derived.TractionBrakingStream`), causally and with no
+delay; they are not fed.  The filter restarts wherever the Predictor does (gap, stall, jump),
+so a gap-free stretch gets exactly what the offline reader derives for that segment.
+
 Discontinuities (each is counted):
 
 * **gap** — a step between consecutive stamps longer than 1.5 periods, or shorter than half
@@ -53,6 +59,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from wheel_force_estimator.core.derived import SpinAccelerationStream
+from wheel_force_estimator.core.derived import TractionBrakingStream
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.evaluation import channel_sn_slopes
@@ -167,6 +174,9 @@ class ForceStream:
     spin_rows : sequence of int, optional
         Input rows fed as wheel spin rates [rad/s], differentiated to the model's spin
         accelerations [rad/s²] (see the module notes); empty: none.
+    split : bool, optional
+        The model's last two inputs are the traction/braking split, derived here from the
+        accelerations: samples are fed without them (see the module notes).
 
     Raises
     ------
@@ -177,13 +187,16 @@ class ForceStream:
 
     def __init__(self, predictor: Predictor, block_size: int, sn_slope: float,
                  damage_period_s: Optional[float] = None,
-                 sn_slope_moment: Optional[float] = None, spin_rows: Sequence[int] = ()):
+                 sn_slope_moment: Optional[float] = None, spin_rows: Sequence[int] = (),
+                 split: bool = False):
         if isinstance(block_size, bool) or not isinstance(block_size, (int, np.integer)) \
                 or block_size < 1:
             raise ConfigError(f'block_size must be an integer >= 1, got {block_size!r}')
         self._predictor = predictor
         self._block = int(block_size)
-        self._n_in = predictor.n_inputs
+        self._split = TractionBrakingStream(predictor.model.fs_hz) if split else None
+        # rows fed: the model's inputs but the split, which is derived here
+        self._n_in = predictor.n_inputs - (2 if split else 0)
         self._spin = None
         if len(spin_rows):
             try:
@@ -253,6 +266,8 @@ class ForceStream:
         self._lead.reset()
         if self._spin is not None:
             self._spin.reset()
+        if self._split is not None:
+            self._split.reset()
         self._fifo = np.empty(0, dtype=np.int64)          # stamps fed, estimate pending
         self._queued: List[np.ndarray] = []               # stamps waiting for a full block
         self._queued_x: List[np.ndarray] = []
@@ -267,7 +282,8 @@ class ForceStream:
         stamp_ns : array_like, shape (m,), int
             Sample stamps [ns].
         accel_mps2 : array_like, shape (n_inputs, m)
-            Finite accelerations [m/s²].
+            Finite accelerations [m/s²] (and rates, spin rates), the model's inputs without
+            the split, which the stream derives (``n_inputs`` = the model's, less 2 then).
 
         Raises
         ------
@@ -409,7 +425,13 @@ class ForceStream:
         if self._spin is not None:
             stamps, x = self._spin.push(stamps, x)
         if stamps.size:
-            self._queue(stamps, x)
+            self._queue(stamps, self._with_split(x))
+
+    def _with_split(self, x: np.ndarray) -> np.ndarray:
+        """Return the samples with the split rows appended (a model with the split)."""
+        if self._split is None:
+            return x
+        return np.concatenate([x, self._split.push(x)])
 
     def _queue(self, stamps: np.ndarray, x: np.ndarray):
         self._queued.append(stamps)
@@ -495,7 +517,7 @@ class ForceStream:
             held = self._spin.held
             last_t, last_x = self._spin.finish()
             if last_t.size:
-                self._queue(last_t, last_x)
+                self._queue(last_t, self._with_split(last_x))
             elif held:      # a stretch of one sample: no derivative, no estimate
                 self.counts['single_samples'] += 1
         if self._queued:
