@@ -121,8 +121,8 @@ def test_split_of_a_steady_specific_force_is_that_force_from_the_first_sample():
 
 
 def test_split_passes_driver_inputs_and_stops_road_vibration():
-    # 2nd-order Butterworth at 1 Hz: |H| = 1/sqrt(1 + (f/fc)^4); 0.1 Hz passes (0.99995),
-    # 20 Hz is cut to 1/400.  Judged on the second half (the start state is the first
+    # 2nd-order Butterworth at fc = 2 Hz: |H| = 1/sqrt(1 + (f/fc)^4); 0.1 Hz passes
+    # (1 - 3e-6), 20 Hz is cut to 1/100.  Judged on the second half (the start state is the first
     # sample's, not the sine's)
     from wheel_force_estimator.core.derived import SPLIT_LOW_PASS_HZ
     from wheel_force_estimator.core.derived import traction_braking
@@ -158,5 +158,5 @@ def test_split_bad_arguments():
     from wheel_force_estimator.core.errors import ConfigError
     with pytest.raises(ShapeError, match='12 spindle accelerations'):
         traction_braking(np.zeros((11, 5)), FS_HZ)
-    with pytest.raises(ConfigError, match='twice the 1 Hz'):
-        traction_braking(np.zeros((12, 5)), 1.5)
+    with pytest.raises(ConfigError, match='twice the 2 Hz'):
+        traction_braking(np.zeros((12, 5)), 3.5)

@@ -7,8 +7,9 @@ Every figure here comes from ``wheel-force fit`` with no settings (the product),
 course seed and judged on another.  The bounds are the claims of issue 29, not one run's
 values plus a margin:
 
-- offline beats the paper's plain H1 method in every direction (the design search exists to
-  do better than the paper's constants on data it was not tuned on);
+- offline is at most 0.8x the paper's plain H1 method in every direction (issue 29's bar: the
+  design search exists to do better than the paper's constants on data it was not tuned on;
+  x reaches it through the traction/braking split, which ``fit`` offers every row);
 - offline is never worse than the live estimator at 50 ms (it may look into the future, and
   the live estimator is itself one of its candidates);
 - live at 50 ms is within 1.25x offline in x and y and 2x in z (the live node's contract).
@@ -66,7 +67,7 @@ def test_shipped_defaults_beat_the_paper_and_never_lose_to_live(vehicle, tmp_pat
     live = by_direction(rmse_pct(y, live_pred))
     base = by_direction(rmse_pct(y, predict_forces(paper, x)))
     for a in 'xyz':
-        assert offline[a] < base[a], (a, offline, base)
+        assert offline[a] <= 0.8 * base[a], (a, offline, base)
         # A row whose offline design is the live estimator itself (one of its candidates) is
         # one filter computed two ways (overlap-add FIR vs running sums): equal to ~1e-7
         # relative, either way round (measured on the van's Fx rows when they chose it).

@@ -29,7 +29,7 @@ longitudinal force is not one linear function of the car's longitudinal specific
 ones, so each wheel's quasi-static ``Fx`` is piecewise linear in ``f_x`` with a kink at zero.
 No linear model (the paper's H1, a least-squares FIR) holds that kink.  Two derived inputs
 let the linear fit learn the two slopes: ``f_x`` = the mean of the four spindle ``ax``
-through a causal 2nd-order Butterworth low-pass at :data:`SPLIT_LOW_PASS_HZ` (driver-made
+through a causal 2nd-order Butterworth low-pass at :data:`SPLIT_LOW_PASS_HZ` (2 Hz: driver-made
 braking and traction, not the road's vibration), then its positive part (traction) and its
 negative part (braking) [m/s²].  The fit offers them to every output row as one more nested
 input set, and each row takes them only when the blocked cross-validation says so
@@ -224,9 +224,14 @@ class SpinAccelerationStream:
 
 
 #: Low-pass corner of the longitudinal specific force the split is taken from [Hz].  Driver
-#: inputs (braking, traction) live below it, the road's vibration above.  Not tuned: 0.5, 1
-#: and 2 Hz gave the same held-out Fx within 1.7 points (bench/bench_split.py, 2026-11-28).
-SPLIT_LOW_PASS_HZ = 1.0
+#: inputs (braking, traction) live below it, the road's vibration above.  Its lag matters to
+#: the live estimator, which cannot look ahead to undo it: the 2nd-order Butterworth delays
+#: slow content by sqrt(2) / (2 pi fc), 0.23 s at 1 Hz, 0.11 s at 2 Hz.  Measured
+#: (2026-11-28, shipped defaults, 5 min of the course at seed 3 -> seed 4, x offline / live at
+#: 50 ms): 1 Hz compact 8.0 / 9.0, SUV 5.8 / 6.6, van 7.8 / 9.9 % (live 1.27x offline on the
+#: van); 2 Hz 7.9 / 8.6, 5.8 / 6.4, 7.7 / 9.1 %.  On 2-minute courses 0.5 / 1 / 2 Hz gave x
+#: within 1.7 points of each other, 2 Hz the lowest or tied on every car (bench_split.py).
+SPLIT_LOW_PASS_HZ = 2.0
 #: Butterworth order of that low-pass.
 SPLIT_FILTER_ORDER = 2
 #: Rows of the four spindle ``ax`` among the 12 accelerations (corner-major x, y, z).
