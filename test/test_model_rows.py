@@ -66,6 +66,35 @@ def test_incompatible_models_and_bad_sources_are_refused():
         compose_rows([a, b], [0, 2, 0], (), {})
 
 
+def test_rows_of_a_model_with_fewer_inputs_take_zero_taps_on_the_others():
+    # The diagnosis combines rows of the simulation's FRF (12 accelerations) with rows of the
+    # plain fit that also takes the traction/braking split (issue 30).  Bugs caught: the
+    # narrower rows refused (the plain fit then written whole), an added input's operating
+    # point leaking into the narrower rows' static force, inputs that are not a prefix
+    # accepted (a row would read the wrong channel).
+    narrow = replace(small_model(n_in=2, n_taps=16, seed=1), physics=())
+    wide = replace(small_model(n_in=3, n_taps=64, seed=2), physics=())
+    assert compatible([narrow, wide]) == (True, '')
+    out = compose_rows([narrow, wide], [0, 1, 0], (), {})
+    assert out.input_channels == wide.input_channels
+    x = np.random.default_rng(4).normal(size=(3, 900)) + 0.7
+    y, yn, yw = predict_forces(out, x), predict_forces(narrow, x[:2]), predict_forces(wide, x)
+    inner = slice(narrow.fir_taps.shape[2], -narrow.fir_taps.shape[2])
+    np.testing.assert_allclose(y[[0, 2], inner], yn[[0, 2], inner], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(y[1], yw[1], rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(out.fir_taps[[0, 2], 2], 0.0)
+    np.testing.assert_array_equal(out.h[:, [0, 2], 2], 0.0)
+    # the third input does not move the narrow rows at all
+    x2 = x.copy()
+    x2[2] += np.random.default_rng(5).normal(size=900)
+    np.testing.assert_allclose(predict_forces(out, x2)[[0, 2]], y[[0, 2]], rtol=0, atol=1e-9)
+    other = replace(wide, input_channels=('in1', 'in0', 'in2'))
+    ok, why = compatible([narrow, other])
+    assert not ok and 'are not the first of' in why
+    with pytest.raises(ConfigError, match='are not the first of'):
+        compose_rows([narrow, other], [0, 1, 0], (), {})
+
+
 def _term(channels, partners=()):
     term = {'physics': 'coulomb_friction', 'channels': list(channels),
             'sources': ['in0'] * len(channels), 'parameters': {'friction_n': 5.0,

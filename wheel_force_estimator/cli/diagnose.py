@@ -145,8 +145,13 @@ def command(args: argparse.Namespace) -> int:
     features = FeatureConfig() if args.highpass_hz is None else FeatureConfig(args.highpass_hz)
     # One fit design with `wheel-force fit`: same params file, same short-record rule.
     explicit = explicit_fit_keys(args.config)
+    # The plain fit on the real data is `fit`'s: the traction/braking split offered to every
+    # row of bags unless the params file's `inputs` leaves it out (generic recordings and
+    # the suspension travel are fitted on their own channels, as `fit` fits them).
+    from wheel_force_estimator.cli.common import fit_channels
     config = DiagnosisConfig(features=features, fit=load_fit_config(args.config),
                              linear=args.linear,
+                             split=request is None and fit_channels(args.config).split,
                              fit_fallback=request is not None
                              and 'long_segment_length' not in explicit,
                              long_window_fallback='long_segment_length' not in explicit,

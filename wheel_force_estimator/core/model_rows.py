@@ -9,8 +9,11 @@ come from different fits of the same inputs predicts every channel exactly as th
 row came from.  Prediction runs the FIR taps only, so rows of shorter filters are embedded in
 the longest one with their lag zero aligned (the added taps are zeros: the same filter).  The
 FRF estimate and coherences of such a row are interpolated onto the longest filter's
-frequency lines (they are descriptions of the fit, not used to predict).  The static
-operating point is the one subtlety: a model subtracts its own mean input ``static_accel_mps2``
+frequency lines (they are descriptions of the fit, not used to predict).  Rows of a model
+with fewer inputs (the 12 accelerations, where another model adds the traction/braking split
+after them) are embedded the same way: their inputs must be the first of the widest model's,
+and the added inputs get zero taps (:func:`widened`).  The static operating point is the one
+subtlety: a model subtracts its own mean input ``static_accel_mps2``
 before the filter, so a row taken from another model gets its static force corrected by the
 row's DC gain times the difference of the two operating points, which keeps its prediction of
 a constant input unchanged.
@@ -40,17 +43,54 @@ def _longest(models):
     return max(models, key=lambda m: m.fir_taps.shape[2])
 
 
+def _widest(models):
+    return max(models, key=lambda m: len(m.input_channels))
+
+
+def widened(model, frame):
+    """
+    Return ``model`` taking the inputs of ``frame``: zero taps on the inputs it lacks.
+
+    ``model``'s inputs must be the first of ``frame``'s (:func:`compatible`).  The added
+    inputs' operating point is ``frame``'s, their FRF and ordinary coherence zero; the
+    prediction is ``model``'s for any values of them.  Live estimators are dropped (they take
+    ``model``'s inputs).
+    """
+    n_in, n_frame = len(model.input_channels), len(frame.input_channels)
+    if n_in == n_frame:
+        return model
+
+    def pad(values):
+        out = np.zeros(values.shape[:-1] + (n_frame,), dtype=values.dtype)
+        out[..., :n_in] = values
+        return out
+    taps = np.asarray(model.fir_taps)
+    wide_taps = np.zeros((taps.shape[0], n_frame, taps.shape[2]), dtype=taps.dtype)
+    wide_taps[:, :n_in] = taps
+    static = np.concatenate([np.asarray(model.static_accel_mps2, dtype=np.float64),
+                             np.asarray(frame.static_accel_mps2, dtype=np.float64)[n_in:]])
+    return replace(model, input_channels=tuple(frame.input_channels),
+                   h=pad(np.asarray(model.h)),
+                   coherence_ordinary=pad(np.asarray(model.coherence_ordinary)),
+                   fir_taps=wide_taps, static_accel_mps2=static, live=())
+
+
 def compatible(models: Sequence) -> Tuple[bool, str]:
     """Return ``(True, '')`` when rows of ``models`` can be combined, else False and why."""
     first = models[0]
+    frame = tuple(_widest(models).input_channels)
     base = _longest(models)
     lead, tail = base.fir_delay_samples, base.fir_taps.shape[2] - base.fir_delay_samples
     for m in models[1:]:
         if m.fs_hz != first.fs_hz:
             return False, f'sample rates {first.fs_hz:g} and {m.fs_hz:g} Hz'
-        if (m.input_channels, m.output_channels) != (first.input_channels,
-                                                     first.output_channels):
-            return False, 'different channels'
+        if m.output_channels != first.output_channels:
+            return False, 'different output channels'
+    for m in models:
+        if tuple(m.input_channels) != frame[:len(m.input_channels)]:
+            return False, (f'inputs {list(m.input_channels)} are not the first of '
+                           f'{list(frame)}')
+    for m in models[1:]:
         if m.units != first.units:
             return False, 'different units'
     for m in models:
@@ -69,7 +109,8 @@ def compose_rows(models: Sequence, source: Sequence[int], physics: Sequence[Mapp
     Parameters
     ----------
     models : sequence of FrfModel
-        Models of the same inputs and outputs (:func:`compatible`).
+        Models of the same outputs, whose inputs are the first of the widest one's
+        (:func:`compatible`).
     source : sequence of int
         Per output channel, the index of the model its row comes from.
     physics : sequence of mapping
@@ -80,8 +121,9 @@ def compose_rows(models: Sequence, source: Sequence[int], physics: Sequence[Mapp
     Returns
     -------
     FrfModel
-        The longest filter's realisation, frequency lines, operating point and input
-        condition numbers; no live estimators (``fit`` designs them for one FIR).
+        The widest model's inputs; the longest filter's realisation, frequency lines,
+        operating point and input condition numbers; no live estimators (``fit`` designs
+        them for one FIR).
 
     Raises
     ------
@@ -97,6 +139,8 @@ def compose_rows(models: Sequence, source: Sequence[int], physics: Sequence[Mapp
     if src.shape != (no,) or src.min() < 0 or src.max() >= len(models):
         raise ConfigError(f'row sources must be {no} indices below {len(models)}, got '
                           f'{list(source)}')
+    frame = _widest(models)
+    models = [widened(m, frame) for m in models]
     base = _longest(models)
     f_hz = np.asarray(base.f_hz)
     # the frequency descriptions of each row (FRF estimate, coherences), per output on axis 1

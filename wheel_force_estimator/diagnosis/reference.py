@@ -15,6 +15,8 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from wheel_force_estimator import INPUT_CHANNELS
+from wheel_force_estimator import SPLIT_CHANNELS
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.errors import WheelForceError
 from wheel_force_estimator.diagnosis.features import FeatureConfig
@@ -24,14 +26,35 @@ from wheel_force_estimator.diagnosis.features import settle_samples
 from wheel_force_estimator.diagnosis.recording import MotionRecording
 
 
+def splittable(rec: MotionRecording) -> bool:
+    """Return True for a recording of exactly the 12 spindle accelerations (package order)."""
+    return rec.input_channels == INPUT_CHANNELS and rec.input_quantity == 'acceleration'
+
+
+def with_split(rec: MotionRecording) -> np.ndarray:
+    """
+    Return the 12 accelerations of ``rec`` with the traction/braking split below them.
+
+    Derived per record, as ``predict`` derives it per gap-free segment
+    (:func:`core.predict.model_inputs`), so a model fitted on these rows predicts the same
+    record from its 12 accelerations alone.
+    """
+    from wheel_force_estimator.core.derived import traction_braking
+    x = np.asarray(rec.inputs, dtype=np.float64)
+    return np.concatenate([x, traction_braking(x, rec.fs_hz)])
+
+
 class FrfReference:
     """Predict forces with an :class:`FrfModel` (static force included, physics applied)."""
 
     kind = 'frf'
 
-    def __init__(self, model, name: str, design=None, fitted=None):
+    def __init__(self, model, name: str, design=None, fitted=None, split: bool = False):
         self.model = model
         self.name = name
+        #: The model's inputs end with the traction/braking split, derived here from the
+        #: recordings' 12 spindle accelerations (:func:`with_split`) for every (re)fit.
+        self.split = split
         #: The ``FitConfig`` the model was fitted with (segment chosen), when fitted here.
         self.design = design
         #: The :class:`core.design.DesignedFit` of the model, when fitted here.
@@ -41,7 +64,7 @@ class FrfReference:
     def fit(cls, recordings: Sequence[MotionRecording], name: str, fit_config=None,
             short_record_fallback: bool = False, segment_fallback: bool = False,
             choose_resolution: bool = False, long_window_fallback: Optional[bool] = None,
-            cross_validate: bool = False, progress: bool = False):
+            cross_validate: bool = False, progress: bool = False, split: bool = False):
         """
         Fit the FRF on recordings with the product's design (``wheel-force fit``).
 
@@ -68,6 +91,11 @@ class FrfReference:
             design the concealed sizes were measured with (:mod:`sim.concealment`).
         progress : bool
             The search's progress bars on a terminal (the library prints nothing by default).
+        split : bool
+            Recordings of the 12 spindle accelerations also give the traction/braking split
+            (:func:`with_split`), as ``wheel-force fit`` declares it; the cross-validation
+            decides per output row whether it is used.  Other recordings are fitted as they
+            are.
 
         Raises
         ------
@@ -80,9 +108,12 @@ class FrfReference:
         from wheel_force_estimator.core.pipeline import TrainingSegment
         config = fit_config or product_fit_config()
         rec0 = recordings[0]
-        segments = [TrainingSegment(r.inputs, r.outputs, r.name) for r in recordings]
+        split = split and splittable(rec0)
+        segments = [TrainingSegment(with_split(r) if split else r.inputs, r.outputs, r.name)
+                    for r in recordings]
+        inputs = rec0.input_channels + (SPLIT_CHANNELS if split else ())
         try:
-            fitted = fit_design(segments, rec0.fs_hz, config, rec0.input_channels,
+            fitted = fit_design(segments, rec0.fs_hz, config, inputs,
                                 rec0.output_channels, rec0.input_quantity,
                                 {'diagnosis': name}, short_record_fallback, segment_fallback,
                                 choose_resolution, long_window_fallback,
@@ -90,7 +121,7 @@ class FrfReference:
         except WheelForceError as err:
             raise DiagnosisError(f'cannot fit the linear FRF on the {name} recordings: '
                                  f'{err}') from err
-        return cls(fitted.model, name, fitted.config, fitted)
+        return cls(fitted.model, name, fitted.config, fitted, split)
 
     def refit(self, recordings: Sequence[MotionRecording]):
         """
@@ -110,7 +141,8 @@ class FrfReference:
         if self.fitted is None:
             raise DiagnosisError(f'the {self.name} model was not fitted here: no design to '
                                  f'refit')
-        segments = [TrainingSegment(r.inputs, r.outputs, r.name) for r in recordings]
+        segments = [TrainingSegment(with_split(r) if self.split else r.inputs, r.outputs,
+                                    r.name) for r in recordings]
         try:
             return self.fitted.refit(segments, {'diagnosis': self.name})
         except WheelForceError as err:
@@ -121,7 +153,9 @@ class FrfReference:
         """Refuse a recording whose channels, rate or input quantity differ from the model's."""
         from wheel_force_estimator.daqio import quantity_of_unit
         m = self.model
-        if rec.input_channels != m.input_channels or rec.output_channels != m.output_channels:
+        inputs = tuple(m.input_channels)[:-len(SPLIT_CHANNELS)] if self.split else tuple(
+            m.input_channels)
+        if rec.input_channels != inputs or rec.output_channels != m.output_channels:
             raise DiagnosisError(f'{rec.name}: channels {list(rec.input_channels)} -> '
                                  f'{list(rec.output_channels)} differ from those of the '
                                  f'{self.name} model ({list(m.input_channels)} -> '

@@ -23,6 +23,7 @@ import scipy.optimize
 
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
+from wheel_force_estimator.core.predict import model_inputs
 from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis.holdout import evaluate_scores
 from wheel_force_estimator.diagnosis.holdout import MAX_HOLDOUT_HARM_PCT
@@ -406,7 +407,8 @@ def with_live_estimators(model, recordings: Sequence, design, real_fit=None):
     corr = CorrelationAccumulator(n_in, len(model.output_channels),
                                   design.max_lag(fs) if chosen is None else max_lag(design, fs))
     for rec in recordings:
-        inputs = np.asarray(rec.inputs, dtype=np.float64)
+        # a model with the traction/braking split: derived from the record's accelerations
+        inputs = model_inputs(model, np.asarray(rec.inputs, dtype=np.float64))
         target = np.asarray(rec.outputs, dtype=np.float64)
         if model.physics:
             target = target - (predict_forces(model, inputs) - predict_forces(linear, inputs))
