@@ -72,11 +72,20 @@ def test_rows_of_a_model_with_fewer_inputs_take_zero_taps_on_the_others():
     # narrower rows refused (the plain fit then written whole), an added input's operating
     # point leaking into the narrower rows' static force, inputs that are not a prefix
     # accepted (a row would read the wrong channel).
-    narrow = replace(small_model(n_in=2, n_taps=16, seed=1), physics=())
-    wide = replace(small_model(n_in=3, n_taps=64, seed=2), physics=())
+    # with per-channel units, as `fit` writes them for spindle channels
+    out_units = ['N', 'N', 'N']
+    narrow = replace(small_model(n_in=2, n_taps=16, seed=1), physics=(), units={
+        'input': 'm/s^2', 'output': 'N', 'input_channels': ['m/s^2'] * 2,
+        'output_channels': out_units})
+    wide = replace(small_model(n_in=3, n_taps=64, seed=2), physics=(), units={
+        'input': 'm/s^2', 'output': 'N', 'input_channels': ['m/s^2'] * 3,
+        'output_channels': out_units})
     assert compatible([narrow, wide]) == (True, '')
+    assert compatible([wide, narrow]) == (True, '')
     out = compose_rows([narrow, wide], [0, 1, 0], (), {})
-    assert out.input_channels == wide.input_channels
+    assert out.input_channels == wide.input_channels and out.units == wide.units
+    other_units = replace(narrow, units={**narrow.units, 'input_channels': ['m/s', 'm/s^2']})
+    assert compatible([other_units, wide]) == (False, 'different units')
     x = np.random.default_rng(4).normal(size=(3, 900)) + 0.7
     y, yn, yw = predict_forces(out, x), predict_forces(narrow, x[:2]), predict_forces(wide, x)
     inner = slice(narrow.fir_taps.shape[2], -narrow.fir_taps.shape[2])

@@ -47,6 +47,16 @@ def _widest(models):
     return max(models, key=lambda m: len(m.input_channels))
 
 
+def _units_in(model, frame) -> dict:
+    """Return ``model.units`` with ``frame``'s per-channel units of the inputs it lacks."""
+    units = dict(model.units)
+    n_in = len(model.input_channels)
+    if 'input_channels' in units and 'input_channels' in frame.units:
+        units['input_channels'] = (list(units['input_channels'])
+                                   + list(frame.units['input_channels'])[n_in:])
+    return units
+
+
 def widened(model, frame):
     """
     Return ``model`` taking the inputs of ``frame``: zero taps on the inputs it lacks.
@@ -72,7 +82,8 @@ def widened(model, frame):
     return replace(model, input_channels=tuple(frame.input_channels),
                    h=pad(np.asarray(model.h)),
                    coherence_ordinary=pad(np.asarray(model.coherence_ordinary)),
-                   fir_taps=wide_taps, static_accel_mps2=static, live=())
+                   fir_taps=wide_taps, static_accel_mps2=static,
+                   units=_units_in(model, frame), live=())
 
 
 def compatible(models: Sequence) -> Tuple[bool, str]:
@@ -90,8 +101,10 @@ def compatible(models: Sequence) -> Tuple[bool, str]:
         if tuple(m.input_channels) != frame[:len(m.input_channels)]:
             return False, (f'inputs {list(m.input_channels)} are not the first of '
                            f'{list(frame)}')
-    for m in models[1:]:
-        if m.units != first.units:
+    wide = _widest(models)
+    for m in models:
+        # a model of fewer inputs declares none for those it lacks: they are the widest's
+        if _units_in(m, wide) != dict(wide.units):
             return False, 'different units'
     for m in models:
         if m.fir_delay_samples > lead or m.fir_taps.shape[2] - m.fir_delay_samples > tail:
