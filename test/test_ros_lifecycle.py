@@ -61,7 +61,7 @@ def transition(peer, transition_id):
 
 
 def state(peer):
-    return peer.call(GetState, f'{NODE}/get_state').current_state.id
+    return peer.call(GetState, f'{NODE}/get_state', resend=True).current_state.id
 
 
 def trigger(peer, name):

@@ -24,6 +24,12 @@ RELIABLE = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000,
                       reliability=ReliabilityPolicy.RELIABLE)
 
 
+#: Wait after a service appears before its first call [s] (:meth:`Loggers.call`).
+DISCOVERY_GRACE_S = 0.5
+#: Period of resending an unanswered idempotent request [s] (:meth:`Loggers.call`).
+RESEND_S = 4.0
+
+
 class Loggers(SpinningParticipant):
     """Four Imu drivers (one publisher each) and a recorder of the node's outputs."""
 
@@ -41,18 +47,35 @@ class Loggers(SpinningParticipant):
         self.subs.append(self.node.create_subscription(
             DiagnosticArray, '/virtual_wft/damage', self.damage.append, 100))
         self.event_pub = self.node.create_publisher(String, '/proving_ground/event', RELIABLE)
+        self._clients = {}
         self.start()
 
-    def call(self, srv_type, name, request=None, timeout_s=20.0):
-        """Call service ``name`` and return its response (fails the test on a timeout)."""
-        client = self.node.create_client(srv_type, name)
-        try:
+    def call(self, srv_type, name, request=None, timeout_s=20.0, resend=False):
+        """
+        Call service ``name`` and return its response (fails the test on a timeout).
+
+        Fast DDS sends a response only to a client whose response reader the service has
+        discovered, and gives up after a short wait: the node logs "failed to send response
+        (timeout): client will not receive response" and the call never returns (seen once
+        in CI, on the first ``get_state`` of a freshly created client).  ``wait_for_service``
+        sees only the request side.  So each service gets one client, kept for the
+        participant's life, with :data:`DISCOVERY_GRACE_S` after the service appears; and
+        an idempotent request (``resend``: a query) is sent again every
+        :data:`RESEND_S` until answered.  A state-changing request is sent once.
+        """
+        client = self._clients.get(name)
+        if client is None:
+            client = self.node.create_client(srv_type, name)
             assert client.wait_for_service(timeout_sec=timeout_s), f'no service {name}'
-            future = client.call_async(request if request is not None else srv_type.Request())
-            assert wait_until(future.done, timeout_s), f'{name}: no answer'
-            return future.result()
-        finally:
-            self.node.destroy_client(client)
+            time.sleep(DISCOVERY_GRACE_S)
+            self._clients[name] = client
+        request = request if request is not None else srv_type.Request()
+        deadline = time.monotonic() + timeout_s
+        while True:
+            future = client.call_async(request)
+            if wait_until(future.done, min(RESEND_S, timeout_s) if resend else timeout_s):
+                return future.result()
+            assert resend and time.monotonic() < deadline, f'{name}: no answer'
 
     def publish_event(self, name):
         """Publish a proving-ground event (after the node's subscription matched)."""
