@@ -178,15 +178,8 @@ def left_right_coupling(recordings: Sequence, sim_reference, real_reference,
              if f'{lc}_fz' in channels and f'{rc}_fz' in channels]
     if not pairs:
         return None
-    targets, sim_pred, real_pred = [], [], []
-    for rec in recordings:
-        fs_hz = rec.fs_hz
-        parts = [rec.outputs, sim_reference.predict(rec), real_reference.predict(rec)]
-        if highpass_hz > 0.0:
-            parts = [highpass(p, fs_hz, highpass_hz, 'coupling signal') for p in parts]
-        targets.append(parts[0][:, skip:])
-        sim_pred.append(parts[1][:, skip:])
-        real_pred.append(parts[2][:, skip:])
+    targets, sim_pred, real_pred = _signals(recordings, sim_reference, real_reference, skip,
+                                            highpass_hz)
     found: List[Tuple[str, str, float, float]] = []
     for left, right in pairs:
         sym, anti = _fractions(targets, sim_pred, real_pred, channels.index(left),
@@ -198,8 +191,41 @@ def left_right_coupling(recordings: Sequence, sim_reference, real_reference,
     anti = min(f[3] for f in found)
     sym = max(f[2] for f in found)
     group = tuple(c for f in found for c in f[:2])
-    terms, parts = [], []
     params = {'antisymmetric_explained': anti, 'symmetric_explained': sym}
+    terms, parts = _axle_terms(found, recordings, sim_reference, skip, highpass_hz, params)
+    detail = '; '.join(f'{lc}/{rc}: {an:.0%} of the left-right difference, {sy:.0%} of the '
+                       f'sum' for lc, rc, sy, an in found)
+    model = 'modelled as a roll coupling per axle: ' + '; '.join(parts)
+    evidence = (f'anti_roll_bar on {", ".join(group)}: a linear FRF refitted on the real data '
+                f'explains the anti-symmetric (roll) vertical force the simulation misses but '
+                f'not the symmetric (heave) one, so a left-right coupling is left out ({detail})'
+                f'; {model}')
+    return Finding('anti_roll_bar', group, params, anti, evidence, tuple(terms), max(sym, 0.0))
+
+
+def _signals(recordings: Sequence, sim_reference, real_reference, skip: int,
+             highpass_hz: float) -> Tuple[list, list, list]:
+    """Return the forces and both references' predictions per record (high-passed, settled)."""
+    targets, sim_pred, real_pred = [], [], []
+    for rec in recordings:
+        parts = [rec.outputs, sim_reference.predict(rec), real_reference.predict(rec)]
+        if highpass_hz > 0.0:
+            parts = [highpass(p, rec.fs_hz, highpass_hz, 'coupling signal') for p in parts]
+        targets.append(parts[0][:, skip:])
+        sim_pred.append(parts[1][:, skip:])
+        real_pred.append(parts[2][:, skip:])
+    return targets, sim_pred, real_pred
+
+
+def _axle_terms(found: Sequence[Tuple[str, str, float, float]], recordings: Sequence,
+                sim_reference, skip: int, highpass_hz: float,
+                params: dict) -> Tuple[list, list]:
+    """
+    Fit each found axle's roll gain: its terms and descriptions (``params`` gets the gains).
+
+    An axle whose gain does not carry over to held-out blocks has no term.
+    """
+    terms, parts = [], []
     for left, right, _, _ in found:
         gain, fc, explained, cv = fit_axle_gain(recordings, sim_reference, left, right, skip,
                                                 highpass_hz)
@@ -215,11 +241,4 @@ def left_right_coupling(recordings: Sequence, sim_reference, real_reference,
         else:
             parts.append(f'{left[:2]}/{right[:2]}: no term (a gain on the predicted left-right '
                          f'load difference explains {cv:.0%} of held-out blocks)')
-    detail = '; '.join(f'{lc}/{rc}: {an:.0%} of the left-right difference, {sy:.0%} of the '
-                       f'sum' for lc, rc, sy, an in found)
-    model = 'modelled as a roll coupling per axle: ' + '; '.join(parts)
-    evidence = (f'anti_roll_bar on {", ".join(group)}: a linear FRF refitted on the real data '
-                f'explains the anti-symmetric (roll) vertical force the simulation misses but '
-                f'not the symmetric (heave) one, so a left-right coupling is left out ({detail})'
-                f'; {model}')
-    return Finding('anti_roll_bar', group, params, anti, evidence, tuple(terms), max(sym, 0.0))
+    return terms, parts

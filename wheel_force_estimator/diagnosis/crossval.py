@@ -139,6 +139,16 @@ def _group_mean(scores, figure: str, group: Sequence[str]) -> float:
     return float(np.mean([scores[figure][c] for c in group]))
 
 
+def _no_worse(scores, blocks, group: Sequence[str], name: str, than: str,
+              every_block: bool = False) -> bool:
+    """Return whether ``name`` is no worse than ``than`` on ``group`` in either figure."""
+    tables = [(scores[name], scores[than])]
+    if every_block and name in blocks and than in blocks:
+        tables += list(zip(blocks[name], blocks[than]))
+    return all(_group_mean(a, fig, group) <= _group_mean(b, fig, group)
+               for a, b in tables for fig in FIGURES)
+
+
 def pick_rows(scores: Mapping[str, Mapping[str, Mapping[str, float]]],
               groups: Sequence[Sequence[str]], touched, baseline: str, metric: str,
               plain: Sequence[str], fixed: Sequence[str] = (),
@@ -191,15 +201,9 @@ def pick_rows(scores: Mapping[str, Mapping[str, Mapping[str, float]]],
         pool = names if touched.intersection(group) else [n for n in names if n in plain]
         if not touched.intersection(group) and set(group) <= set(fixed):
             pool = [baseline]
-
-        def no_worse(n, than, every_block=False):
-            tables = [(scores[n], scores[than])]
-            if every_block and n in blocks and than in blocks:
-                tables += list(zip(blocks[n], blocks[than]))
-            return all(_group_mean(a, fig, group) <= _group_mean(b, fig, group)
-                       for a, b in tables for fig in FIGURES)
-        eligible = [n for n in pool if no_worse(n, baseline, every_block=True)
-                    and (n not in bases or no_worse(n, bases[n]))]
+        eligible = [n for n in pool
+                    if _no_worse(scores, blocks, group, n, baseline, every_block=True)
+                    and (n not in bases or _no_worse(scores, blocks, group, n, bases[n]))]
         best = min(eligible or [baseline],
                    key=lambda n: (_group_mean(scores[n], metric, group), names.index(n)))
         pick.update(dict.fromkeys(group, best))

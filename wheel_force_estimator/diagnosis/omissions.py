@@ -206,7 +206,6 @@ def linear_omissions(real, sim, reference, channels: Sequence[str], skip: int, h
     by_axis = {a: [c for c in channels if c.endswith('_' + a)] for a in AXES}
     if any(len(v) == 0 for v in by_axis.values()):
         return []
-    found = []
     qs = [band_gains(recs, reference, QUASI_STATIC_HZ, skip, config.block_s)
           for recs in (real, sim)]
     excess_q = qs[0].gain - qs[1].gain
@@ -224,27 +223,37 @@ def linear_omissions(real, sim, reference, channels: Sequence[str], skip: int, h
     args = (real, reference, channels)
     rest = (skip, hp, sources, quantity, feature_filters)
     if min(axis_q.values()) >= config.mass_gain:
-        group = [c for a in AXES for c in by_axis[a]]
-        terms, explained, gain, fc = _fit_term('mass_error', *args, group, *rest)
-        fraction = float(np.mean(list(axis_q.values())))
-        evidence = (f'mass_error on all channels: every quasi-static load ({QUASI_STATIC_HZ[0]:g}'
-                    f'-{QUASI_STATIC_HZ[1]:g} Hz) is larger than the simulation predicts by '
-                    + ', '.join(f'{a.upper()} {100 * v:+.1f} %' for a, v in axis_q.items())
-                    + f' (a sprung mass about {100 * fraction:+.0f} % off: braking, cornering '
-                    f'and load transfer all scale with it); modelled as {100 * gain:+.1f} % of '
-                    f'the predicted load below {fc:g} Hz')
-        found.append(Finding('mass_error', tuple(group), {'mass_fraction': fraction},
-                             max(explained, 0.0), evidence, terms, 0.0))
-    elif (fz_b >= config.stiffness_gain and rough > 0.0
-          and calm >= config.linearity * rough):
-        terms, explained, gain, fc = _fit_term('stiffness_error', *args, fz, *rest)
-        evidence = (f'stiffness_error on {", ".join(fz)}: around the body mode '
-                    f'({BODY_HZ[0]:g}-{BODY_HZ[1]:g} Hz) the vertical forces are '
-                    f'{100 * fz_b:+.1f} % larger than the simulation predicts, as much in calm '
-                    f'({100 * calm:+.1f} %) as in rough ({100 * rough:+.1f} %) stretches (linear, '
-                    f'unlike a hardening), while quasi-static loads agree: a spring rate is off; '
-                    f'modelled as {100 * gain:+.1f} % of the predicted load low-passed at '
-                    f'{fc:g} Hz (spring part of the suspension force)')
-        found.append(Finding('stiffness_error', tuple(fz), {'stiffness_fraction': fz_b},
-                             max(explained, 0.0), evidence, terms, 0.0))
-    return found
+        return [_mass_finding(axis_q, [c for a in AXES for c in by_axis[a]], args, rest)]
+    if fz_b >= config.stiffness_gain and rough > 0.0 and calm >= config.linearity * rough:
+        return [_stiffness_finding(fz, fz_b, calm, rough, args, rest)]
+    return []
+
+
+def _mass_finding(axis_q: Dict[str, float], group: List[str], args: tuple,
+                  rest: tuple) -> Finding:
+    """Return the ``mass_error`` finding on ``group``, its term fitted (``_fit_term``'s args)."""
+    terms, explained, gain, fc = _fit_term('mass_error', *args, group, *rest)
+    fraction = float(np.mean(list(axis_q.values())))
+    evidence = (f'mass_error on all channels: every quasi-static load ({QUASI_STATIC_HZ[0]:g}'
+                f'-{QUASI_STATIC_HZ[1]:g} Hz) is larger than the simulation predicts by '
+                + ', '.join(f'{a.upper()} {100 * v:+.1f} %' for a, v in axis_q.items())
+                + f' (a sprung mass about {100 * fraction:+.0f} % off: braking, cornering '
+                f'and load transfer all scale with it); modelled as {100 * gain:+.1f} % of '
+                f'the predicted load below {fc:g} Hz')
+    return Finding('mass_error', tuple(group), {'mass_fraction': fraction},
+                   max(explained, 0.0), evidence, terms, 0.0)
+
+
+def _stiffness_finding(fz: List[str], fz_b: float, calm: float, rough: float, args: tuple,
+                       rest: tuple) -> Finding:
+    """Return the ``stiffness_error`` finding on the Fz channels ``fz``, its term fitted."""
+    terms, explained, gain, fc = _fit_term('stiffness_error', *args, fz, *rest)
+    evidence = (f'stiffness_error on {", ".join(fz)}: around the body mode '
+                f'({BODY_HZ[0]:g}-{BODY_HZ[1]:g} Hz) the vertical forces are '
+                f'{100 * fz_b:+.1f} % larger than the simulation predicts, as much in calm '
+                f'({100 * calm:+.1f} %) as in rough ({100 * rough:+.1f} %) stretches (linear, '
+                f'unlike a hardening), while quasi-static loads agree: a spring rate is off; '
+                f'modelled as {100 * gain:+.1f} % of the predicted load low-passed at '
+                f'{fc:g} Hz (spring part of the suspension force)')
+    return Finding('stiffness_error', tuple(fz), {'stiffness_fraction': fz_b},
+                   max(explained, 0.0), evidence, terms, 0.0)

@@ -44,6 +44,18 @@ def with_split(rec: MotionRecording) -> np.ndarray:
     return np.concatenate([x, traction_braking(x, rec.fs_hz)])
 
 
+def training_segments(recordings: Sequence[MotionRecording], split: bool) -> tuple:
+    """
+    Return the fit's training segments of ``recordings`` and their input channel names.
+
+    ``split``: the traction/braking split (:func:`with_split`) below the accelerations.
+    """
+    from wheel_force_estimator.core.pipeline import TrainingSegment
+    segments = [TrainingSegment(with_split(r) if split else r.inputs, r.outputs, r.name)
+                for r in recordings]
+    return segments, recordings[0].input_channels + (SPLIT_CHANNELS if split else ())
+
+
 class FrfReference:
     """Predict forces with an :class:`FrfModel` (static force included, physics applied)."""
 
@@ -93,9 +105,7 @@ class FrfReference:
             The search's progress bars on a terminal (the library prints nothing by default).
         split : bool
             Recordings of the 12 spindle accelerations also give the traction/braking split
-            (:func:`with_split`), as ``wheel-force fit`` declares it; the cross-validation
-            decides per output row whether it is used.  Other recordings are fitted as they
-            are.
+            (:func:`training_segments`), as ``wheel-force fit``; other recordings as they are.
 
         Raises
         ------
@@ -105,13 +115,10 @@ class FrfReference:
         """
         from wheel_force_estimator.core.design import fit_design
         from wheel_force_estimator.core.design import product_fit_config
-        from wheel_force_estimator.core.pipeline import TrainingSegment
         config = fit_config or product_fit_config()
         rec0 = recordings[0]
         split = split and splittable(rec0)
-        segments = [TrainingSegment(with_split(r) if split else r.inputs, r.outputs, r.name)
-                    for r in recordings]
-        inputs = rec0.input_channels + (SPLIT_CHANNELS if split else ())
+        segments, inputs = training_segments(recordings, split)
         try:
             fitted = fit_design(segments, rec0.fs_hz, config, inputs,
                                 rec0.output_channels, rec0.input_quantity,
@@ -137,12 +144,10 @@ class FrfReference:
             This model was not fitted here, or the recordings are too short for its design.
 
         """
-        from wheel_force_estimator.core.pipeline import TrainingSegment
         if self.fitted is None:
             raise DiagnosisError(f'the {self.name} model was not fitted here: no design to '
                                  f'refit')
-        segments = [TrainingSegment(with_split(r) if self.split else r.inputs, r.outputs,
-                                    r.name) for r in recordings]
+        segments = training_segments(recordings, self.split)[0]
         try:
             return self.fitted.refit(segments, {'diagnosis': self.name})
         except WheelForceError as err:

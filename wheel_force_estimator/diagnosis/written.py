@@ -263,22 +263,42 @@ def backfitted_model(findings, real: Sequence, linear_model,
     groups = _strength_groups(findings)
     if not groups:
         return linear_model, ()
-    # A term inside the structure (response FIR) comes with its strength already fitted at
-    # the fixed point of the FIR refitted around it (:meth:`dynamic._Channel.refined`); a
-    # strength refitted here against the plain FIR's load would shrink it (measured: factor
-    # 0.28, held-out 16.8 % where the refits alone reach 12.7 %), so only the FIR is refitted.
-    free = [all(t.kind.strength is not None and not t.response_taps for t in g)
-            for g in groups]
+    free = _free_groups(groups)
     model = linear_model
     base = _predictions(model, real)
     units = _units(model, groups, real, base)
     beta = _strengths(units, free, real, base, hp, skip)
     best = (_weighted_sse(units, beta, real, base, hp, skip), model, beta)
     if joint:
-        step = _partialled_fit(groups, free, units, real, base, refit, hp, skip)
-        if step[0] < best[0]:
-            best = step
-            _, model, beta = best
+        best = min(best, _partialled_fit(groups, free, units, real, base, refit, hp, skip),
+                   key=lambda item: item[0])
+    _, model, beta = _alternate(best, groups, free, units, real, refit, hp, skip, iterations)
+    return model.with_physics(term_dicts(_scaled_terms(groups, free, beta))), tuple(
+        float(b) for b in beta)
+
+
+def _free_groups(groups) -> List[bool]:
+    """
+    Return per group whether its strength is fitted here.
+
+    A term inside the structure (response FIR) comes with its strength already fitted at
+    the fixed point of the FIR refitted around it (:meth:`dynamic._Channel.refined`); a
+    strength refitted here against the plain FIR's load would shrink it (measured: factor
+    0.28, held-out 16.8 % where the refits alone reach 12.7 %), so only the FIR is refitted.
+    A physics without a strength parameter keeps its strength.
+    """
+    return [all(t.kind.strength is not None and not t.response_taps for t in g)
+            for g in groups]
+
+
+def _alternate(best: tuple, groups, free: Sequence[bool], units, real: Sequence, refit,
+               hp: float, skip: int, iterations: int) -> tuple:
+    """
+    Refit the FIR around the terms and the strengths on its residual, ``iterations`` times.
+
+    ``best``: ``(weighted SSE, model, strengths)`` to start from; returns the best triple.
+    """
+    _, _, beta = best
     for _ in range(iterations):
         model, base, units = _refit_around(groups, beta, units, real, refit)
         beta = _strengths(units, free, real, base, hp, skip)
@@ -290,14 +310,18 @@ def backfitted_model(findings, real: Sequence, linear_model,
             # 6908).  Keep the best pair found.
             break
         best = (sse, model, beta)
-    _, model, beta = best
+    return best
+
+
+def _scaled_terms(groups, free: Sequence[bool], beta) -> list:
+    """Return the groups' terms at their strengths (a free group at 0 leaves the model)."""
     terms = []
     for g, f, b in zip(groups, free, beta):
         if f and b > 0.0:
             terms.extend(t.scaled(b) for t in g)
         elif not f:
             terms.extend(g)
-    return model.with_physics(term_dicts(terms)), tuple(float(b) for b in beta)
+    return terms
 
 
 def mean_score(model, half: Scored, channels, metric: str) -> Tuple[float, Dict[str, float]]:
@@ -353,6 +377,25 @@ def gate_dynamic(dynamic, real, lin_model, real_fit, gate, metric, hp, skip):
     return kept, gated
 
 
+def _linear_part_correlations(model, recordings: Sequence, max_lag: int):
+    """
+    Return the correlations of ``model``'s inputs with the real forces minus its terms' force.
+
+    A model with the traction/braking split gets it derived from each record's accelerations.
+    """
+    from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
+    linear = model.with_physics(())
+    corr = CorrelationAccumulator(len(model.input_channels), len(model.output_channels),
+                                  max_lag)
+    for rec in recordings:
+        inputs = model_inputs(model, np.asarray(rec.inputs, dtype=np.float64))
+        target = np.asarray(rec.outputs, dtype=np.float64)
+        if model.physics:
+            target = target - (predict_forces(model, inputs) - predict_forces(linear, inputs))
+        corr.add(inputs, target)
+    return corr.result(model.fs_hz)
+
+
 def with_live_estimators(model, recordings: Sequence, design, real_fit=None):
     """
     Return ``model`` with live (causal) estimators designed as ``fit`` designs them.
@@ -393,31 +436,21 @@ def with_live_estimators(model, recordings: Sequence, design, real_fit=None):
 
     """
     from wheel_force_estimator.core.errors import WheelForceError
-    from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
     from wheel_force_estimator.core.live_estimator import design_live
     from wheel_force_estimator.core.search import chosen_live
     from wheel_force_estimator.core.search import max_lag
-    linear = model.with_physics(())
     fs = model.fs_hz
     chosen = getattr(real_fit, 'chosen', None)
     if chosen is not None and tuple(real_fit.model.input_channels) != tuple(
             model.input_channels):
         chosen = None
-    n_in = len(model.input_channels)
-    corr = CorrelationAccumulator(n_in, len(model.output_channels),
-                                  design.max_lag(fs) if chosen is None else max_lag(design, fs))
-    for rec in recordings:
-        # a model with the traction/braking split: derived from the record's accelerations
-        inputs = model_inputs(model, np.asarray(rec.inputs, dtype=np.float64))
-        target = np.asarray(rec.outputs, dtype=np.float64)
-        if model.physics:
-            target = target - (predict_forces(model, inputs) - predict_forces(linear, inputs))
-        corr.add(inputs, target)
+    corr = _linear_part_correlations(
+        model, recordings, design.max_lag(fs) if chosen is None else max_lag(design, fs))
     try:
         if chosen is None:
-            live = design_live(corr.result(fs), design)
+            live = design_live(corr, design)
         else:
-            live = chosen_live(corr.result(fs), chosen.choice, design, n_in)
+            live = chosen_live(corr, chosen.choice, design, len(model.input_channels))
     except WheelForceError as err:
         raise DiagnosisError(f'cannot design the live estimators of the written model: '
                              f'{err}') from err

@@ -100,6 +100,35 @@ def _concat(recs, attr, row):
     return np.concatenate(_rows(recs, attr, row))
 
 
+def _clips(real: Sequence, sim: Sequence, bound: float, config: MotionConfig) -> list:
+    """Return the real inputs' clips below ``bound`` the simulation does not share."""
+    clips = []
+    for i, name in enumerate(real[0].input_channels):
+        clip = clip_test(_rows(real, 'inputs', i), name, config.min_clip_samples)
+        if clip is None or clip.p_value >= bound:
+            continue
+        if sim:
+            own = clip_test(_rows(sim, 'inputs', i), name, config.min_clip_samples)
+            if own is not None and own.p_value < bound and own.level == clip.level:
+                continue  # the simulation models the same sensor range
+        clips.append(clip)
+    return clips
+
+
+def _clipped_spans(real: Sequence, clips: Sequence) -> Tuple[list, int]:
+    """Return the time spans [s] with any input at its clip level, and that sample count."""
+    inputs = real[0].input_channels
+    spans, at_any = [], 0
+    for rec in real:
+        mask = np.zeros(rec.n_samples, bool)
+        for c in clips:
+            mask |= np.asarray(rec.inputs)[inputs.index(c.channel)] == c.level
+        at_any += int(mask.sum())
+        spans += [(rec.start_s + a / rec.fs_hz, rec.start_s + b / rec.fs_hz)
+                  for a, b in runs(mask)]
+    return spans, at_any
+
+
 def saturation_finding(real: Sequence, sim: Sequence, sources: Sequence[str],
                        config: MotionConfig) -> Optional[Finding]:
     """
@@ -123,27 +152,11 @@ def saturation_finding(real: Sequence, sim: Sequence, sources: Sequence[str],
     rec0 = real[0]
     inputs = rec0.input_channels
     bound = clip_bound(len(inputs), config.alpha)
-    clips = []
-    for i, name in enumerate(inputs):
-        clip = clip_test(_rows(real, 'inputs', i), name, config.min_clip_samples)
-        if clip is None or clip.p_value >= bound:
-            continue
-        if sim:
-            own = clip_test(_rows(sim, 'inputs', i), name, config.min_clip_samples)
-            if own is not None and own.p_value < bound and own.level == clip.level:
-                continue  # the simulation models the same sensor range
-        clips.append(clip)
+    clips = _clips(real, sim, bound, config)
     if not clips:
         return None
     n_real = sum(r.n_samples for r in real)
-    spans, at_any = [], 0
-    for rec in real:
-        mask = np.zeros(rec.n_samples, bool)
-        for c in clips:
-            mask |= np.asarray(rec.inputs)[inputs.index(c.channel)] == c.level
-        at_any += int(mask.sum())
-        spans += [(rec.start_s + a / rec.fs_hz, rec.start_s + b / rec.fs_hz)
-                  for a, b in runs(mask)]
+    spans, at_any = _clipped_spans(real, clips)
     windows = _windows(spans, config.merge_s, config.max_windows)
     limit = min(abs(c.level) for c in clips)
     beyond = ''
