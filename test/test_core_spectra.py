@@ -17,6 +17,7 @@ from wheel_force_estimator.core.spectra import auto_spectral_density
 from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spectra import cross_spectra
 from wheel_force_estimator.core.spectra import CrossSpectra
+from wheel_force_estimator.core.spectra import pooled_cross_spectra
 from wheel_force_estimator.core.spectra import WelchConfig
 
 FS_HZ = 200.0
@@ -175,6 +176,27 @@ def test_combine_equals_welch_over_the_union_of_windows():
     assert _close(both.sxx[:, 0, 2], (14 * ca + 30 * cb) / 44)
     single = combine_spectra([a])
     assert single.n_windows == a.n_windows and np.array_equal(single.sxx, a.sxx)
+
+
+def test_pooled_equals_combined_per_segment_spectra():
+    # pooled_cross_spectra accumulates one set of matrices for several segments: the same
+    # numbers as combining each segment's own (the union of their windows), shorter
+    # segments and a segment of exactly one window included.
+    x, y = _signals(11, n=6000)
+    config = WelchConfig(FS_HZ, 256, 0.5)
+    cuts = [(0, 2000), (2000, 2256), (2256, 6000)]
+    pooled = pooled_cross_spectra([(x[:, a:b], y[:, a:b]) for a, b in cuts], config, 'pooled')
+    combined = combine_spectra([cross_spectra(x[:, a:b], y[:, a:b], config) for a, b in cuts])
+    assert pooled.n_windows == combined.n_windows == 14 + 1 + 28
+    for field in ('sxx', 'syx', 'syy'):
+        assert _close(getattr(pooled, field), getattr(combined, field))
+    assert np.array_equal(pooled.sxx, pooled.sxx.conj().transpose(0, 2, 1))
+    with pytest.raises(ShapeError, match='segment 1 has 2 inputs'):
+        pooled_cross_spectra([(x, y), (x[:2], y)], config, 'pooled')
+    with pytest.raises(InsufficientDataError, match=r'pooled \(segment 1\): 100 samples'):
+        pooled_cross_spectra([(x, y), (x[:, :100], y[:, :100])], config, 'pooled')
+    with pytest.raises(InsufficientDataError, match='no segment'):
+        pooled_cross_spectra([], config, 'pooled')
 
 
 def test_combine_avoids_the_join_artefact_of_concatenation():

@@ -45,9 +45,9 @@ from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import look_ahead_samples
 from wheel_force_estimator.core.live_estimator import NormalEquations
 from wheel_force_estimator.core.live_estimator import straddling_products
-from wheel_force_estimator.core.spectra import combine_spectra
-from wheel_force_estimator.core.spectra import cross_spectra
+from wheel_force_estimator.core.nested_factor import BorderedFactor
 from wheel_force_estimator.core.spectra import CrossSpectra
+from wheel_force_estimator.core.spectra import pooled_cross_spectra
 
 #: Short Welch segments tried, as multiples of the configured one.
 SEGMENT_FACTORS = (1, 2)
@@ -185,15 +185,17 @@ def block_stats(segments, pieces: Sequence[Piece], welch: Dict[int, object],
             if key == SCORING:
                 # the scorer's spectra: the segment's mean removed, windows not detrended,
                 # so the quasi-static band counts as in the unfiltered RMSE
-                parts[key].append(cross_spectra(x - mean_x, y - mean_y, cfg, name=seg.source))
+                parts[key].append((x - mean_x, y - mean_y))
             else:
-                parts[key].append(cross_spectra(x, y, cfg, name=seg.source))
+                parts[key].append((x, y))
         if acc is not None:
             acc.add(x, y, means[p.segment])
         sum_x += x.sum(axis=1)
         sum_y += y.sum(axis=1)
         n += x.shape[1]
-    spectra = {k: combine_spectra(v) for k, v in parts.items() if v}
+    # one set of spectral matrices per resolution for the whole block
+    spectra = {k: pooled_cross_spectra(v, welch[k], name=segments[pieces[0].segment].source)
+               for k, v in parts.items() if v}
     return BlockStats(spectra, acc.result(fs_hz) if acc is not None else None, sum_x, sum_y,
                       n)
 
@@ -376,11 +378,15 @@ class LsSolutions:
     The least-squares FIRs of one training set: one factorisation per ridge.
 
     ``equations``: the normal equations of ``corr`` already at hand (a subset's, taken from
-    the full set's by :meth:`.NormalEquations.subset`), else built here.
+    the full set's by :meth:`.NormalEquations.subset`), else built here.  ``inner``: the
+    solutions of the previous nested input set (its inputs the first of ``corr``'s, the
+    same ridges and ``equations`` given): each factor is bordered from its factor
+    (:class:`.nested_factor.BorderedFactor`) instead of factorised from scratch.
     """
 
     def __init__(self, corr: Correlations, design: LiveDesign, ridges: Sequence[float],
-                 equations: Optional[NormalEquations] = None):
+                 equations: Optional[NormalEquations] = None,
+                 inner: Optional['LsSolutions'] = None):
         self.fs_hz = corr.fs_hz
         self.d_max = look_ahead_samples(LS_LOOK_AHEAD_S, corr.fs_hz)
         base = (float(ridges[0]) if equations is None
@@ -388,8 +394,11 @@ class LsSolutions:
         design = dataclasses.replace(design, look_aheads_s=(LS_LOOK_AHEAD_S,),
                                      regularisation=base)
         eq = NormalEquations(corr, self.d_max, design) if equations is None else equations
-        self.factors = {r: _FACTORS.factor(_FACTORS.key(corr, self.d_max, design, r), eq, r)
-                        for r in ridges}
+        if inner is not None and equations is not None:
+            self.factors = {r: BorderedFactor(inner.factors[r], eq, r) for r in ridges}
+        else:
+            self.factors = {r: _FACTORS.factor(_FACTORS.key(corr, self.d_max, design, r), eq,
+                                               r) for r in ridges}
         self._estimators: Dict[Tuple[float, int], CausalEstimator] = {}
 
     def estimator(self, ridge: float, look_ahead: int) -> CausalEstimator:
@@ -411,9 +420,9 @@ def set_equations(corr: Correlations, design: LiveDesign, columns: Sequence[Sequ
     Return the LS normal equations of every input set (``columns``) for :class:`LsSolutions`.
 
     One build serves every set: a subset's matrix is a sub-block of the full one
-    (:meth:`.NormalEquations.subset`, taken on first use); each set still needs its own
-    factorisations (the lag-ordered factor interleaves the inputs).  One set alone: ``None``
-    (:class:`LsSolutions` builds its own, of that set only).
+    (:meth:`.NormalEquations.subset`, its blocks taken from the full one); a larger nested
+    set's factor is bordered from the smaller set's (``LsSolutions(..., inner=)``).  One set
+    alone: ``None`` (:class:`LsSolutions` builds its own, of that set only).
     """
     sets = [tuple(c) for c in columns]
     if len(sets) <= 1:
@@ -455,7 +464,10 @@ def score_fold(h1: Dict[Tuple[int, float], np.ndarray],
 
     """
     f = held_out.f_hz
-    scorer = BlendScorer(held_out, hp_power_weight(f, held_out.config.fs_hz))
+    ramps = [c.crossover_hz for c in cands if c.family == 'spliced']
+    # a splice's weights are both non-zero from its crossover to 1.5 times it only
+    scorer = BlendScorer(held_out, hp_power_weight(f, held_out.config.fs_hz),
+                         pair_max_hz=1.5 * max(ramps, default=0.0))
     for key, h in h1.items():
         scorer.add(('h1',) + key, h)
     same = {}

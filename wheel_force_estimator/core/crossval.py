@@ -180,27 +180,48 @@ class BlendScorer:
         Welch densities of the held-out block.
     hp_weight : numpy.ndarray, shape (nf,)
         :func:`hp_power_weight` on ``spectra.f_hz``.
+    pair_max_hz : float
+        Highest line where a blend's weights are both non-zero (a splice's ramp ends at 1.5
+        times its crossover): the pair terms are computed up to it only, 0 above (where
+        they are multiplied by 0).  Default: every line.
 
     """
 
-    def __init__(self, spectra: CrossSpectra, hp_weight: np.ndarray):
+    #: Lines per batched product (temporaries well below glibc's 32 MB mmap threshold, so
+    #: they reuse heap pages: a fresh page costs more here than the product that fills it).
+    CHUNK_LINES = 1024
+
+    def __init__(self, spectra: CrossSpectra, hp_weight: np.ndarray,
+                 pair_max_hz: float = np.inf):
         self._sp = spectra
         self._weights = np.stack([np.ones_like(hp_weight), hp_weight])       # (2, nf)
         self._target = self._weights @ spectra.syy
+        self._n_pair = int(np.searchsorted(spectra.f_hz, pair_max_hz, side='right'))
         self._base: dict = {}
         self._pair: dict = {}
 
     def add(self, key, h: np.ndarray) -> None:
         """Add base ``key`` with realised response ``h`` (nf, n_out, n_in) on the block's grid."""
-        m = np.matmul(h.conj(), self._sp.sxx)                  # conj(h_oi) Sxx_ij
-        quad = np.einsum('foj,foj->fo', m, h).real
-        cross = np.einsum('foi,foi->fo', h, self._sp.syx.conj()).real
-        self._base[key] = (h, m, quad, cross)
+        sxx, syx = self._sp.sxx, self._sp.syx
+        quad = np.empty(h.shape[:2])
+        low = np.empty((self._n_pair,) + h.shape[1:], dtype=np.complex128)
+        for lo in range(0, h.shape[0], self.CHUNK_LINES):
+            hi = min(h.shape[0], lo + self.CHUNK_LINES)
+            m = np.matmul(h[lo:hi].conj(), sxx[lo:hi])                # conj(h_oi) Sxx_ij
+            quad[lo:hi] = np.einsum('foj,foj->fo', m, h[lo:hi]).real
+            if lo < self._n_pair:
+                low[lo:min(hi, self._n_pair)] = m[:self._n_pair - lo]
+        # Re(h conj(Syx)) from the real and imaginary parts (no conjugated copy of Syx)
+        cross = (np.einsum('foi,foi->fo', h.real, syx.real)
+                 + np.einsum('foi,foi->fo', h.imag, syx.imag))
+        self._base[key] = (h, low, quad, cross)
 
     def _pair_term(self, a, b) -> np.ndarray:
         if (a, b) not in self._pair:
-            self._pair[(a, b)] = np.einsum('foj,foj->fo', self._base[a][1],
-                                           self._base[b][0]).real
+            term = np.zeros(self._base[a][2].shape)
+            n = self._n_pair
+            term[:n] = np.einsum('foj,foj->fo', self._base[a][1], self._base[b][0][:n]).real
+            self._pair[(a, b)] = term
         return self._pair[(a, b)]
 
     def power(self, a, b=None, w: Optional[np.ndarray] = None) -> HeldOutPower:

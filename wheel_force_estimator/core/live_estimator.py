@@ -484,6 +484,17 @@ class NormalEquations:
         sub._parent, sub._index = self, index
         return sub
 
+    def block(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """
+        Return the block ``a[rows][:, cols]`` of the regularised matrix (a new array).
+
+        A subset's block is taken from its parent's matrix: no copy of the subset's whole
+        matrix (~140 MB for the accelerations at the defaults) just to cut a block from it.
+        """
+        if self._parent is not None and 'a' not in self.__dict__:
+            return self._parent.block(self._index[rows], self._index[cols])
+        return self.a[np.ix_(rows, cols)]
+
     @functools.cached_property
     def a(self) -> np.ndarray:
         """
@@ -582,7 +593,7 @@ class LagOrderedFactor:
                                  'unknowns')
             self._l = cholesky
         else:
-            a = eq.a[np.ix_(self._perm, self._perm)]
+            a = eq.block(self._perm, self._perm)
             if regularisation is not None:
                 ridge = (regularisation - eq.info['regularisation']) * eq.ridge_unit[self._perm]
                 a[np.diag_indices_from(a)] += ridge
@@ -605,6 +616,34 @@ class LagOrderedFactor:
         view.flags.writeable = False
         return view
 
+    @property
+    def equations(self) -> 'NormalEquations':
+        """Return the normal equations factorised (longest look-ahead)."""
+        return self._eq
+
+    def _check_look_ahead(self, look_ahead: int) -> int:
+        d = int(look_ahead)
+        if not 0 <= d <= self._d_max:
+            raise ConfigError(f'look-ahead {d} is not within 0 .. {self._d_max}')
+        return d
+
+    def order(self, look_ahead: int) -> np.ndarray:
+        """Return the equation indices of the ``look_ahead`` unknowns, as the factor numbers them."""
+        d = self._check_look_ahead(look_ahead)
+        return self._perm[:self._eq.n_in * (self._n_b - self._d_max + d)]
+
+    def solve_lower(self, look_ahead: int, b: np.ndarray) -> np.ndarray:
+        """Return ``L⁻¹ b`` for look-ahead ``look_ahead`` (rows of ``b`` in :meth:`order`)."""
+        m = self.order(look_ahead).size
+        return scipy.linalg.solve_triangular(self._l[:m, :m], b, lower=True,
+                                             check_finite=False)
+
+    def solve_upper(self, look_ahead: int, z: np.ndarray) -> np.ndarray:
+        """Return ``L⁻ᵀ z`` for look-ahead ``look_ahead`` (rows in :meth:`order`)."""
+        m = self.order(look_ahead).size
+        return scipy.linalg.solve_triangular(self._l[:m, :m], z, lower=True, trans='T',
+                                             check_finite=False)
+
     def theta(self, look_ahead: int) -> np.ndarray:
         """
         Return the coefficients for ``look_ahead`` samples, shape (n_out, n_in, n_basis).
@@ -612,30 +651,42 @@ class LagOrderedFactor:
         Basis block ``p`` of the result is block ``p + D - look_ahead`` of the longest
         look-ahead's basis.
         """
-        d = int(look_ahead)
-        if not 0 <= d <= self._d_max:
-            raise ConfigError(f'look-ahead {d} is not within 0 .. {self._d_max}')
-        n_in = self._eq.n_in
-        m = n_in * (self._n_b - self._d_max + d)
-        lead = self._l[:m, :m]
-        z = scipy.linalg.solve_triangular(lead, self._rhs[:m], lower=True, check_finite=False)
-        sol = scipy.linalg.solve_triangular(lead, z, lower=True, trans='T', check_finite=False)
-        used = self._blocks[:m // n_in]                                   # basis block per lag
-        theta = np.empty((self._eq.n_out, n_in, self._n_b - self._d_max + d))
-        theta[:, :, used - (self._d_max - d)] = sol.reshape(used.size, n_in,
-                                                            self._eq.n_out).transpose(2, 1, 0)
-        return theta
+        d = self._check_look_ahead(look_ahead)
+        order = self.order(d)
+        sol = self.solve_upper(d, self.solve_lower(d, self._eq.rhs[order]))
+        return unpack_theta(self._eq, order, sol, d)
 
     def estimator(self, look_ahead: int) -> CausalEstimator:
         """Return the live estimator for ``look_ahead`` samples."""
         d = int(look_ahead)
-        theta = self.theta(d)
-        edges = self._eq.edges[self._d_max - d:]
-        n_fine = _fine_count(edges)
-        info = dict(self._info, look_ahead_s=d / self._eq.fs_hz,
-                    n_basis_per_input=int(edges.size - 1))
-        return CausalEstimator(d, theta[:, :, :n_fine], edges[n_fine:], theta[:, :, n_fine:],
-                               info)
+        return estimator_of(self._eq, self.theta(d), d, self._info)
+
+
+def unpack_theta(eq: 'NormalEquations', order: np.ndarray, solution: np.ndarray,
+                 look_ahead: int) -> np.ndarray:
+    """
+    Return the coefficients (n_out, n_in, n_basis) of a solution whose rows are ``order``.
+
+    ``order``: equation indices (input by input, the longest look-ahead's basis) of the
+    look-ahead ``look_ahead`` unknowns; basis block ``p`` of the result is block
+    ``p + D - look_ahead`` of the longest look-ahead's basis.
+    """
+    n_b = eq.edges.size - 1
+    shift = -int(eq.edges[0]) - int(look_ahead)
+    inputs, blocks = np.divmod(order, n_b)
+    theta = np.zeros((eq.n_out, eq.n_in, n_b - shift))
+    theta[:, inputs, blocks - shift] = solution.T
+    return theta
+
+
+def estimator_of(eq: 'NormalEquations', theta: np.ndarray, look_ahead: int,
+                 info: dict) -> CausalEstimator:
+    """Return the live estimator of coefficients ``theta`` (:func:`unpack_theta`)."""
+    d = int(look_ahead)
+    edges = eq.edges[-int(eq.edges[0]) - d:]
+    n_fine = _fine_count(edges)
+    info = dict(info, look_ahead_s=d / eq.fs_hz, n_basis_per_input=int(edges.size - 1))
+    return CausalEstimator(d, theta[:, :, :n_fine], edges[n_fine:], theta[:, :, n_fine:], info)
 
 
 # -- model file section -----------------------------------------------------------------------

@@ -333,28 +333,30 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
         corr = (fold_correlations([s.corr for s in train], straddling.for_fold(k))
                 if lags else None)
         # every input set from the same block statistics: its columns of the spectra and
-        # correlations (an LS subset needs its own factorisation: the lag-ordered factor
-        # interleaves the inputs)
+        # correlations; a set's LS factors bordered from the previous (nested) set's
         eqs = (set_equations(corr, live, [c for _, c in sp.input_sets], min(sp.ridges))
                if lags else {})
+        ls, prev = None, ()
         for i, (_, cols) in enumerate(sp.input_sets):
             h1 = {key: response_on_grid(fit[2].taps, fit[2].delay_samples, n_score)
                   for key, fit in h1_fits(train, config, sp.h1, fs_hz, order,
                                           input_channels, cols).items()}
             ls_resp, live_resp = {}, {}
             if lags:
+                nested = prev and tuple(cols[:len(prev)]) == tuple(prev)
                 ls = LsSolutions(subset_correlations(corr, cols), live, sp.ridges,
-                                 eqs.pop(cols))
+                                 eqs.pop(cols), inner=ls if nested else None)
+                prev = cols
                 live_resp = {r: ls.response(r, d_live, n_score) for r in sp.ridges}
                 ls_resp = {(r, LS_LOOK_AHEAD_S): ls.response(r, d_ls, n_score)
                            for r in sp.ridges}
                 ls_resp.update({(r, live.look_aheads_s[0]): live_resp[r] for r in sp.ridges})
-                del ls
             off, lv = score_fold(h1, ls_resp, live_resp, sp.offline,
                                  subset_spectra(stats[k].spectra[SCORING], cols))
             scores[i] = off if scores[i] is None else [a + b for a, b in zip(scores[i], off)]
             live_scores[i] = (lv if live_scores[i] is None
                               else [a + b for a, b in zip(live_scores[i], lv)])
+        del ls
     n_out = stats[0].sum_y.size
     n_ridges = len(sp.ridges)
     if lags:

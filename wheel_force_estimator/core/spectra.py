@@ -322,21 +322,75 @@ def cross_spectra(x, y, config: WelchConfig, name: str = 'recording') -> CrossSp
 
     """
     x, y = _check_pair(x, y, name, config)
-    n_in = x.shape[0]
-    n_ch = n_in + y.shape[0]
+    return pooled_cross_spectra([(x, y)], config, name)
+
+
+def pooled_cross_spectra(pairs: Sequence[Tuple[np.ndarray, np.ndarray]], config: WelchConfig,
+                         name: str = 'recording') -> CrossSpectra:
+    """
+    Welch spectral matrices over the windows of several contiguous segments, as one average.
+
+    Equal to :func:`combine_spectra` of :func:`cross_spectra` of each pair (tested): no
+    window straddles two segments.  One set of spectral matrices is accumulated for all the
+    segments instead of one per segment: at the scorer's 32768-sample windows a set is
+    ~100 MB, and on this machine a fresh page costs more than the products that fill it.
+
+    Parameters
+    ----------
+    pairs : sequence of (array_like, array_like)
+        ``(x, y)`` per segment, as :func:`cross_spectra` takes them (the same channel counts).
+    config : WelchConfig
+        Welch parameters.
+    name : str
+        What the segments are, used in error messages.
+
+    Returns
+    -------
+    CrossSpectra
+        As :func:`cross_spectra`, ``n_windows`` the total.
+
+    Raises
+    ------
+    InsufficientDataError
+        No pair, or a pair shorter than one segment.
+    ShapeError
+        Wrong dimensions, or pairs with different channel counts.
+    NonFiniteError, ConfigError
+        As :func:`cross_spectra`.
+
+    """
+    checked = [_check_pair(x, y, f'{name} (segment {k})' if len(pairs) > 1 else name, config)
+               for k, (x, y) in enumerate(pairs)]
+    if not checked:
+        raise InsufficientDataError(f'{name}: no segment to compute spectra of')
+    n_in, n_out = checked[0][0].shape[0], checked[0][1].shape[0]
+    for k, (x, y) in enumerate(checked):
+        if (x.shape[0], y.shape[0]) != (n_in, n_out):
+            raise ShapeError(f'{name}: segment {k} has {x.shape[0]} inputs and {y.shape[0]} '
+                             f'outputs, segment 0 {n_in} and {n_out}')
     nf = config.segment_length // 2 + 1
-    s_all = np.zeros((nf, n_ch, n_ch), dtype=np.complex128)
-    for z in _window_spectra((x, y), config):
-        # One batched product gives every pair; the unneeded output-output cross terms cost
-        # less than splitting the product into three calls.
-        s_all += np.matmul(z.conj().transpose(0, 2, 1), z)
-    n_win = config.n_windows(x.shape[1])
-    s_all /= n_win
-    sxx = s_all[:, :n_in, :n_in]
+    s_xx = np.zeros((nf, n_in, n_in), dtype=np.complex128)
+    s_xy = np.zeros((nf, n_in, n_out), dtype=np.complex128)     # conj(X) Y: Syx transposed
+    syy = np.zeros((nf, n_out), dtype=np.float64)
+    n_win = 0
+    for x, y in checked:
+        for z in _window_spectra((x, y), config):
+            zc = z.conj().transpose(0, 2, 1)[:, :n_in]
+            # two batched products instead of one of all channels: the output-output cross
+            # terms are not needed, and at long windows their memory is the cost
+            s_xx += np.matmul(zc, z[:, :, :n_in])
+            s_xy += np.matmul(zc, z[:, :, n_in:])
+            zy = z[:, :, n_in:]
+            syy += np.einsum('fwc,fwc->fc', zy.real, zy.real)
+            syy += np.einsum('fwc,fwc->fc', zy.imag, zy.imag)
+        n_win += config.n_windows(x.shape[1])
+    s_xx /= n_win
     # Exactly Hermitian with a real diagonal, so eigen-solvers downstream see what they expect.
-    sxx = 0.5 * (sxx + sxx.conj().transpose(0, 2, 1))
-    syx = np.ascontiguousarray(s_all[:, :n_in, n_in:].transpose(0, 2, 1))
-    syy = np.ascontiguousarray(np.diagonal(s_all[:, n_in:, n_in:], axis1=1, axis2=2).real)
+    sxx = 0.5 * (s_xx + s_xx.conj().transpose(0, 2, 1))
+    del s_xx
+    syx = np.ascontiguousarray(s_xy.transpose(0, 2, 1))
+    syx /= n_win
+    syy /= n_win
     return CrossSpectra(config.f_hz, sxx, syx, syy, n_win, config)
 
 
