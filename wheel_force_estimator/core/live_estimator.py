@@ -628,7 +628,7 @@ class LagOrderedFactor:
         return d
 
     def order(self, look_ahead: int) -> np.ndarray:
-        """Return the equation indices of the ``look_ahead`` unknowns, as the factor numbers them."""
+        """Return the equation indices of the ``look_ahead`` unknowns in the factor's sequence."""
         d = self._check_look_ahead(look_ahead)
         return self._perm[:self._eq.n_in * (self._n_b - self._d_max + d)]
 

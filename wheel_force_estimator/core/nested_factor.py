@@ -103,7 +103,7 @@ class BorderedFactor:
         return self._parts[d]
 
     def order(self, look_ahead: int) -> np.ndarray:
-        """Return the equation indices of the ``look_ahead`` unknowns, as the factor numbers them."""
+        """Return the equation indices of the ``look_ahead`` unknowns in the factor's sequence."""
         return self._part(look_ahead)[0]
 
     def solve_lower(self, look_ahead: int, b: np.ndarray) -> np.ndarray:
