@@ -160,3 +160,14 @@ def test_split_bad_arguments():
         traction_braking(np.zeros((11, 5)), FS_HZ)
     with pytest.raises(ConfigError, match='twice the 2 Hz'):
         traction_braking(np.zeros((12, 5)), 3.5)
+
+
+def test_the_cli_does_not_import_scipy_signal_to_start():
+    """Bug caught: the bag reader importing this module made every CLI start pay ~0.7 s."""
+    import subprocess
+    import sys
+    code = ('import sys, wheel_force_estimator.cli.main as m; m.build_parser(); '
+            'print("scipy.signal" in sys.modules)')
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.split() == ['False']

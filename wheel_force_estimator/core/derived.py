@@ -41,7 +41,6 @@ restarted where the stream breaks, as the offline reader starts a new segment.
 from typing import Sequence, Tuple
 
 import numpy as np
-import scipy.signal
 
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
@@ -289,6 +288,10 @@ class TractionBrakingStream:
         if not fs_hz > 2.0 * SPLIT_LOW_PASS_HZ:
             raise ConfigError(f'traction/braking split: sample rate {fs_hz!r} Hz must exceed '
                               f'twice the {SPLIT_LOW_PASS_HZ:g} Hz low-pass corner')
+        # imported here: scipy.signal costs ~0.7 s at import, and the bag reader imports this
+        # module, so every CLI command (``--help`` included) paid it before its first line
+        import scipy.signal
+        self._sosfilt = scipy.signal.sosfilt
         self._sos = scipy.signal.butter(SPLIT_FILTER_ORDER, SPLIT_LOW_PASS_HZ, fs=fs_hz,
                                         output='sos')
         self._zi_unit = scipy.signal.sosfilt_zi(self._sos)
@@ -327,5 +330,5 @@ class TractionBrakingStream:
         mean_ax = x[_AX_ROWS].mean(axis=0)
         if self._zi is None:
             self._zi = self._zi_unit * mean_ax[0]
-        f_x, self._zi = scipy.signal.sosfilt(self._sos, mean_ax, zi=self._zi)
+        f_x, self._zi = self._sosfilt(self._sos, mean_ax, zi=self._zi)
         return np.vstack([np.maximum(f_x, 0.0), np.minimum(f_x, 0.0)])
