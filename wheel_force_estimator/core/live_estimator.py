@@ -549,7 +549,66 @@ def design_live(corr: Correlations, design: LiveDesign) -> Tuple[CausalEstimator
     return tuple(factor.estimator(d) for d in looks)
 
 
-class LagOrderedFactor:
+def lag_order(inputs: np.ndarray, n_b: int, d_max: int) -> np.ndarray:
+    """
+    Return the equation indices of ``inputs``' unknowns, lag by lag.
+
+    The past first, then the future lags nearest first, all the inputs of one lag together,
+    so each look-ahead's unknowns are a leading part.  ``n_b`` basis blocks per input,
+    ``d_max`` future lags.
+    """
+    blocks = np.concatenate([np.arange(d_max, n_b), np.arange(d_max - 1, -1, -1)])
+    return (np.asarray(inputs)[None, :] * n_b + blocks[:, None]).ravel()
+
+
+class TriangularFactor:
+    """
+    The solution and live estimators of a lower-triangular factorisation of the equations.
+
+    A subclass sets ``_eq`` (:class:`NormalEquations`) and ``_info`` and provides
+    ``order(look_ahead)``, ``solve_lower(look_ahead, b)`` and ``solve_upper(look_ahead, z)``
+    (rows in ``order``): :class:`LagOrderedFactor` and :class:`.nested_factor.BorderedFactor`.
+    """
+
+    _eq: 'NormalEquations'
+    _info: dict
+
+    @property
+    def equations(self) -> 'NormalEquations':
+        """Return the normal equations factorised (longest look-ahead)."""
+        return self._eq
+
+    def theta(self, look_ahead: int) -> np.ndarray:
+        """
+        Return the coefficients for ``look_ahead`` samples, shape (n_out, n_in, n_basis).
+
+        Basis block ``p`` of the result is block ``p + D - look_ahead`` of the longest
+        look-ahead's basis.
+        """
+        d = int(look_ahead)
+        eq = self._eq
+        order = self.order(d)
+        solution = self.solve_upper(d, self.solve_lower(d, eq.rhs[order]))
+        n_b = eq.edges.size - 1
+        shift = -int(eq.edges[0]) - d
+        inputs, blocks = np.divmod(order, n_b)
+        theta = np.zeros((eq.n_out, eq.n_in, n_b - shift))
+        theta[:, inputs, blocks - shift] = solution.T
+        return theta
+
+    def estimator(self, look_ahead: int) -> CausalEstimator:
+        """Return the live estimator for ``look_ahead`` samples."""
+        d = int(look_ahead)
+        theta = self.theta(d)
+        edges = self._eq.edges[-int(self._eq.edges[0]) - d:]
+        n_fine = _fine_count(edges)
+        info = dict(self._info, look_ahead_s=d / self._eq.fs_hz,
+                    n_basis_per_input=int(edges.size - 1))
+        return CausalEstimator(d, theta[:, :, :n_fine], edges[n_fine:], theta[:, :, n_fine:],
+                               info)
+
+
+class LagOrderedFactor(TriangularFactor):
     """
     One Cholesky factorisation that serves every look-ahead up to the longest.
 
@@ -585,8 +644,7 @@ class LagOrderedFactor:
                  cholesky: Optional[np.ndarray] = None):
         n_b = eq.edges.size - 1
         d_max = -int(eq.edges[0])
-        blocks = np.concatenate([np.arange(d_max, n_b), np.arange(d_max - 1, -1, -1)])
-        self._perm = (np.arange(eq.n_in)[None, :] * n_b + blocks[:, None]).ravel()
+        self._perm = lag_order(np.arange(eq.n_in), n_b, d_max)
         if cholesky is not None:
             if cholesky.shape != (self._perm.size,) * 2:
                 raise ShapeError(f'Cholesky factor {cholesky.shape} for {self._perm.size} '
@@ -604,8 +662,7 @@ class LagOrderedFactor:
                 raise InsufficientDataError(
                     f'live estimator (look-ahead {d_max} samples): the normal equations are '
                     f'not positive definite (inputs without power?)') from err
-        self._rhs = eq.rhs[self._perm]
-        self._blocks, self._eq, self._d_max, self._n_b = blocks, eq, d_max, n_b
+        self._eq, self._d_max, self._n_b = eq, d_max, n_b
         reg = eq.info['regularisation'] if regularisation is None else regularisation
         self._info = dict(eq.info, regularisation=float(reg))
 
@@ -616,20 +673,11 @@ class LagOrderedFactor:
         view.flags.writeable = False
         return view
 
-    @property
-    def equations(self) -> 'NormalEquations':
-        """Return the normal equations factorised (longest look-ahead)."""
-        return self._eq
-
-    def _check_look_ahead(self, look_ahead: int) -> int:
+    def order(self, look_ahead: int) -> np.ndarray:
+        """Return the equation indices of the ``look_ahead`` unknowns in the factor's sequence."""
         d = int(look_ahead)
         if not 0 <= d <= self._d_max:
             raise ConfigError(f'look-ahead {d} is not within 0 .. {self._d_max}')
-        return d
-
-    def order(self, look_ahead: int) -> np.ndarray:
-        """Return the equation indices of the ``look_ahead`` unknowns in the factor's sequence."""
-        d = self._check_look_ahead(look_ahead)
         return self._perm[:self._eq.n_in * (self._n_b - self._d_max + d)]
 
     def solve_lower(self, look_ahead: int, b: np.ndarray) -> np.ndarray:
@@ -643,50 +691,6 @@ class LagOrderedFactor:
         m = self.order(look_ahead).size
         return scipy.linalg.solve_triangular(self._l[:m, :m], z, lower=True, trans='T',
                                              check_finite=False)
-
-    def theta(self, look_ahead: int) -> np.ndarray:
-        """
-        Return the coefficients for ``look_ahead`` samples, shape (n_out, n_in, n_basis).
-
-        Basis block ``p`` of the result is block ``p + D - look_ahead`` of the longest
-        look-ahead's basis.
-        """
-        d = self._check_look_ahead(look_ahead)
-        order = self.order(d)
-        sol = self.solve_upper(d, self.solve_lower(d, self._eq.rhs[order]))
-        return unpack_theta(self._eq, order, sol, d)
-
-    def estimator(self, look_ahead: int) -> CausalEstimator:
-        """Return the live estimator for ``look_ahead`` samples."""
-        d = int(look_ahead)
-        return estimator_of(self._eq, self.theta(d), d, self._info)
-
-
-def unpack_theta(eq: 'NormalEquations', order: np.ndarray, solution: np.ndarray,
-                 look_ahead: int) -> np.ndarray:
-    """
-    Return the coefficients (n_out, n_in, n_basis) of a solution whose rows are ``order``.
-
-    ``order``: equation indices (input by input, the longest look-ahead's basis) of the
-    look-ahead ``look_ahead`` unknowns; basis block ``p`` of the result is block
-    ``p + D - look_ahead`` of the longest look-ahead's basis.
-    """
-    n_b = eq.edges.size - 1
-    shift = -int(eq.edges[0]) - int(look_ahead)
-    inputs, blocks = np.divmod(order, n_b)
-    theta = np.zeros((eq.n_out, eq.n_in, n_b - shift))
-    theta[:, inputs, blocks - shift] = solution.T
-    return theta
-
-
-def estimator_of(eq: 'NormalEquations', theta: np.ndarray, look_ahead: int,
-                 info: dict) -> CausalEstimator:
-    """Return the live estimator of coefficients ``theta`` (:func:`unpack_theta`)."""
-    d = int(look_ahead)
-    edges = eq.edges[-int(eq.edges[0]) - d:]
-    n_fine = _fine_count(edges)
-    info = dict(info, look_ahead_s=d / eq.fs_hz, n_basis_per_input=int(edges.size - 1))
-    return CausalEstimator(d, theta[:, :, :n_fine], edges[n_fine:], theta[:, :, n_fine:], info)
 
 
 # -- model file section -----------------------------------------------------------------------

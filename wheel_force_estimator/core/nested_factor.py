@@ -30,13 +30,12 @@ import numpy as np
 import scipy.linalg
 
 from wheel_force_estimator.core.errors import InsufficientDataError
-from wheel_force_estimator.core.live_estimator import CausalEstimator
-from wheel_force_estimator.core.live_estimator import estimator_of
+from wheel_force_estimator.core.live_estimator import lag_order
 from wheel_force_estimator.core.live_estimator import NormalEquations
-from wheel_force_estimator.core.live_estimator import unpack_theta
+from wheel_force_estimator.core.live_estimator import TriangularFactor
 
 
-class BorderedFactor:
+class BorderedFactor(TriangularFactor):
     """
     The factor of ``eq`` (a set of inputs) from the factor of its first inputs, ``inner``.
 
@@ -67,18 +66,11 @@ class BorderedFactor:
                              'the same basis')
         self._inner, self._eq, self._d_max, self._n_b = inner, eq, d_max, n_b
         self._ridge = float(regularisation)
-        # the added inputs' unknowns, lag by lag (past first, future lags last, nearest
-        # first) as the lag-ordered factor numbers them, so a look-ahead is a leading part
-        blocks = np.concatenate([np.arange(d_max, n_b), np.arange(d_max - 1, -1, -1)])
-        added = np.arange(inner_eq.n_in, eq.n_in)
-        self._added = (added[None, :] * n_b + blocks[:, None]).ravel()
+        # the added inputs' unknowns lag by lag, as the lag-ordered factor numbers its own,
+        # so a look-ahead is a leading part
+        self._added = lag_order(np.arange(inner_eq.n_in, eq.n_in), n_b, d_max)
         self._parts: Dict[int, Tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._info = dict(eq.info, regularisation=self._ridge)
-
-    @property
-    def equations(self) -> NormalEquations:
-        """Return the normal equations factorised (longest look-ahead)."""
-        return self._eq
 
     def _part(self, look_ahead: int) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return ``(order, W, L22)`` of look-ahead ``look_ahead`` (formed on first use)."""
@@ -123,15 +115,3 @@ class BorderedFactor:
                                            check_finite=False)
         x1 = self._inner.solve_upper(look_ahead, z[:m] - w @ x2)
         return np.concatenate([x1, x2])
-
-    def theta(self, look_ahead: int) -> np.ndarray:
-        """Return the coefficients for ``look_ahead`` samples, shape (n_out, n_in, n_basis)."""
-        d = int(look_ahead)
-        order = self.order(d)
-        sol = self.solve_upper(d, self.solve_lower(d, self._eq.rhs[order]))
-        return unpack_theta(self._eq, order, sol, d)
-
-    def estimator(self, look_ahead: int) -> CausalEstimator:
-        """Return the live estimator for ``look_ahead`` samples."""
-        d = int(look_ahead)
-        return estimator_of(self._eq, self.theta(d), d, self._info)
