@@ -3,9 +3,10 @@
 """
 Accuracy of ``wheel-force fit``'s cross-validated design against the paper and the live node.
 
-Per simulated vehicle (the compact car, the SUV and the van of ``config/vehicles/``), in one
-run: training = the proving-ground course at seed 1 (``--minutes`` of it), held-out = the
-course at seed 2 (half length).  Printed per direction (mean over the four corners), RMSE %
+Per simulated vehicle (the compact car, the SUV and the van of ``config/vehicles/``, and two
+check cars in ``bench/cars/``, a sports coupe and a pickup, added on 2026-11-29), in one run:
+training = the proving-ground course at seed 1 (``--minutes`` of it), held-out = the course
+at seed 2 (half length).  Printed per direction (mean over the four corners), RMSE %
 unfiltered and 1 Hz high-passed, as ``evaluate`` computes them:
 
 - ``paper``: the paper's plain H1 (``FitConfig()``: one resolution, Tikhonov 1e-4);
@@ -32,7 +33,10 @@ so the live comparison stays like for like.
 1-minute course with all 15 events) instead of ``--minutes`` of it; ``--val-scale`` sets the
 held-out course's (0.5 by default: events 5x longer than a 0.1 training course's).
 
-Run: ``python bench/bench_design.py [--minutes 10] [--cars compact,suv,van]
+``--cars`` also takes vehicle YAML files (``wheel-force simulate --vehicle``'s format): a car
+no default was tuned on, judged the same way.
+
+Run: ``python bench/bench_design.py [--minutes 10] [--cars compact,suv,van,coupe,pickup|PATH.yaml]
 [--inputs accel+split|accel|accel+spin+split|...] [--train-scale 1] [--val-scale 0.5]``
 """
 import argparse
@@ -69,7 +73,10 @@ from bench_live import ls_fir_cg  # noqa: E402,I100
 
 ROOT = Path(__file__).resolve().parents[1]
 CARS = {'compact': None, 'suv': ROOT / 'config/vehicles/suv_awd_2180kg.yaml',
-        'van': ROOT / 'config/vehicles/van_rwd_2650kg.yaml'}
+        'van': ROOT / 'config/vehicles/van_rwd_2650kg.yaml',
+        # check cars, added 2026-11-29 (bench/cars/)
+        'coupe': ROOT / 'bench/cars/sport_rwd_1180kg.yaml',
+        'pickup': ROOT / 'bench/cars/pickup_4wd_2950kg.yaml'}
 MR_DAMPER = ROOT.parent / 'shared' / 'data' / 'mr_damper'
 LIVE_S = 0.05
 BASELINE_HISTORY_S = 2.0
@@ -112,7 +119,8 @@ def input_signals(result, inputs: str, n=None):
 
 def car_rows(name, minutes, inputs='accel', train_scale=1.0, val_scale=0.5):
     """Fit and judge one vehicle; return {estimator: (unfiltered, hp) per direction}."""
-    vehicle = load_vehicle(CARS[name]) if CARS[name] else None
+    path = CARS[name] if name in CARS else Path(name)
+    vehicle = load_vehicle(path) if path else None
     train = simulate(seed=1, vehicle=vehicle, duration_scale=train_scale)
     val = simulate(seed=2, vehicle=vehicle, duration_scale=val_scale)
     fs = train.fs_hz
@@ -166,7 +174,9 @@ def main():
                              '(0.1 = a 1-minute course with all 15 events)')
     parser.add_argument('--val-scale', type=float, default=0.5,
                         help='duration_scale of the held-out course (seed 2)')
-    parser.add_argument('--cars', default='compact,suv,van')
+    parser.add_argument('--cars', default='compact,suv,van,coupe,pickup',
+                        help='cars to judge: names of the shipped cars, or paths of vehicle '
+                             'YAML files (a car never used to tune anything: a blind check)')
     parser.add_argument('--no-mr-damper', action='store_true')
     parser.add_argument('--inputs', default='accel+split',
                         choices=('accel+split', 'accel', 'accel+spin', 'accel+spin+split',

@@ -172,7 +172,8 @@ def fitted():
     rng = np.random.default_rng(8)
     y = apply_lags(x, {lag: rng.normal(size=(2, 3)) for lag in range(-3, 40, 3)}) + 100.0
     cfg = FitConfig(segment_length=256, long_segment_length=1024,
-                    live=LiveDesign(look_aheads_s=(4 / FS_HZ, 0.0), history_s=1.0))
+                    live=LiveDesign(look_aheads_s=(4 / FS_HZ, 0.0), history_s=1.0,
+                                    blocks_per_octave=32))      # coarse blocks to check
     model = fit_model([TrainingSegment(x, y, 'train')], FS_HZ, cfg, INS, OUTS)
     return model, x, y
 
@@ -257,6 +258,7 @@ def test_malformed_live_section_is_refused_naming_the_field(fitted, tmp_path):
     np.savez(tmp_path / 'short.npz', **bad)
     with pytest.raises(ModelFileError, match='fine_taps'):
         load_model(tmp_path / 'short.npz')
+    assert contents['live0_coarse_edges'].size > 2        # reversed, they are not increasing
     bad = dict(contents, live0_coarse_edges=contents['live0_coarse_edges'][::-1].copy())
     np.savez(tmp_path / 'edges.npz', **bad)
     with pytest.raises(ModelFileError, match='coarse_edges'):
@@ -278,3 +280,25 @@ def test_full_look_ahead_of_a_model_is_the_offline_filter(fitted):
     assert full.fallback is None and full.delay_samples == model.fir_delay_samples
     np.testing.assert_array_equal(predict_forces(model, x, model.fir_delay_samples),
                                   predict_forces(model, x))
+
+
+def test_the_default_basis_is_the_finest_the_cost_bound_allows_for_the_inputs():
+    from wheel_force_estimator.core.live_estimator import BLOCKS_PER_OCTAVE_CHOICES
+    from wheel_force_estimator.core.live_estimator import MAX_PAST_UNKNOWNS
+    fs = 512.0
+    design = LiveDesign()
+    assert design.blocks_per_octave is None
+    fine, history = int(round(design.fine_s * fs)), int(round(design.history_s * fs))
+    seen = set()
+    for n_in in (1, 12, 14, 16, 24, 30):
+        got = design.for_inputs(n_in, fs).blocks_per_octave
+        # past lags of every input, counted from the basis itself
+        fits = [b for b in BLOCKS_PER_OCTAVE_CHOICES
+                if n_in * (lag_edges(0, fine, history, b).size - 1) <= MAX_PAST_UNKNOWNS]
+        assert got == (fits[0] if fits else BLOCKS_PER_OCTAVE_CHOICES[-1]), n_in
+        seen.add(got)
+    assert len(seen) > 1                  # a car's inputs and six components' differ
+    # a resolution set by the caller is kept, whatever the inputs
+    assert LiveDesign(blocks_per_octave=8).for_inputs(30, fs).blocks_per_octave == 8
+    with pytest.raises(ConfigError, match='blocks_per_octave'):
+        LiveDesign(blocks_per_octave=0)

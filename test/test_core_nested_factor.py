@@ -51,6 +51,13 @@ def test_bordered_factor_solves_the_larger_set_as_its_own_factorisation(ridge):
             assert a.info == b.info and a.n_in == eq.n_in
     # the added inputs carry taps: the comparison is not of two all-zero blocks
     assert np.abs(outer.estimator(5).fine_taps[:, 4]).max() > 0.01
+    # a shorter look-ahead asked first: its W is the leading block of the longest one's,
+    # formed on the way (the shared W of a lag-ordered inner factor)
+    want = LagOrderedFactor(full, ridge).estimator(5)
+    got = BorderedFactor(inner, full, ridge).estimator(5)
+    scale = np.abs(want.fine_taps).max()
+    np.testing.assert_allclose(got.fine_taps, want.fine_taps, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(got.coarse_taps, want.coarse_taps, rtol=0, atol=1e-9 * scale)
 
 
 def test_bordered_factor_refuses_added_inputs_without_power():

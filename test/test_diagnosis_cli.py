@@ -69,13 +69,17 @@ def test_generic_without_sim_fits_linear_on_real(generic_files, tmp_path):
     # through accelerations excited at 0.5-25 Hz only; since `fit` damps the unexcited lines
     # (water level) the FIR identifies it (8.0 % on fa; it was 200-6000 %, the unexcited
     # lines' gain ringing from the record's ends), and the damper asymmetry of fa is named
-    # on that reference and beats it on the report half (7.2 %).
+    # on that reference.  Whether its term is written is the held-out data's call: with the
+    # live basis at 32 blocks per octave the FIR scored 8.0 % on fa and FIR + term 7.2 %;
+    # at 64 blocks per octave and ridge 1e-5 (2026-11-29) the FIR alone scores 7.1 % and the
+    # term no longer pays in both figures on the gate half, so the FIR is written.
     assert doc['reference'] == 'real (linear fit) (frf)'
     assert doc['fit']['real_linear'] == doc['fit']['before']
     assert doc['findings'][0]['physics'] == 'damper_asymmetry'
     assert doc['findings'][0]['channels'] == ['fa']
-    assert doc['fit']['model'] in ('real_frf+physics', 'per_channel')
-    assert doc['fit']['after']['fa'] < doc['fit']['real_linear']['fa']
+    for figure in ('unfiltered', 'hp1'):
+        after, linear = doc['fit'][f'after_{figure}'], doc['fit'][f'real_linear_{figure}']
+        assert all(after[c] <= linear[c] for c in linear), (figure, after, linear)
     assert doc['fit']['real_linear']['fa'] < 20.0
 
 

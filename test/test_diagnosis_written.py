@@ -502,6 +502,7 @@ def test_live_estimators_of_a_written_model_follow_the_real_fits_chosen_design()
     # cross-validation; a written real-data linear model then differed from `fit`'s in live.
     from wheel_force_estimator.core.design import fit_design
     from wheel_force_estimator.core.design import product_fit_config
+    from wheel_force_estimator.core.candidates import LS_REGULARISATIONS
     from wheel_force_estimator.core.live_estimator import LiveDesign
     from wheel_force_estimator.core.pipeline import TrainingSegment
     from wheel_force_estimator.diagnosis.written import with_live_estimators
@@ -509,7 +510,8 @@ def test_live_estimators_of_a_written_model_follow_the_real_fits_chosen_design()
     x = _motion(rng, int(60 * FS_HZ))
     # two outputs: the rig's force, and a weak copy buried in noise (a stronger ridge pays)
     f = np.stack([_rig_force(x, rng, 0.0), 0.02 * K * x + 400.0 * rng.standard_normal(x.size)])
-    design = LiveDesign(look_aheads_s=(0.05, 0.0))
+    # the grid's weakest ridge: the clean row's choice (no noise to regularise against)
+    design = LiveDesign(look_aheads_s=(0.05, 0.0), regularisation=min(LS_REGULARISATIONS))
     fitted = fit_design([TrainingSegment(x[None], f, 'r')], FS_HZ,
                         dataclasses.replace(product_fit_config(), segment_length=512,
                                             long_segment_length=2048, live=design),
@@ -527,10 +529,10 @@ def test_live_estimators_of_a_written_model_follow_the_real_fits_chosen_design()
         for name in ('fine_taps', 'coarse_taps'):
             np.testing.assert_allclose(getattr(a, name), getattr(b, name), rtol=1e-9,
                                        atol=1e-12 * np.abs(getattr(b, name)).max())
-    # The noisy row's chosen ridge is the stronger one (the other keeps LiveDesign's 1e-4),
-    # so the fixed design differs from fit's there and only there (row 0: the same equations
-    # by another solver, the direct one of design_live, equal to ~1e-7).
-    assert fitted.chosen.choice.live_ridges == (design.regularisation, 1e-3)
+    # The noisy row's chosen ridge is the grid's strongest (the clean row takes the weakest,
+    # LiveDesign's here), so the fixed design differs from fit's there and only there (row 0:
+    # the same equations by another solver, the direct one of design_live, equal to ~1e-7).
+    assert fitted.chosen.choice.live_ridges == (design.regularisation, max(LS_REGULARISATIONS))
     fixed = with_live_estimators(bare, recs, design).live[0]
     np.testing.assert_allclose(fixed.fine_taps[0], ours[0].fine_taps[0], rtol=1e-6,
                                atol=1e-9 * np.abs(ours[0].fine_taps[0]).max())

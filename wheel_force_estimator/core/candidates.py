@@ -54,7 +54,7 @@ SEGMENT_FACTORS = (1, 2)
 #: Long-segment regularisations tried [-].
 LONG_REGULARISATIONS = (1e-2, 5e-2)
 #: Ridges of the least-squares FIRs (offline and live) tried [-].
-LS_REGULARISATIONS = (1e-4, 1e-3)
+LS_REGULARISATIONS = (1e-5, 1e-4, 1e-3)
 #: Crossovers of the spliced candidate [Hz]; 0 = H1 alone, inf = LS alone.
 SPLICE_CROSSOVERS_HZ = (0.0, 1.0, 2.0, 4.0, 8.0, math.inf)
 #: Key of the scorer's spectra in :func:`block_stats`.

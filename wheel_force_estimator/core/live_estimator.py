@@ -26,8 +26,22 @@ loads of braking and cornering live in seconds of history: measured z RMSE 22 % 
 impulse response far in the past is smooth, so the taps are **multi-rate**: one tap per
 sample from ``-D`` to ``fine_s``, then piecewise-constant blocks whose width grows
 geometrically (``blocks_per_octave`` per doubling of the lag) up to ``history_s``.  About
-250 unknowns per input at the defaults, solved exactly; the piecewise-constant blocks also
-give a cheap recursive realisation (a running sum, :mod:`.causal_filter`).
+310 unknowns per input at the defaults for a car (48 blocks per octave), solved exactly; the
+piecewise-constant blocks also give a cheap recursive realisation (a running sum,
+:mod:`.causal_filter`).
+
+The coarse blocks must stay narrow far into the past: the rear wheels meet the road the
+front wheels met a wheelbase earlier (0.1-2 s at road speeds), with its wheel-hop content.
+Measured (2026-11-29, all 14 inputs, 10 min of the course at seed 1, held-out seed 2, 50 ms,
+`Fz` mean of the corners, unfiltered / 1 Hz high-passed): 32 blocks per octave at ridge 1e-4
+(the default before) 8.4 / 7.5 % on the compact car, 9.9 / 11.3 % on a pickup, 10.6 / 11.1 %
+on the van; 48 blocks per octave at ridge 1e-5 6.1 / 5.2, 7.3 / 7.6 and 7.8 / 7.4 %; 64
+blocks 5.4 / 4.0, 6.3 / 5.5 and 6.6 / 5.4 % (x and y equal within 0.3 point).  The finest
+basis the cost bound allows (:data:`MAX_PAST_UNKNOWNS`) is the default, and the ridge, chosen
+by ``fit``'s cross-validation, sets how much of it the data can carry.  48, not 64: every
+factorisation of ``fit``'s search costs (n / n32)³ of the 32-block one's, 1.9x at 48 and
+3.1x at 64, and at 64 a 60 s bag's `fit` took 49 s against 14 s (48: 32 s) and the fast test
+tier 7 minutes against its 5.
 
 Correlations
 ------------
@@ -77,6 +91,15 @@ DEFAULT_LIVE_LOOK_AHEAD_S = 0.05
 # Look-aheads `fit` also designs, so reports can show accuracy against look-ahead [s].
 SWEEP_LOOK_AHEADS_S = (0.0, 0.025, 0.05, 0.1, 0.25)
 METHOD = 'multirate_ls_fir'
+#: Coarse-tap resolutions of the default basis, finest first [blocks per octave].
+BLOCKS_PER_OCTAVE_CHOICES = (48, 32)
+#: Past unknowns (all inputs) the default basis may reach: the finest of
+#: :data:`BLOCKS_PER_OCTAVE_CHOICES` within it, else the coarsest.  A cost bound, not a tuned
+#: accuracy figure: the Cholesky factor of ``n`` unknowns is ``8 n²`` bytes and ``n³ / 3``
+#: flops, and ``fit`` factorises a few per fold.  With the 0.25 s offline look-ahead a car's
+#: 12-16 inputs at 512 Hz reach ~7000 unknowns (0.4 GB per factor) at 48 blocks per octave;
+#: the 28-30 of six components get 32.
+MAX_PAST_UNKNOWNS = 6144
 
 
 def look_ahead_samples(look_ahead_s: float, fs_hz: float) -> int:
@@ -97,8 +120,10 @@ class LiveDesign:
         Longest past lag used [s], > 0.
     fine_s : float
         Past lags up to this are one tap per sample [s], >= 0.
-    blocks_per_octave : int
+    blocks_per_octave : int or None
         Resolution of the coarse taps beyond ``fine_s``: blocks per doubling of the lag, >= 1.
+        None (the default): the finest the cost bound allows for the inputs at hand
+        (:meth:`for_inputs`).
     regularisation : float
         Ridge per unit tap relative to each input's power [-], >= 0.
 
@@ -112,7 +137,7 @@ class LiveDesign:
     look_aheads_s: Tuple[float, ...] = (DEFAULT_LIVE_LOOK_AHEAD_S,)
     history_s: float = 4.0
     fine_s: float = 0.125
-    blocks_per_octave: int = 32
+    blocks_per_octave: Optional[int] = None
     regularisation: float = 1e-4
 
     def __post_init__(self):
@@ -131,10 +156,29 @@ class LiveDesign:
                 raise ConfigError(f'live {name} must be finite and >= 0, got {value!r}')
         if self.history_s <= 0.0:
             raise ConfigError(f'live history_s must be > 0, got {self.history_s!r}')
-        if isinstance(self.blocks_per_octave, bool) or not isinstance(
-                self.blocks_per_octave, (int, np.integer)) or self.blocks_per_octave < 1:
+        bpo = self.blocks_per_octave
+        if bpo is not None and (isinstance(bpo, bool) or not isinstance(
+                bpo, (int, np.integer)) or bpo < 1):
             raise ConfigError(f'live blocks_per_octave must be an integer >= 1, '
                               f'got {self.blocks_per_octave!r}')
+
+    def for_inputs(self, n_in: int, fs_hz: float) -> 'LiveDesign':
+        """
+        Return the design with its coarse resolution fixed for ``n_in`` inputs at ``fs_hz``.
+
+        A resolution already set is kept.  Otherwise the finest of
+        :data:`BLOCKS_PER_OCTAVE_CHOICES` whose past lags over all ``n_in`` inputs stay within
+        :data:`MAX_PAST_UNKNOWNS`, else the coarsest.  Callers resolve with the model's input
+        count, so the nested input sets of one fit share one basis.
+        """
+        if self.blocks_per_octave is not None:
+            return self
+        fine = int(round(self.fine_s * fs_hz))
+        history = max(1, int(round(self.history_s * fs_hz)))
+        for bpo in BLOCKS_PER_OCTAVE_CHOICES:
+            if n_in * (lag_edges(0, fine, history, bpo).size - 1) <= MAX_PAST_UNKNOWNS:
+                break
+        return dataclasses.replace(self, blocks_per_octave=bpo)
 
     def max_lag(self, fs_hz: float) -> int:
         """Return the longest correlation lag the design needs at ``fs_hz`` [samples]."""
@@ -434,6 +478,7 @@ class NormalEquations:
 
     def __init__(self, corr: Correlations, look_ahead: int, design: LiveDesign):
         fs = corr.fs_hz
+        design = design.for_inputs(corr.rxx.shape[0], fs)
         history = max(1, int(round(design.history_s * fs)))
         t_max = look_ahead + history + 2
         if t_max > corr.max_lag:
@@ -544,6 +589,7 @@ def _fine_count(edges: np.ndarray) -> int:
 def design_live(corr: Correlations, design: LiveDesign) -> Tuple[CausalEstimator, ...]:
     """Design one estimator per distinct look-ahead of ``design`` (configured one first)."""
     looks = list(dict.fromkeys(look_ahead_samples(v, corr.fs_hz) for v in design.look_aheads_s))
+    design = design.for_inputs(corr.rxx.shape[0], corr.fs_hz)
     # One factorisation of the longest look-ahead's equations serves every look-ahead.
     factor = LagOrderedFactor(NormalEquations(corr, max(looks), design))
     return tuple(factor.estimator(d) for d in looks)

@@ -17,9 +17,14 @@ is one triangular solve with their columns and a 706-unknown Cholesky per look-a
 a factorisation of the larger set from scratch costs ~1.6 times the smaller set's own
 (``bench/bench_nested_factor.py``: both sets at two look-aheads 1.68 s from scratch, 0.89 s
 bordered, taps equal to 5e-12).  The lag-ordered factor serves every look-ahead as a
-leading block; bordered, that holds within each part but not across them, so ``W`` and
-``L22`` are formed per look-ahead (the search needs two: the live one and the two-sided
-least-squares FIR's).
+leading block; bordered, that holds within each part but not across them, so ``L22`` is
+formed per look-ahead (the search needs two: the live one and the two-sided least-squares
+FIR's).  ``W`` is not, when ``inner`` is lag-ordered: a look-ahead's inner unknowns are a
+leading part of the longest look-ahead's, and a forward substitution's leading rows depend on
+the leading rows alone, so ``W(d) = L11(d)⁻¹ A12(d)`` is the leading block of the longest
+look-ahead's ``W`` (one solve with the added columns per factor instead of one per
+look-ahead: the largest cost of bordering at 64 blocks per octave).  A bordered ``inner``
+does not number its unknowns that way, and gets its ``W`` per look-ahead.
 
 Only the factorisation is new: the equations, the ridge and the solution are those of
 :class:`.live_estimator.LagOrderedFactor` of the larger set, to rounding (tested).
@@ -31,6 +36,7 @@ import scipy.linalg
 
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.live_estimator import lag_order
+from wheel_force_estimator.core.live_estimator import LagOrderedFactor
 from wheel_force_estimator.core.live_estimator import NormalEquations
 from wheel_force_estimator.core.live_estimator import TriangularFactor
 
@@ -79,7 +85,11 @@ class BorderedFactor(TriangularFactor):
             inner_order = self._inner.order(d)
             added = self._added[:(self._eq.n_in - self._inner.equations.n_in)
                                 * (self._n_b - self._d_max + d)]
-            w = self._inner.solve_lower(d, self._eq.block(inner_order, added))
+            if d != self._d_max and isinstance(self._inner, LagOrderedFactor):
+                # the leading block of the longest look-ahead's W (module notes)
+                w = self._part(self._d_max)[1][:inner_order.size, :added.size]
+            else:
+                w = self._inner.solve_lower(d, self._eq.block(inner_order, added))
             schur = self._eq.block(added, added)
             extra = (self._ridge - self._eq.info['regularisation']) * self._eq.ridge_unit[added]
             schur[np.diag_indices_from(schur)] += extra

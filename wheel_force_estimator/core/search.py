@@ -304,7 +304,7 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
         blocks.
 
     """
-    live = config.live or LiveDesign()
+    live = (config.live or LiveDesign()).for_inputs(len(input_channels), fs_hz)
     too_long = [v for v in live.look_aheads_s if v > LS_LOOK_AHEAD_S]
     if too_long:
         raise ConfigError(f'live_look_ahead_s {too_long[0]:g} s is outside 0 .. '
@@ -449,7 +449,7 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
     fits = {i: h1_fits([whole], config, sorted(v), fs_hz, order, input_channels, sets[i][1])
             for i, v in variants.items() if v}
     ref_est, _, ref_fir, extra = fits[len(sets) - 1][default]
-    live = config.live or LiveDesign()
+    live = (config.live or LiveDesign()).for_inputs(len(input_channels), fs_hz)
     ls = {}
     n_model = max(ref_fir.n_taps, config.long_segment_length)
     if lags:
@@ -494,6 +494,7 @@ def chosen_live(corr, choice: Choice, live: LiveDesign, n_in: int) -> tuple:
 
     """
     sets = choice.space.input_sets
+    live = live.for_inputs(n_in, corr.fs_hz)
     if corr.rxx.shape[0] != n_in or corr.max_lag < max_lag(live, corr.fs_hz):
         raise ConfigError(f'correlations of {corr.rxx.shape[0]} inputs to lag '
                           f'{corr.max_lag} cannot design live estimators of {n_in} inputs '
