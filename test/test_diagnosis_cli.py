@@ -71,7 +71,7 @@ def test_generic_without_sim_fits_linear_on_real(generic_files, tmp_path):
     # lines' gain ringing from the record's ends), and the damper asymmetry of fa is named
     # on that reference.  Whether its term is written is the held-out data's call: with the
     # live basis at 32 blocks per octave the FIR scored 8.0 % on fa and FIR + term 7.2 %;
-    # at 64 blocks per octave and ridge 1e-5 (2026-11-29) the FIR alone scores 7.1 % and the
+    # at 48 blocks per octave and ridge 1e-5 (2026-11-29) the FIR alone scores 7.1 % and the
     # term no longer pays in both figures on the gate half, so the FIR is written.
     assert doc['reference'] == 'real (linear fit) (frf)'
     assert doc['fit']['real_linear'] == doc['fit']['before']
