@@ -97,8 +97,8 @@ BLOCKS_PER_OCTAVE_CHOICES = (48, 32)
 #: :data:`BLOCKS_PER_OCTAVE_CHOICES` within it, else the coarsest.  A cost bound, not a tuned
 #: accuracy figure: the Cholesky factor of ``n`` unknowns is ``8 n²`` bytes and ``n³ / 3``
 #: flops, and ``fit`` factorises a few per fold.  With the 0.25 s offline look-ahead a car's
-#: 12-16 inputs at 512 Hz reach ~7000 unknowns (0.4 GB per factor) at 48 blocks per octave;
-#: the 28-30 of six components get 32.
+#: 12-18 inputs at 512 Hz reach 5300-7900 unknowns (0.2-0.5 GB per factor) at 48 blocks per
+#: octave; the 28-30 of six components get 32.
 MAX_PAST_UNKNOWNS = 6144
 
 
@@ -589,7 +589,6 @@ def _fine_count(edges: np.ndarray) -> int:
 def design_live(corr: Correlations, design: LiveDesign) -> Tuple[CausalEstimator, ...]:
     """Design one estimator per distinct look-ahead of ``design`` (configured one first)."""
     looks = list(dict.fromkeys(look_ahead_samples(v, corr.fs_hz) for v in design.look_aheads_s))
-    design = design.for_inputs(corr.rxx.shape[0], corr.fs_hz)
     # One factorisation of the longest look-ahead's equations serves every look-ahead.
     factor = LagOrderedFactor(NormalEquations(corr, max(looks), design))
     return tuple(factor.estimator(d) for d in looks)

@@ -12,19 +12,19 @@ block Cholesky factorisation gives the larger factor from the smaller one::
     A = [[A11, A12], [A21, A22]] = L Lᵀ,   L = [[L11, 0], [Wᵀ, L22]],
     W = L11⁻¹ A12,   L22 L22ᵀ = A22 - Wᵀ W.
 
-For the two inputs of the traction/braking split (706 of 4942 unknowns at the defaults) that
-is one triangular solve with their columns and a 706-unknown Cholesky per look-ahead, where
-a factorisation of the larger set from scratch costs ~1.6 times the smaller set's own
-(``bench/bench_nested_factor.py``: both sets at two look-aheads 1.68 s from scratch, 0.89 s
-bordered, taps equal to 5e-12).  The lag-ordered factor serves every look-ahead as a
-leading block; bordered, that holds within each part but not across them, so ``L22`` is
-formed per look-ahead (the search needs two: the live one and the two-sided least-squares
-FIR's).  ``W`` is not, when ``inner`` is lag-ordered: a look-ahead's inner unknowns are a
-leading part of the longest look-ahead's, and a forward substitution's leading rows depend on
-the leading rows alone, so ``W(d) = L11(d)⁻¹ A12(d)`` is the leading block of the longest
-look-ahead's ``W`` (one solve with the added columns per factor instead of one per
-look-ahead: the largest cost of bordering at 64 blocks per octave).  A bordered ``inner``
-does not number its unknowns that way, and gets its ``W`` per look-ahead.
+For the two inputs of the traction/braking split (876 of 6132 unknowns at the defaults) that is
+one triangular solve with their columns and an 876-unknown Cholesky per look-ahead, where a
+factorisation of the larger set from scratch costs ~1.6 times the smaller set's own
+(``bench/bench_nested_factor.py`` at 32 blocks per octave, 706 of 4942 unknowns: both sets at
+two look-aheads 1.68 s from scratch, 0.89 s bordered, taps equal to 5e-12). The lag-ordered
+factor serves every look-ahead as a leading block; bordered, that holds within each part but
+not across them, so ``L22`` is formed per look-ahead (the search needs two: the live one and
+the two-sided least-squares FIR's). ``W`` is not, when ``inner`` is lag-ordered: a look-ahead's
+inner unknowns are a leading part of the longest look-ahead's, and a forward substitution's
+leading rows depend on the leading rows alone, so ``W(d) = L11(d)⁻¹ A12(d)`` is the leading
+block of the longest look-ahead's ``W`` (one solve with the added columns per factor instead of
+one per look-ahead: the largest cost of bordering at 48 blocks per octave and more). A bordered
+``inner`` does not number its unknowns that way, and gets its ``W`` per look-ahead.
 
 Only the factorisation is new: the equations, the ridge and the solution are those of
 :class:`.live_estimator.LagOrderedFactor` of the larger set, to rounding (tested).

@@ -290,6 +290,11 @@ def max_lag(live: LiveDesign, fs_hz: float) -> int:
         LS_LOOK_AHEAD_S,)).max_lag(fs_hz)
 
 
+def live_design(config: FitConfig, input_channels, fs_hz: float) -> LiveDesign:
+    """Return the live design of ``config`` (default if unset), its basis fixed for the inputs."""
+    return (config.live or LiveDesign()).for_inputs(len(input_channels), fs_hz)
+
+
 def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
            imposed: frozenset = frozenset(), progress=lambda it, desc: it
            ) -> Optional[Tuple[Choice, dict, int]]:
@@ -304,7 +309,7 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
         blocks.
 
     """
-    live = (config.live or LiveDesign()).for_inputs(len(input_channels), fs_hz)
+    live = live_design(config, input_channels, fs_hz)
     too_long = [v for v in live.look_aheads_s if v > LS_LOOK_AHEAD_S]
     if too_long:
         raise ConfigError(f'live_look_ahead_s {too_long[0]:g} s is outside 0 .. '
@@ -449,7 +454,7 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
     fits = {i: h1_fits([whole], config, sorted(v), fs_hz, order, input_channels, sets[i][1])
             for i, v in variants.items() if v}
     ref_est, _, ref_fir, extra = fits[len(sets) - 1][default]
-    live = (config.live or LiveDesign()).for_inputs(len(input_channels), fs_hz)
+    live = live_design(config, input_channels, fs_hz)
     ls = {}
     n_model = max(ref_fir.n_taps, config.long_segment_length)
     if lags:
