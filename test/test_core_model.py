@@ -160,6 +160,10 @@ def _term(physics='bump_stop', **changes):
     (_term(channels=['out7']), r"term 1 \(bump_stop\): output channel 'out7'"),
     (_term(sources=['in9']), r"term 1 \(bump_stop\): input channel 'in9'"),
     (_term('warp_drive'), r'term 1 \(warp_drive\).*not one of'),
+    (_term(force_range_n=[[5.0, -5.0]]),
+     r'term 1 \(bump_stop\): bump_stop: force_range_n\[0\] least 5 N is above'),
+    (_term(force_range_n=[[0.0, None]]),
+     r'term 1 \(bump_stop\): bump_stop\.force_range_n\[0\]'),
 ])
 def test_bad_physics_section_names_the_term_and_field(tmp_path, term, match):
     path = save_model(small_model(), tmp_path / 'm.npz')

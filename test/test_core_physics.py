@@ -225,6 +225,14 @@ def _term(physics, channels=('lf_fz',), **parameters):
     (dict(_term('mass_error', mass_kg=1.0), response_taps='1.0'), 'list of numbers'),
     (dict(_term('mass_error', mass_kg=1.0), response_taps=np.zeros(ph.MAX_RESPONSE_TAPS + 1)),
      'at most'),
+    (dict(_term('mass_error', mass_kg=1.0), force_range_n=((0.0, 1.0), (0.0, 1.0))),
+     '2 pairs for 1 channels'),
+    (dict(_term('mass_error', mass_kg=1.0), force_range_n=((2.0, 1.0),)),
+     'least 2 N is above its greatest 1 N'),
+    (dict(_term('mass_error', mass_kg=1.0), force_range_n=((0.0, float('inf')),)),
+     r'mass_error\.force_range_n\[0\] must be finite'),
+    (dict(_term('mass_error', mass_kg=1.0), force_range_n=(1.0,)), 'least, greatest'),
+    (dict(_term('mass_error', mass_kg=1.0), force_range_n='0 1'), 'pairs'),
 ])
 def test_term_validation(kwargs, match):
     with pytest.raises(ConfigError, match=match):
@@ -486,3 +494,30 @@ def test_a_unit_response_is_the_static_term_and_a_delayed_one_shifts_it():
     np.testing.assert_allclose(out[o, 2:], 2.0 * added[o, :-2], rtol=1e-12, atol=1e-9)
     assert np.all(out[o, :2] == 0.0)
     assert 'response_taps' not in static.to_dict()
+
+
+def test_a_bounded_term_holds_the_edges_of_its_range_per_channel():
+    # Known answer: the stage adds clip(the term's force, least, greatest) on each of the
+    # term's channels and nothing elsewhere; the bounds survive JSON and scale with the
+    # strength (a negative factor swaps the edges); an unbounded term writes no bounds.
+    accel, force = _signals()
+    term = ph.PhysicsTerm('rebound_stop', ('lf_fz', 'rf_fz'),
+                          {'threshold_n': 2990.0, 'gain': 2.0, 'exponent': 2.0},
+                          state='load', state_lowpass_hz=20.0)
+    free = ph.apply_physics([term], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force) - force
+    rows = [OUTPUT_CHANNELS.index(c) for c in term.channels]
+    bounds = tuple((float(np.quantile(free[o], 0.02)), 0.0) for o in rows)
+    assert all(lo < -1.0 for lo, _ in bounds)
+    bounded = dataclasses.replace(term, force_range_n=bounds)
+    out = ph.apply_physics([bounded], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force) - force
+    for o, (lo, hi) in zip(rows, bounds):
+        assert (free[o] < lo).sum() > 10
+        np.testing.assert_allclose(out[o], np.clip(free[o], lo, hi), rtol=0.0, atol=1e-9)
+    np.testing.assert_array_equal(np.delete(out, rows, 0), 0.0)
+    back = ph.PhysicsTerm.from_dict(json.loads(json.dumps(bounded.to_dict())))
+    assert back == bounded and back.force_range_n == bounds
+    assert 'force_range_n' not in term.to_dict()
+    flipped = bounded.scaled(-2.0)
+    assert flipped.force_range_n == tuple((-2.0 * hi, -2.0 * lo) for lo, hi in bounds)
+    two = ph.apply_physics([flipped], FS, INPUT_CHANNELS, OUTPUT_CHANNELS, accel, force) - force
+    np.testing.assert_allclose(two, -2.0 * out, rtol=1e-12, atol=1e-9)

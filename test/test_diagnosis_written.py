@@ -316,6 +316,35 @@ def test_scaling_a_term_scales_its_force_through_the_predictor(tmp_path):
         np.testing.assert_allclose(two, 2.5 * one, rtol=1e-9, atol=1e-9)
 
 
+def test_bounded_terms_keep_the_records_they_saw_and_hold_the_edge_beyond(tmp_path):
+    # Invariant: on the records the bounds come from, the bounded model predicts exactly
+    # what the unbounded one does; on motion twice as large the term adds no more than the
+    # greatest force it added there (the cubic law alone would add 8x).
+    from wheel_force_estimator.diagnosis.written import bounded_terms
+    rng = np.random.default_rng(5)
+    x = _motion(rng, 4096)
+    np.savez(tmp_path / 'a.npz', x=x, f=_rig_force(x, rng, 0.0))
+    assert main(['fit', str(tmp_path / 'a.npz'), '-o', str(tmp_path / 'm.npz'),
+                 '--segment-length', '512'] + ROLES) == 0
+    cubic = PhysicsTerm('cubic_stiffness', ('f',), {'stiffness_n_per_m3': 1e8}, sources=('x',),
+                        input_quantity='displacement', highpass_hz=0.0, lowpass_hz=32.0)
+    model = load_model(tmp_path / 'm.npz').with_physics([cubic.to_dict()])
+    seen = [MotionRecording('a', FS_HZ, x[None], x[None], ('x',), ('f',), 'displacement')]
+    bounded = bounded_terms(model, seen)
+    base = predict_forces(model.with_physics([]), x[None])
+    added = predict_forces(model, x[None]) - base
+    (lo, hi), = bounded.physics_terms[0].force_range_n
+    assert (lo, hi) == (added.min(), added.max()) and lo < -1.0 < 1.0 < hi
+    assert np.array_equal(predict_forces(bounded, x[None]), predict_forces(model, x[None]))
+    big = 2.0 * x[None]
+    free = predict_forces(model, big) - predict_forces(model.with_physics([]), big)
+    held = predict_forces(bounded, big) - predict_forces(model.with_physics([]), big)
+    assert free.max() > 4.0 * hi and free.min() < 4.0 * lo
+    np.testing.assert_allclose(held, np.clip(free, lo, hi), rtol=0.0, atol=1e-9)
+    # a bound already there is kept (a --model written by an earlier diagnosis)
+    assert bounded_terms(bounded, [seen[0]]) is bounded
+
+
 def test_live_estimators_of_a_written_model_see_the_forces_without_its_terms(tmp_path):
     from wheel_force_estimator.core.live_estimator import LiveDesign
     from wheel_force_estimator.diagnosis.written import with_live_estimators

@@ -382,6 +382,9 @@ class PhysicsStage:
                     added = added * weight
                 if term.response_taps:
                     added = self._response(term.response_taps, (n_term, j), added)
+                if term.force_range_n:
+                    # held at the edge of what the fit saw, not extrapolated (see PhysicsTerm)
+                    added = np.clip(added, *term.force_range_n[j])
                 out[o] += added
         self._n_seen += n
         return out

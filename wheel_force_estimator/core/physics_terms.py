@@ -222,7 +222,8 @@ def default_source(output_channel: str) -> str:
 
 #: Keys of :meth:`PhysicsTerm.to_dict`; the first three are required.
 _KEYS = ('physics', 'channels', 'parameters', 'sources', 'partners', 'input_quantity',
-         'highpass_hz', 'lowpass_hz', 'state', 'state_lowpass_hz', 'response_taps')
+         'highpass_hz', 'lowpass_hz', 'state', 'state_lowpass_hz', 'response_taps',
+         'force_range_n')
 #: Longest response FIR a term may carry [taps] (a model file from a stranger is bounded).
 MAX_RESPONSE_TAPS = 65536
 
@@ -266,6 +267,12 @@ class PhysicsTerm:
         the channel; empty (default) = added as it is.  Through it a term inside a structure
         reaches the sensor through the structure's dynamics.  At most
         :data:`MAX_RESPONSE_TAPS` finite taps.
+    force_range_n : tuple of (float, float)
+        Per output channel, the least and the greatest force [N] the term may add: the
+        range it added on the recordings its strength was fitted on (see
+        ``diagnosis.written.bounded_terms``).  Beyond it the term holds the edge value
+        instead of extrapolating its force law (a progressive stop fed a load the fit never
+        saw).  Empty (default): unbounded.
 
     Raises
     ------
@@ -285,6 +292,7 @@ class PhysicsTerm:
     state: str = 'motion'
     state_lowpass_hz: float = 0.0
     response_taps: Tuple[float, ...] = ()
+    force_range_n: Tuple[Tuple[float, float], ...] = ()
     params: TermParams = dataclasses.field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -328,6 +336,8 @@ class PhysicsTerm:
             if finite_number(getattr(self, field_name), field_name) < 0.0:
                 raise ConfigError(f'{name}: {field_name} must be >= 0')
         object.__setattr__(self, 'response_taps', _response_taps(self.response_taps, name))
+        object.__setattr__(self, 'force_range_n',
+                           _force_range(self.force_range_n, len(channels), name))
         object.__setattr__(self, 'channels', channels)
         object.__setattr__(self, 'params', params)
         object.__setattr__(self, 'parameters', types.MappingProxyType(params.as_dict()))
@@ -371,7 +381,10 @@ class PhysicsTerm:
             raise ConfigError(f'{self.physics}: no strength parameter to scale')
         params = dict(self.parameters)
         params[name] = params[name] * float(factor)
-        return dataclasses.replace(self, parameters=params)
+        # the bounds were what the term added at its old strength: scaled with it
+        bounds = tuple(sorted((lo * float(factor), hi * float(factor)))
+                       for lo, hi in self.force_range_n)
+        return dataclasses.replace(self, parameters=params, force_range_n=bounds)
 
     def to_dict(self) -> Dict:
         """Return a JSON-serialisable description (inverse of :meth:`from_dict`)."""
@@ -386,6 +399,8 @@ class PhysicsTerm:
             out['state_lowpass_hz'] = self.state_lowpass_hz
         if self.response_taps:
             out['response_taps'] = list(self.response_taps)
+        if self.force_range_n:
+            out['force_range_n'] = [list(r) for r in self.force_range_n]
         return out
 
     @classmethod
@@ -405,7 +420,7 @@ class PhysicsTerm:
         missing = sorted(set(_KEYS[:3]) - set(data))
         if unknown or missing:
             raise ConfigError(f'physics term: unknown keys {unknown}, missing keys {missing}')
-        for key in ('channels', 'sources', 'partners', 'response_taps'):
+        for key in ('channels', 'sources', 'partners', 'response_taps', 'force_range_n'):
             if isinstance(data.get(key, ()), (str, bytes)):
                 raise ConfigError(f'{data["physics"]}: {key} must be a list of channel names, '
                                   f'got {data[key]!r}')
@@ -417,7 +432,32 @@ class PhysicsTerm:
                    lowpass_hz=data.get('lowpass_hz', 0.0),
                    state=str(data.get('state', 'motion')),
                    state_lowpass_hz=data.get('state_lowpass_hz', 0.0),
-                   response_taps=tuple(data.get('response_taps', ())))
+                   response_taps=tuple(data.get('response_taps', ())),
+                   force_range_n=tuple(data.get('force_range_n', ())))
+
+
+def _force_range(ranges, n_channels: int, name: str) -> Tuple[Tuple[float, float], ...]:
+    """Validate per-channel force bounds: empty, or ``n_channels`` finite pairs ``lo <= hi``."""
+    if isinstance(ranges, (str, bytes)) or not hasattr(ranges, '__len__'):
+        raise ConfigError(f'{name}: force_range_n must be a list of [least, greatest] pairs, '
+                          f'got {ranges!r}')
+    if len(ranges) and len(ranges) != n_channels:
+        raise ConfigError(f'{name}: force_range_n has {len(ranges)} pairs for {n_channels} '
+                          f'channels')
+    out = []
+    for i, pair in enumerate(ranges):
+        if isinstance(pair, (str, bytes)) or not hasattr(pair, '__len__') or len(pair) != 2:
+            raise ConfigError(f'{name}: force_range_n[{i}] must be [least, greatest] [N], '
+                              f'got {pair!r}')
+        try:
+            lo, hi = (finite_number(v, f'force_range_n[{i}]') for v in pair)
+        except ConfigError as err:
+            raise ConfigError(f'{name}.{err}') from err
+        if lo > hi:
+            raise ConfigError(f'{name}: force_range_n[{i}] least {lo:g} N is above its '
+                              f'greatest {hi:g} N')
+        out.append((lo, hi))
+    return tuple(out)
 
 
 def _response_taps(taps, name: str) -> Tuple[float, ...]:

@@ -42,6 +42,7 @@ from wheel_force_estimator.diagnosis.reference import FrfReference
 from wheel_force_estimator.diagnosis.result import figure_keys
 from wheel_force_estimator.diagnosis.result import FitComparison
 from wheel_force_estimator.diagnosis.written import backfitted_model
+from wheel_force_estimator.diagnosis.written import bounded_terms
 from wheel_force_estimator.diagnosis.written import gate_dynamic
 from wheel_force_estimator.diagnosis.written import has_joint_step
 from wheel_force_estimator.diagnosis.written import is_dynamic
@@ -184,7 +185,8 @@ def candidate_builder(findings, ref_model, mode: str, real_fit, hp: float, skip:
         if ref is not None and mode != 'linear':
             out[UNCHANGED[mode]] = ref
         out['real_linear'] = linear
-        return out
+        # every term held within the force it added on the records it was fitted on
+        return {name: bounded_terms(model, recordings) for name, model in out.items()}
     return build
 
 
