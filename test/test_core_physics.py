@@ -516,6 +516,8 @@ def test_a_bounded_term_holds_the_edges_of_its_range_per_channel():
     np.testing.assert_array_equal(np.delete(out, rows, 0), 0.0)
     back = ph.PhysicsTerm.from_dict(json.loads(json.dumps(bounded.to_dict())))
     assert back == bounded and back.force_range_n == bounds
+    with pytest.raises(ConfigError, match='force_range_n must be a list of'):
+        ph.PhysicsTerm.from_dict(dict(bounded.to_dict(), force_range_n='-5 0'))
     assert 'force_range_n' not in term.to_dict()
     flipped = bounded.scaled(-2.0)
     assert flipped.force_range_n == tuple((-2.0 * hi, -2.0 * lo) for lo, hi in bounds)

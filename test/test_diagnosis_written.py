@@ -341,8 +341,9 @@ def test_bounded_terms_keep_the_records_they_saw_and_hold_the_edge_beyond(tmp_pa
     held = predict_forces(bounded, big) - predict_forces(model.with_physics([]), big)
     assert free.max() > 4.0 * hi and free.min() < 4.0 * lo
     np.testing.assert_allclose(held, np.clip(free, lo, hi), rtol=0.0, atol=1e-9)
-    # a bound already there is kept (a --model written by an earlier diagnosis)
+    # a bound already there is kept, and a --model's own terms (``keep``) stay unbounded
     assert bounded_terms(bounded, [seen[0]]) is bounded
+    assert bounded_terms(model, seen, keep=model.physics_terms) is model
 
 
 def test_live_estimators_of_a_written_model_see_the_forces_without_its_terms(tmp_path):

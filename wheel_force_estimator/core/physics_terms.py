@@ -420,7 +420,7 @@ class PhysicsTerm:
         missing = sorted(set(_KEYS[:3]) - set(data))
         if unknown or missing:
             raise ConfigError(f'physics term: unknown keys {unknown}, missing keys {missing}')
-        for key in ('channels', 'sources', 'partners', 'response_taps', 'force_range_n'):
+        for key in ('channels', 'sources', 'partners', 'response_taps'):
             if isinstance(data.get(key, ()), (str, bytes)):
                 raise ConfigError(f'{data["physics"]}: {key} must be a list of channel names, '
                                   f'got {data[key]!r}')
@@ -433,7 +433,7 @@ class PhysicsTerm:
                    state=str(data.get('state', 'motion')),
                    state_lowpass_hz=data.get('state_lowpass_hz', 0.0),
                    response_taps=tuple(data.get('response_taps', ())),
-                   force_range_n=tuple(data.get('force_range_n', ())))
+                   force_range_n=data.get('force_range_n', ()))
 
 
 def _force_range(ranges, n_channels: int, name: str) -> Tuple[Tuple[float, float], ...]:

@@ -185,8 +185,10 @@ def candidate_builder(findings, ref_model, mode: str, real_fit, hp: float, skip:
         if ref is not None and mode != 'linear':
             out[UNCHANGED[mode]] = ref
         out['real_linear'] = linear
-        # every term held within the force it added on the records it was fitted on
-        return {name: bounded_terms(model, recordings) for name, model in out.items()}
+        # every term fitted here held within the force it added on the records it was
+        # fitted on; the reference's own terms (a --model's) stay as they are
+        own = ref.physics_terms if ref is not None else ()
+        return {name: bounded_terms(model, recordings, own) for name, model in out.items()}
     return build
 
 

@@ -39,7 +39,7 @@ def term_dicts(terms) -> List[dict]:
     return [t.to_dict() for t in terms]
 
 
-def bounded_terms(model, recordings: Sequence):
+def bounded_terms(model, recordings: Sequence, keep: Sequence = ()):
     """
     Return ``model`` with each term's force bounded to what it added on ``recordings``.
 
@@ -51,18 +51,19 @@ def bounded_terms(model, recordings: Sequence):
     % for the FIR alone), so the held-out blocks could not see the terms' gain (8 % at 1 Hz
     high-pass on a new recording of the course).  The bound is the least and greatest force
     the term added on ``recordings`` per channel (:attr:`PhysicsTerm.force_range_n`); beyond
-    them it holds the edge.  Terms that already carry a bound keep it (a ``--model`` written
-    by an earlier diagnosis).  Each term is evaluated alone on the linear prediction, which
-    is what it reads in the stage, so the bounds are exact on ``recordings``.
+    them it holds the edge.  Terms that already carry a bound, and the terms of ``keep`` (a
+    ``--model``'s own, fitted on other recordings), are left as they are.  Each term is
+    evaluated alone on the linear prediction, which is what it reads in the stage, so the
+    bounds are exact on ``recordings``.
     """
     terms = model.physics_terms
-    if not terms or all(t.force_range_n for t in terms):
+    if all(t.force_range_n or t in keep for t in terms):
         return model
     linear = _predictions(model.with_physics([]), recordings)
     rows = {c: i for i, c in enumerate(model.output_channels)}
     out = []
     for term in terms:
-        if not term.force_range_n:
+        if not (term.force_range_n or term in keep):
             added = _units(model, [[term]], recordings, linear)[0]
             index = [rows[c] for c in term.channels]
             term = replace(term, force_range_n=tuple(
