@@ -26,10 +26,11 @@ fallbacks for records too short to search and builds the model):
    scored on the same folds from the same factorisations (one per set and ridge: the
    lag-ordered factor interleaves the inputs, so a subset needs its own; its normal matrix
    is a sub-block of the full set's, built once per fold).
-5. **the chosen design**: per output row, the live estimator's input set and ridge with the
-   lowest held-out error of the live estimator (relative MSE, unfiltered plus 1 Hz
-   high-passed); then the (input set, candidate) pair with the lowest held-out error among
-   those no worse than that live estimator in either figure.
+5. **the chosen design**: per output row, the input set whose best offline candidate has
+   the lowest held-out error (relative MSE, unfiltered plus 1 Hz high-passed), and in it
+   the live estimator's ridge with the lowest held-out error of the live estimator; then
+   the (input set, candidate) pair with the lowest held-out error among those no worse
+   than that live estimator in either figure.
 6. **the estimate** (:func:`fit_chosen`): the chosen H1 variants and LS factorisations on
    all the data, per input set (one factorisation per set and ridge serves the offline FIR
    and every live look-ahead).
@@ -363,11 +364,14 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
                               else [a + b for a, b in zip(live_scores[i], lv)])
         del ls
     n_out = stats[0].sum_y.size
-    n_ridges = len(sp.ridges)
     if lags:
-        # the live estimator's input set and ridge per row: its own held-out criterion
-        flat = best_rows(np.stack([p.criterion() for per in live_scores for p in per]))[0]
-        live_sets, live_rows = flat // n_ridges, flat % n_ridges
+        # the input set per row: the offline candidates' best (which inputs carry a row's
+        # force is one question; the offline candidates' scores separate the sets where
+        # the live ones near-tie: docs/fit_design.md §5); the live ridge within it
+        off = np.stack([[p.criterion() for p in per] for per in scores])   # (set, cand, o)
+        live_sets = np.argmin(off.min(axis=1), axis=0)
+        crit = np.stack([[p.criterion() for p in per] for per in live_scores])  # (set, r, o)
+        live_rows = np.argmin(crit[live_sets, :, np.arange(n_out)], axis=1)
     else:
         live_sets = live_rows = np.zeros(n_out, dtype=int)
     row_sets, rows = _offline_rows(scores, sp, live.look_aheads_s[0],
