@@ -104,8 +104,8 @@ def test_each_row_chooses_its_inputs_and_excluded_inputs_have_zero_taps(fitted):
 def test_the_live_estimator_takes_its_rows_input_set_from_the_offline_folds():
     # Bug caught (issue 29): each estimator choosing its set on its own folds, so a set the
     # live estimator cannot use within its look-ahead near-ties there and is dropped by
-    # noise (measured: the compact car's rf_fy live on the accelerations alone, 13.1 %
-    # against 12.8 % with the set the offline folds chose).  Output h reads a rate 0.2 s
+    # noise (measured: the compact car's live y 13.1 % with rf_fy on the accelerations
+    # alone, 12.8 % with the set the offline folds chose).  Output h reads a rate 0.2 s
     # ahead: the offline LS FIR (0.25 s look-ahead) needs the rates, the 50 ms live one
     # cannot see them, and the row's set is the offline folds' (every estimator of the row
     # on the same inputs).
