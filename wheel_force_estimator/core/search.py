@@ -175,8 +175,7 @@ class Choice:
 
         sets = self.space.input_sets
         index = {c: k for k, c in enumerate(self.space.offline)}
-        crit = np.stack([[p.criterion() for p in per] for per in self.scores])  # (set, c, o)
-        best = np.argmin(crit, axis=1)                                          # (set, o)
+        best = np.argmin(_criteria(self.scores), axis=1)                        # (set, o)
         rows = {}
         for o, (name, cand) in enumerate(zip(output_channels, self.rows)):
             pct = self.scores[self.row_sets[o]][index[cand]].rmse_pct()
@@ -368,10 +367,8 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
         # the input set per row: the offline candidates' best (which inputs carry a row's
         # force is one question; the offline candidates' scores separate the sets where
         # the live ones near-tie: docs/fit_design.md §5); the live ridge within it
-        off = np.stack([[p.criterion() for p in per] for per in scores])   # (set, cand, o)
-        live_sets = np.argmin(off.min(axis=1), axis=0)
-        crit = np.stack([[p.criterion() for p in per] for per in live_scores])  # (set, r, o)
-        live_rows = np.argmin(crit[live_sets, :, np.arange(n_out)], axis=1)
+        live_sets = np.argmin(_criteria(scores).min(axis=1), axis=0)
+        live_rows = np.argmin(_criteria(live_scores)[live_sets, :, np.arange(n_out)], axis=1)
     else:
         live_sets = live_rows = np.zeros(n_out, dtype=int)
     row_sets, rows = _offline_rows(scores, sp, live.look_aheads_s[0],
@@ -383,6 +380,11 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
                     tuple(tuple(per) for per in scores), tuple(tuple(per) for per in live_scores),
                     sp, n_score, tuple(s.n / fs_hz for s in stats))
     return choice, welch, lags
+
+
+def _criteria(per_set: Sequence[Sequence[HeldOutPower]]) -> np.ndarray:
+    """Return the held-out criterion per input set, candidate and output, (set, cand, o)."""
+    return np.stack([[p.criterion() for p in per] for per in per_set])
 
 
 def _offline_rows(scores: Sequence[Sequence[HeldOutPower]], sp: Space,
