@@ -23,14 +23,18 @@ $(STAMP): setup.py setup.cfg package.xml requirements-dev.txt
 
 # The ROS graph tests first, alone (their timing checks measure the node beside nothing else),
 # then every other file on all cores.  `make test` is the fast tier (tests marked `slow`
-# deselected); `make test-all` runs everything.  Both print the 25 slowest tests.
+# deselected); `make test-all` runs everything.  Both print the 25 slowest tests.  One BLAS
+# thread per worker when the files share the cores: a worker per core each spinning two
+# OpenBLAS threads oversubscribed them (the three longest fast-tier files, 2 workers:
+# 205 s with the default threads, 149 s with one; docs/performance.md).
 PYTEST = AMENT_PREFIX_PATH=$(CURDIR)/$(VENV) $(BIN)/python -m pytest -q -p no:cacheprovider \
 	--durations=25
+PARALLEL = OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 TIER ?= -m 'not slow'
 
 test: venv
 	$(PYTEST) $(TIER) test/test_ros_*.py
-	$(PYTEST) $(TIER) -n auto --dist loadfile --ignore-glob='*/test_ros_*.py' test
+	$(PARALLEL) $(PYTEST) $(TIER) -n auto --dist loadfile --ignore-glob='*/test_ros_*.py' test
 
 test-all: venv
 	$(MAKE) test TIER=
