@@ -221,6 +221,8 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
         ``settings.settle_s`` passed), before the outputs are awaited.  The node
         holds the estimates of its look-ahead until more data, a gap, deactivate or shutdown
         (a pause is not the end of the data): e.g. stop the node here to collect them.
+        The replay then also waits (up to ``settings.settle_s``) for the stopped node to
+        leave the graph before it tears down its own (:func:`_wait_for_departure`).
     rate_radps : array_like, shape (12, n), optional
         Spindle angular rates in ``RATE_CHANNELS`` order [rad/s], published as the Imu
         angular velocity (else flagged "not provided").
@@ -293,6 +295,8 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
             after_play()
         if settings.record:
             _wait_for_outputs(collector, stamps.size, settings.settle_s)
+        if after_play is not None:
+            _wait_for_departure(pubs, subs, settings.settle_s)
         out_stamps, out_force, out_torque = collector.outputs()
         counts = tuple(len(r) for r in collector.raw)
         del subs
@@ -320,6 +324,26 @@ def _wait_for_acks(pubs, timeout_s: float):
         if left <= 0.0 or not pub.wait_for_all_acked(Duration(seconds=left)):
             return False
     return True
+
+
+def _wait_for_departure(pubs, subs, timeout_s: float):
+    """
+    Wait until the stopped node has left the graph (bounded by ``timeout_s``), then 0.2 s.
+
+    Destroying this node while the stopped one's endpoints were being removed hung the
+    replay for good (twice in about ten runs of the ROS tests): Fast DDS 2.14's participant teardown (``DomainParticipant::set_listener``
+    in ``rmw_fastrtps_shared_cpp::destroy_participant``) spun, holding the GIL, on a discovery
+    callback in flight for a departing remote reader (gdb, 2026-12-02; eProsima/Fast-DDS
+    #6513).  So the teardown waits until no remote reader or writer of the replay's topics
+    is left (other nodes of the graph may stay) and the removals' callbacks have run.
+    """
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if (all(p.get_subscription_count() == 0 for p in pubs)
+                and all(s.get_publisher_count() == 0 for s in subs)):
+            break
+        time.sleep(0.02)
+    time.sleep(0.2)
 
 
 def _wait_for_subscribers(pubs, timeout_s: float, node):
