@@ -331,8 +331,9 @@ def _wait_for_departure(pubs, subs, timeout_s: float):
     Wait until the stopped node has left the graph (bounded by ``timeout_s``), then 0.2 s.
 
     Destroying this node while the stopped one's endpoints were being removed hung the
-    replay for good (twice in about ten runs of the ROS tests): Fast DDS 2.14's participant teardown (``DomainParticipant::set_listener``
-    in ``rmw_fastrtps_shared_cpp::destroy_participant``) spun, holding the GIL, on a discovery
+    replay for good (twice in about ten runs of the ROS tests): Fast DDS 2.14's participant
+    teardown (``DomainParticipant::set_listener`` in
+    ``rmw_fastrtps_shared_cpp::destroy_participant``) spun, holding the GIL, on a discovery
     callback in flight for a departing remote reader (gdb, 2026-12-02; eProsima/Fast-DDS
     #6513).  So the teardown waits until no remote reader or writer of the replay's topics
     is left (other nodes of the graph may stay) and the removals' callbacks have run.
