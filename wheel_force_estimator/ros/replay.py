@@ -279,9 +279,8 @@ def replay_samples(stamp_ns, accel_mps2, settings: ReplaySettings,
         if joint_pub is not None:
             # only a node whose model has spin inputs subscribes (with its Imu topics): a
             # short wait, silent, so a replay to another node does not stall
-            deadline = time.monotonic() + min(settings.wait_subscribers_s, 1.0)
-            while joint_pub.get_subscription_count() == 0 and time.monotonic() < deadline:
-                time.sleep(0.02)
+            _until(lambda: joint_pub.get_subscription_count() > 0,
+                   min(settings.wait_subscribers_s, 1.0))
         if settings.record:
             _wait_for_publishers(node, topics.output_topics, settings.wait_subscribers_s)
         time.sleep(settings.match_delay_s)
@@ -316,6 +315,16 @@ def _spin(executor, stop: threading.Event):
         executor.spin_once(timeout_sec=0.05)
 
 
+def _until(done: Callable[[], bool], timeout_s: float, poll_s: float = 0.02) -> bool:
+    """Poll ``done`` every ``poll_s`` until it is true (True) or ``timeout_s`` ran out (False)."""
+    deadline = time.monotonic() + timeout_s
+    while not done():
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(poll_s)
+    return True
+
+
 def _wait_for_acks(pubs, timeout_s: float):
     """Wait until every reliable reader acknowledged every message, one deadline for all."""
     deadline = time.monotonic() + timeout_s
@@ -338,21 +347,14 @@ def _wait_for_departure(pubs, subs, timeout_s: float):
     #6513).  So the teardown waits until no remote reader or writer of the replay's topics
     is left (other nodes of the graph may stay) and the removals' callbacks have run.
     """
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if (all(p.get_subscription_count() == 0 for p in pubs)
-                and all(s.get_publisher_count() == 0 for s in subs)):
-            break
-        time.sleep(0.02)
+    _until(lambda: (all(p.get_subscription_count() == 0 for p in pubs)
+                    and all(s.get_publisher_count() == 0 for s in subs)), timeout_s)
     time.sleep(0.2)
 
 
 def _wait_for_subscribers(pubs, timeout_s: float, node):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if all(p.get_subscription_count() > 0 for p in pubs):
-            return
-        time.sleep(0.02)
+    if _until(lambda: all(p.get_subscription_count() > 0 for p in pubs), timeout_s):
+        return
     missing = [p.topic_name for p in pubs if p.get_subscription_count() == 0]
     if missing:
         node.get_logger().warning(f'no subscriber on {", ".join(missing)} after {timeout_s} s;'
@@ -360,11 +362,7 @@ def _wait_for_subscribers(pubs, timeout_s: float, node):
 
 
 def _wait_for_publishers(node, topics: Sequence[str], timeout_s: float):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if all(node.count_publishers(t) > 0 for t in topics):
-            return
-        time.sleep(0.02)
+    _until(lambda: all(node.count_publishers(t) > 0 for t in topics), timeout_s)
 
 
 def _play(pubs, event_pub, stamps: np.ndarray, accel: np.ndarray, settings: ReplaySettings,
@@ -426,12 +424,12 @@ def _wait_for_outputs(collector: _Collector, n_expected: int, settle_s: float):
         time.sleep(0.02)
     # The damage message made when the input stopped covers every output.
     n_out = min(len(r) for r in collector.raw)
-    deadline = time.monotonic() + settle_s
-    while time.monotonic() < deadline:
+
+    def covered() -> bool:
         damage = collector.damage
-        if damage is not None and damage.status and _covered(damage) >= n_out:
-            break
-        time.sleep(0.02)
+        return damage is not None and bool(damage.status) and _covered(damage) >= n_out
+
+    _until(covered, settle_s)
 
 
 def _covered(damage: DiagnosticArray) -> int:
