@@ -17,6 +17,7 @@ from wheel_force_estimator.core.live_estimator import design_causal
 from wheel_force_estimator.core.live_estimator import design_live
 from wheel_force_estimator.core.live_estimator import lag_edges
 from wheel_force_estimator.core.live_estimator import LiveDesign
+from wheel_force_estimator.core.live_estimator import solve_leading
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.overlap_add import OverlapAddFilter
@@ -144,6 +145,21 @@ def random_estimator(look_ahead=3, seed=0):
     n_fine = 8 + look_ahead
     return CausalEstimator(look_ahead, rng.normal(size=(2, 3, n_fine)), edges[n_fine:],
                            rng.normal(size=(2, 3, edges.size - 1 - n_fine)) * 0.01, {})
+
+
+@pytest.mark.parametrize('m, k', [(60, 1), (60, 3), (20, 50), (80, 3)])
+def test_solve_leading_equals_the_solve_with_the_leading_block(m, k):
+    # (60, 3): the zero-padded solve with the whole factor; (20, 50): many right-hand sides
+    # and a small block, the copied block; (80, 3): the whole factor
+    rng = np.random.default_rng(m + k)
+    g = rng.normal(size=(80, 80))
+    lower = np.linalg.cholesky(g @ g.T + 80 * np.eye(80))
+    b = rng.normal(size=(m, k)) if k > 1 else rng.normal(size=m)
+    block = lower[:m, :m]
+    np.testing.assert_allclose(solve_leading(lower, m, b, transposed=False),
+                               np.linalg.solve(block, b), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(solve_leading(lower, m, b, transposed=True),
+                               np.linalg.solve(block.T, b), rtol=1e-12, atol=1e-14)
 
 
 def test_stream_filter_equals_the_full_rate_fir_for_any_chunking():

@@ -565,16 +565,20 @@ class NormalEquations:
         pp = (c2_at(end[:, None] - 1 - start[None, :]), c2_at(start[:, None] - 1 - start[None, :]),
               c2_at(end[:, None] - 1 - end[None, :]), c2_at(start[:, None] - 1 - end[None, :]))
         a = np.empty((n_in, n_b, n_in, n_b))
-        zeros = np.zeros((n_in, 1))
         for i in range(n_in):
-            # r_ij(τ) for τ in -2 t_max .. 2 t_max (0 beyond t_max: never reached)
-            r = np.zeros((n_in, 4 * t_max + 1))
-            r[:, t_max:3 * t_max + 1] = rxx[i]
-            c2 = np.concatenate([zeros, np.cumsum(np.cumsum(r, axis=-1), axis=-1)], axis=-1)
-            a[i] = (c2[:, pp[0]] - c2[:, pp[1]] - c2[:, pp[2]] + c2[:, pp[3]]).transpose(1, 0, 2)
-        # A[(i,p),(j,q)] uses r_ij(l - m) summed over l in p and m in q.
+            # r_ij(τ) for j >= i and τ in -2 t_max .. 2 t_max (0 beyond t_max: never reached)
+            r = np.zeros((n_in - i, 4 * t_max + 1))
+            r[:, t_max:3 * t_max + 1] = rxx[i, i:]
+            c2 = np.concatenate([np.zeros((n_in - i, 1)),
+                                 np.cumsum(np.cumsum(r, axis=-1), axis=-1)], axis=-1)
+            # A[(i,p),(j,q)] uses r_ij(l - m) summed over l in p and m in q
+            row = (c2[:, pp[0]] - c2[:, pp[1]] - c2[:, pp[2]] + c2[:, pp[3]]).transpose(1, 0, 2)
+            # the (i, i) block symmetrised against rounding; A[(j,q),(i,p)] = A[(i,p),(j,q)]
+            # for j > i: the symmetric matrix from half the gathers, no full-size temporaries
+            row[:, 0, :] = 0.5 * (row[:, 0, :] + row[:, 0, :].T)
+            a[i, :, i:, :] = row
+            a[i + 1:, :, i, :] = row[:, 1:, :].transpose(1, 2, 0)
         a = a.reshape(n_in * n_b, n_in * n_b)
-        a = 0.5 * (a + a.T)
         a[np.diag_indices_from(a)] += self.info['regularisation'] * self.ridge_unit
         return a
 
@@ -701,7 +705,10 @@ class LagOrderedFactor(TriangularFactor):
                 ridge = (regularisation - eq.info['regularisation']) * eq.ridge_unit[self._perm]
                 a[np.diag_indices_from(a)] += ridge
             try:
-                self._l = scipy.linalg.cholesky(a, lower=True, overwrite_a=True,
+                # a is symmetric: its transpose is the Fortran-ordered array LAPACK
+                # factorises in place, where a C-ordered one is first copied (220 MB at
+                # 5256 unknowns; bench/bench_normal_equations.py)
+                self._l = scipy.linalg.cholesky(a.T, lower=True, overwrite_a=True,
                                                 check_finite=False)
             except np.linalg.LinAlgError as err:
                 raise InsufficientDataError(
@@ -727,15 +734,39 @@ class LagOrderedFactor(TriangularFactor):
 
     def solve_lower(self, look_ahead: int, b: np.ndarray) -> np.ndarray:
         """Return ``L⁻¹ b`` for look-ahead ``look_ahead`` (rows of ``b`` in :meth:`order`)."""
-        m = self.order(look_ahead).size
-        return scipy.linalg.solve_triangular(self._l[:m, :m], b, lower=True,
-                                             check_finite=False)
+        return solve_leading(self._l, self.order(look_ahead).size, b, transposed=False)
 
     def solve_upper(self, look_ahead: int, z: np.ndarray) -> np.ndarray:
         """Return ``L⁻ᵀ z`` for look-ahead ``look_ahead`` (rows in :meth:`order`)."""
-        m = self.order(look_ahead).size
-        return scipy.linalg.solve_triangular(self._l[:m, :m], z, lower=True, trans='T',
+        return solve_leading(self._l, self.order(look_ahead).size, z, transposed=True)
+
+
+def solve_leading(lower: np.ndarray, m: int, b: np.ndarray, transposed: bool) -> np.ndarray:
+    """
+    Return ``L₁₁⁻¹ b`` (or ``L₁₁⁻ᵀ b``), ``L₁₁`` the leading ``m × m`` block of ``lower``.
+
+    scipy's LAPACK wrappers copy a block that is not contiguous, and with the copy of a large
+    factor's leading block (3720 of 5256 unknowns: 110 MB) the solve with 12 right-hand sides
+    took 4-6 times as long (``bench/bench_normal_equations.py``).  The whole factor needs no
+    copy, and zero padding gives the block's solution from it: a forward substitution's first
+    ``m`` rows depend on the first ``m`` rows alone, and a back substitution with ``Lᵀ`` of a
+    right-hand side that is zero below row ``m`` is zero there and the block's solution above.
+    The padded solve costs ``k (n² - m²)`` more multiply-adds for ``k`` right-hand sides; it is
+    used while that is below the copy's cost, about 64 multiply-adds per element copied
+    (measured).
+    """
+    n = lower.shape[0]
+    k = int(np.prod(b.shape[1:], dtype=np.int64))
+    trans = 'T' if transposed else 'N'
+    if m < n and k * (n * n - m * m) > 64 * m * m:
+        return scipy.linalg.solve_triangular(lower[:m, :m], b, lower=True, trans=trans,
                                              check_finite=False)
+    if m < n:
+        padded = np.zeros((n,) + b.shape[1:])
+        padded[:m] = b
+        b = padded
+    return scipy.linalg.solve_triangular(lower, b, lower=True, trans=trans,
+                                         check_finite=False)[:m]
 
 
 # -- model file section -----------------------------------------------------------------------

@@ -95,7 +95,8 @@ class BorderedFactor(TriangularFactor):
             schur[np.diag_indices_from(schur)] += extra
             schur -= w.T @ w
             try:
-                l22 = scipy.linalg.cholesky(schur, lower=True, overwrite_a=True,
+                # symmetric: the transpose is factorised in place, no Fortran copy
+                l22 = scipy.linalg.cholesky(schur.T, lower=True, overwrite_a=True,
                                             check_finite=False)
             except np.linalg.LinAlgError as err:
                 raise InsufficientDataError(
