@@ -89,6 +89,15 @@ def _help(subcommand):
     return out.getvalue()
 
 
+@functools.lru_cache(maxsize=None)
+def _script_help(script):
+    """Return ``(returncode, stdout, stderr)`` of ``script --help``, once per script."""
+    # the pages show some benchmarks many times, and each start imports numpy and scipy
+    proc = subprocess.run([sys.executable, str(script), '--help'], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    return proc.returncode, proc.stdout, proc.stderr
+
+
 def _makefile_targets():
     text = (ROOT / 'Makefile').read_text()
     return set(re.findall(r'^([a-z][\w\-]*):', text, flags=re.M))
@@ -145,11 +154,10 @@ def test_command_runs_as_written(page, command):
         if 'argparse' not in script.read_text():  # `--help` would run the benchmark
             assert not options, f'{page}: `{command}`: {script.name} takes no options'
         else:
-            proc = subprocess.run([sys.executable, str(script), '--help'], cwd=ROOT,
-                                  capture_output=True, text=True, timeout=120)
-            assert proc.returncode == 0, f'{page}: `{command}`: {proc.stderr[-500:]}'
+            returncode, stdout, stderr = _script_help(script)
+            assert returncode == 0, f'{page}: `{command}`: {stderr[-500:]}'
             for option in options:
-                assert option in proc.stdout, f'{page}: `{command}`: no option {option}'
+                assert option in stdout, f'{page}: `{command}`: no option {option}'
 
 
 def test_cli_md_lists_every_option_of_every_command():
