@@ -1,6 +1,8 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """Welch segment chosen by blocked cross-validation (core.resolution, core.design)."""
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy import signal
@@ -9,6 +11,7 @@ from wheel_force_estimator.core.design import fit_design
 from wheel_force_estimator.core.design import product_fit_config
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
+from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.metrics import rmse_hp_pct
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.predict import predict_forces
@@ -59,6 +62,28 @@ def test_a_lightly_damped_mode_gets_a_finer_resolution_that_predicts_new_data_be
     scores = [float(rmse_hp_pct(hold.force_n, predict_forces(d.model, hold.accel_mps2),
                                 FS_HZ)[0]) for d in (plain, chosen)]
     assert scores[1] < 0.5 * scores[0], scores
+
+
+def test_the_segment_folds_design_no_live_estimator(monkeypatch):
+    # The folds score the offline FIR alone; a live design per fold and length was 28
+    # factorisations of the live normal equations (23 s of a 49-s generic fit), thrown away.
+    # The final model still has its live estimators, designed once.
+    from wheel_force_estimator.core import pipeline
+    calls = []
+    real = pipeline.design_live
+
+    def counting(corr, design):
+        calls.append(corr.n_samples)
+        return real(corr, design)
+    monkeypatch.setattr(pipeline, 'design_live', counting)
+    train = [_mode(60, 1, 0.05), _mode(60, 2, 0.05)]
+    config = dataclasses.replace(product_fit_config(), live=LiveDesign(look_aheads_s=(0.05,)))
+    chosen = fit_design(train, FS_HZ, config, ('a',), ('f',), 'acceleration', None, True, True,
+                        True)
+    assert 'cross-validation' in chosen.note       # the folds ran
+    assert chosen.model.live, 'the product model keeps its live estimators'
+    # the only fit_model calls with a live design: none (the search designs its own)
+    assert calls == [], calls
 
 
 def test_a_well_damped_mode_gets_no_worse_on_new_data():
