@@ -501,3 +501,30 @@ def test_a_european_text_export_fits_like_the_csv(files, tmp_path):
     csv_model, txt_model = (load_model(m) for m in models)
     np.testing.assert_array_equal(txt_model.h, csv_model.h)
     np.testing.assert_array_equal(txt_model.static_force_n, csv_model.static_force_n)
+
+
+def test_a_long_regularisation_outside_its_range_exits_2_naming_that_key(files, tmp_path,
+                                                                           capsys):
+    config = tmp_path / 'fit.yaml'
+    config.write_text('wheel_force_fit:\n  ros__parameters:\n    long_regularisation: -1\n')
+    rc = main(['fit', str(files['train.npz']), '-o', str(tmp_path / 'm.npz'), '--config',
+               str(config)] + ROLES)
+    err = capsys.readouterr().err
+    assert rc == 2
+    # the key the user wrote, not the estimator field it feeds ("regularisation")
+    assert f'{config}: ' in err and 'long_regularisation must be finite and >= 0' in err, err
+
+
+def test_spindle_channel_keys_are_validated_and_said_to_be_ignored_for_generic_records(
+        files, tmp_path, capsys):
+    config = tmp_path / 'fit.yaml'
+    head = ['fit', str(files['train.npz']), '-o', str(tmp_path / 'm.npz'), '--config',
+            str(config)]
+    config.write_text('wheel_force_fit:\n  ros__parameters:\n    inputs: [foo]\n')
+    assert main(head + ROLES) == 1
+    assert "inputs must be \"auto\" or a list among ['rates', 'spin', 'split']" in (
+        capsys.readouterr().err)
+    config.write_text('wheel_force_fit:\n  ros__parameters:\n    inputs: [rates]\n')
+    assert main(head + ROLES) == 0
+    assert 'generic recordings take theirs from --input / --output (ignored here)' in (
+        capsys.readouterr().err)

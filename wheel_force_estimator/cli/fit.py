@@ -138,8 +138,13 @@ def command(args: argparse.Namespace) -> int:
     # Bags keep the long-segment refusal; generic records fall back unless the user chose it.
     # Too few long windows for the inputs fall back for both, unless the user chose it.
     explicit = explicit_fit_keys(args.config, **settings)
-    if request is None and fit_channels(args.config).inputs is not None:
+    channels = fit_channels(args.config)      # validated for every recording kind
+    if request is None and channels.inputs is not None:
         explicit = explicit | {'inputs'}      # the input groups imposed: not searched
+    elif request is not None and (channels.inputs, channels.moments) != (None, None):
+        print(f'note: {args.config}: wheel_force_fit.inputs and .moments choose a spindle '
+              f'model\'s channels; generic recordings take theirs from --input / --output '
+              f'(ignored here)', file=sys.stderr)
     default_long = 'long_segment_length' not in explicit
     fallback = request is not None and default_long
     chosen = request is not None and 'segment_length' not in explicit

@@ -146,8 +146,11 @@ class FitConfig:
         if self.long_segment_length and self.f_min_hz > 0.0:
             raise ConfigError('long_segment_length needs f_min_hz == 0 (it exists to resolve '
                               f'the quasi-static band), got f_min_hz={self.f_min_hz!r}')
-        FrfConfig(estimator=self.estimator, regularisation=self.long_regularisation,
-                  water_level=self.water_level)
+        try:
+            self.long_frf()
+        except ConfigError as err:        # named as the user wrote it, not FrfConfig's field
+            raise ConfigError(str(err).replace('FrfConfig.regularisation',
+                                               'long_regularisation')) from err
         if not 0.0 <= self.coherence_floor < 0.5:
             raise ConfigError(f'coherence_floor must be in [0, 0.5), got {self.coherence_floor!r}')
         if not np.isfinite(self.f_min_hz) or self.f_min_hz < 0:
@@ -167,7 +170,6 @@ class FitConfig:
                 f'f_max_hz ({self.f_max_hz!r}) must be > f_min_hz ({self.f_min_hz!r})')
         # the estimator settings fail here, named, not at the first estimate
         self.frf()
-        self.long_frf()
         self.welch(1.0)
 
     def welch(self, fs_hz: float) -> WelchConfig:
