@@ -503,8 +503,8 @@ def test_a_european_text_export_fits_like_the_csv(files, tmp_path):
     np.testing.assert_array_equal(txt_model.static_force_n, csv_model.static_force_n)
 
 
-def test_a_long_regularisation_outside_its_range_exits_2_naming_that_key(files, tmp_path,
-                                                                           capsys):
+def test_a_long_regularisation_outside_its_range_exits_2_naming_that_key(
+        files, tmp_path, capsys):
     config = tmp_path / 'fit.yaml'
     config.write_text('wheel_force_fit:\n  ros__parameters:\n    long_regularisation: -1\n')
     rc = main(['fit', str(files['train.npz']), '-o', str(tmp_path / 'm.npz'), '--config',

@@ -142,9 +142,9 @@ def command(args: argparse.Namespace) -> int:
     if request is None and channels.inputs is not None:
         explicit = explicit | {'inputs'}      # the input groups imposed: not searched
     elif request is not None and (channels.inputs, channels.moments) != (None, None):
-        print(f'note: {args.config}: wheel_force_fit.inputs and .moments choose a spindle '
-              f'model\'s channels; generic recordings take theirs from --input / --output '
-              f'(ignored here)', file=sys.stderr)
+        print(f'note: {args.config}: wheel_force_fit.inputs and .moments choose the '
+              f'channels of a spindle model; generic recordings take theirs from --input / '
+              f'--output (ignored here)', file=sys.stderr)
     default_long = 'long_segment_length' not in explicit
     fallback = request is not None and default_long
     chosen = request is not None and 'segment_length' not in explicit
