@@ -291,6 +291,33 @@ def test_the_search_writes_its_choice_and_beats_no_candidate_on_new_data():
     assert np.all(offline <= live * 1.02)          # offline never worse than live (noise)
 
 
+def test_the_search_keeps_no_fold_factor_in_the_cache(monkeypatch):
+    """
+    Only the whole data's factors are kept for later fits on the same inputs.
+
+    A fold's training set is factorised once and never again (each fold has its own
+    inputs), so kept it only pushed out reusable factors and held ~220 MB each through the
+    final fit of a 20-minute bag.  Bug caught: fold factors stored in the bounded cache.
+    """
+    from wheel_force_estimator.core import candidates as cand
+    fresh = cand._RecentFactors()
+    monkeypatch.setattr(cand, '_FACTORS', fresh)
+    stored = []
+    real = fresh.factor
+
+    def recording(key, eq, ridge):
+        stored.append(eq.info['n_training_samples'])
+        return real(key, eq, ridge)
+    monkeypatch.setattr(fresh, 'factor', recording)
+    x, y = _known_system(40000, 11)
+    cfg = FitConfig(segment_length=512, long_segment_length=0,
+                    live=LiveDesign(look_aheads_s=(0.05,), history_s=0.5))
+    fitted = fit_design([TrainingSegment(x, y, 'train')], FS_HZ, cfg, ('a', 'b'), ('f', 'g'))
+    assert fitted.model.fit['design']['method'] == 'blocked_cross_validation'
+    assert fitted.model.live                        # designed, from the whole data
+    assert stored and set(stored) == {40000}, stored
+
+
 def test_too_short_to_cross_validate_falls_back_and_says_why():
     x, y = _known_system(3000, 9)
     fitted = fit_design([TrainingSegment(x, y, 'short.csv')], FS_HZ,

@@ -382,11 +382,15 @@ class LsSolutions:
     solutions of the previous nested input set (its inputs the first of ``corr``'s, the
     same ridges and ``equations`` given): each factor is bordered from its factor
     (:class:`.nested_factor.BorderedFactor`) instead of factorised from scratch.
+    ``cache``: keep the factors in the bounded cache of recent ones (:class:`_RecentFactors`)
+    for a later fit on the same inputs; False for a training set fitted once (a fold of the
+    search), whose factors would only push out ones that are reused and keep ~220 MB each
+    alive (4 of them through the final fit of a 20-minute bag).
     """
 
     def __init__(self, corr: Correlations, design: LiveDesign, ridges: Sequence[float],
                  equations: Optional[NormalEquations] = None,
-                 inner: Optional['LsSolutions'] = None):
+                 inner: Optional['LsSolutions'] = None, cache: bool = True):
         self.fs_hz = corr.fs_hz
         self.d_max = look_ahead_samples(LS_LOOK_AHEAD_S, corr.fs_hz)
         base = (float(ridges[0]) if equations is None
@@ -396,6 +400,8 @@ class LsSolutions:
         eq = NormalEquations(corr, self.d_max, design) if equations is None else equations
         if inner is not None and equations is not None:
             self.factors = {r: BorderedFactor(inner.factors[r], eq, r) for r in ridges}
+        elif not cache:
+            self.factors = {r: LagOrderedFactor(eq, r) for r in ridges}
         else:
             self.factors = {r: _FACTORS.factor(_FACTORS.key(corr, self.d_max, design, r), eq,
                                                r) for r in ridges}

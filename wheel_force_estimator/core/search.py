@@ -350,7 +350,7 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
             if lags:
                 nested = prev and tuple(cols[:len(prev)]) == tuple(prev)
                 ls = LsSolutions(subset_correlations(corr, cols), live, sp.ridges,
-                                 eqs.pop(cols), inner=ls if nested else None)
+                                 eqs.pop(cols), inner=ls if nested else None, cache=False)
                 prev = cols
                 live_resp = {r: ls.response(r, d_live, n_score) for r in sp.ridges}
                 ls_resp = {(r, LS_LOOK_AHEAD_S): ls.response(r, d_ls, n_score)
