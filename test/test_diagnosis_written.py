@@ -346,6 +346,57 @@ def test_bounded_terms_keep_the_records_they_saw_and_hold_the_edge_beyond(tmp_pa
     assert bounded_terms(model, seen, keep=model.physics_terms) is model
 
 
+def _pressed_harder_late(seed, n, end_scale):
+    """Return a hardening-rig record whose motion grows smoothly from 1x to ``end_scale``x."""
+    rng = np.random.default_rng(seed)
+    x = _motion(rng, n) * np.linspace(1.0, end_scale, n)
+    return MotionRecording(f'late_{seed}', FS_HZ, x[None], _rig_force(x, rng)[None], ('x',),
+                           ('f',), 'displacement')
+
+
+@pytest.mark.slow
+def test_a_law_pressed_harder_in_a_held_out_block_is_written_unbounded():
+    # Bug caught: every written term clipped at the force it added on the training records,
+    # so a spring pressed harder on a new record stopped hardening there (simulated bump-stop
+    # rig of bench/diagnose_blind.py, seed 0: 8.99 % bounded, 7.70 % unbounded).  Here the
+    # last block of each record is pressed harder than the others: the fold that holds it
+    # out sees the bound cut the law, so the held-out blocks choose the unbounded law.
+    from wheel_force_estimator.diagnosis.written import bounded_terms
+    n = int(60 * FS_HZ)
+    real = [_pressed_harder_late(seed, n, 1.6) for seed in (31, 32)]
+    result = diagnose(real, None, ())
+    assert [f.physics for f in result.findings][:1] == ['cubic_stiffness'], result.summary
+    assert result.fit.model == 'real_frf+physics'
+    assert result.model.physics_terms
+    assert not any(t.force_range_n for t in result.model.physics_terms)
+    assert any(note.startswith('Unbounded terms') for note in result.fit.notes)
+    # on a new record pressed harder still, the unbounded law is the better one
+    new = _pressed_harder_late(33, n, 2.0)
+    bounded = bounded_terms(result.model, real)
+    assert all(t.force_range_n for t in bounded.physics_terms)
+    scores = [evaluate_scores(lambda r, m=m: predict_forces(m, r.inputs), [new],
+                              'rmse_pct')['f'] for m in (result.model, bounded)]
+    assert scores[0] < 0.8 * scores[1], scores
+
+
+def test_unbounded_candidates_are_written_under_their_own_names():
+    # Bug caught: a candidate's internal "(unbounded)" name leaking into fit.model or
+    # fit.rows_from, or the unbounded candidate judged against another base than its own.
+    from wheel_force_estimator.diagnosis.choice import _bases
+    from wheel_force_estimator.diagnosis.choice import JOINT
+    from wheel_force_estimator.diagnosis.choice import public_name
+    from wheel_force_estimator.diagnosis.choice import UNBOUNDED
+    assert public_name('real_frf+physics' + UNBOUNDED) == 'real_frf+physics'
+    assert public_name(JOINT + UNBOUNDED) == 'real_frf+physics'
+    assert public_name('sim_frf+physics' + UNBOUNDED) == 'sim_frf+physics'
+    names = ['sim_frf+physics', 'real_frf+physics', JOINT, 'sim_frf', 'real_linear',
+             'sim_frf+physics' + UNBOUNDED, 'real_frf+physics' + UNBOUNDED, JOINT + UNBOUNDED]
+    assert _bases(dict.fromkeys(names)) == {
+        'sim_frf+physics': 'sim_frf', 'real_frf+physics': 'real_linear',
+        JOINT: 'real_frf+physics', 'sim_frf+physics' + UNBOUNDED: 'sim_frf',
+        'real_frf+physics' + UNBOUNDED: 'real_linear', JOINT + UNBOUNDED: 'real_frf+physics'}
+
+
 def test_live_estimators_of_a_written_model_see_the_forces_without_its_terms(tmp_path):
     from wheel_force_estimator.core.live_estimator import LiveDesign
     from wheel_force_estimator.diagnosis.written import with_live_estimators

@@ -7,7 +7,9 @@ Candidates (:func:`candidate_builder`, those that exist for the run): the refere
 the findings' terms (``sim_frf+physics`` / ``model+physics``, strengths refitted on the
 training data), the real-data FRF plus the terms fitted jointly
 (``real_frf+physics``, :func:`written.backfitted_model`), the reference unchanged
-(``sim_frf`` / ``model``) and the real-data linear model (``real_linear``, a plain ``fit``).
+(``sim_frf`` / ``model``) and the real-data linear model (``real_linear``, a plain ``fit``);
+each candidate with terms twice, its force laws bounded to the force they added where they
+were fitted (:func:`written.bounded_terms`) and unbounded.
 
 They are judged on data none of them was fitted on - the gate half of the holdout
 (:func:`_held_out`) or, without one, held-out blocks of the training recordings
@@ -113,15 +115,21 @@ def written_rows(pick: Mapping[str, str], choice: str, notes: List[str]) -> Dict
 
     ``choice`` is :func:`combine`'s ``fit.model``: rows only for a per-channel model.
     """
-    joint = [c for c, n in pick.items() if n == JOINT]
+    joint = [c for c, n in pick.items() if n.startswith(JOINT)]
     if joint:
         notes.append('Backfit strengths: the joint least-squares step, chosen over the '
                      'alternation on held-out data, for ' + ', '.join(joint) + '.')
+    free = [c for c, n in pick.items() if n.endswith(UNBOUNDED)]
+    if free:
+        notes.append('Unbounded terms: the force laws extrapolate beyond the force they added '
+                     'on the training recordings, chosen over the bounded laws on held-out '
+                     'data, for ' + ', '.join(free) + '.')
     return {c: public_name(n) for c, n in pick.items()} if choice == PER_CHANNEL else {}
 
 
 def public_name(name: str) -> str:
     """Return the ``fit.model`` / ``fit.rows_from`` name of candidate ``name``."""
+    name = name[:-len(UNBOUNDED)] if name.endswith(UNBOUNDED) else name
     return 'real_frf+physics' if name == JOINT else name
 
 
@@ -134,6 +142,9 @@ AUGMENTED = {'sim': 'sim_frf+physics', 'model': 'model+physics', 'linear': 'real
 #: The real-data FRF plus the terms from the joint least-squares strengths: a candidate of its
 #: own, written (and reported) as ``real_frf+physics`` with a note.
 JOINT = 'real_frf+physics (joint strengths)'
+#: Suffix of a candidate whose terms keep their force laws beyond the training range
+#: (:func:`candidate_builder`); written and reported under the name without it, with a note.
+UNBOUNDED = ' (unbounded)'
 
 
 def _reference_with_terms(with_terms, recordings, ref_model, real_fit, hp, skip):
@@ -163,7 +174,11 @@ def candidate_builder(findings, ref_model, mode: str, real_fit, hp: float, skip:
     FRF plus the terms fitted jointly (:func:`backfitted_model`), the same from the joint
     least-squares strengths (:data:`JOINT`, when :func:`written.has_joint_step`), the
     reference unchanged, the real-data linear model (``linear``, or
-    ``real_fit(recordings)``).  Without a finding that carries terms, the last two only;
+    ``real_fit(recordings)``), then each candidate whose terms :func:`bounded_terms` bounded
+    again with its force laws unbounded (``name`` + :data:`UNBOUNDED`: a stop the training
+    records never pressed as hard as a new one does is only right unbounded, a law fed by a
+    wild linear prediction only bounded, and only held-out data can tell which case this
+    is).  Without a finding that carries terms, the reference unchanged and the linear only;
     without a reference FRF, the real-data ones.
     """
     with_terms = [f for f in findings if f.terms]
@@ -186,9 +201,12 @@ def candidate_builder(findings, ref_model, mode: str, real_fit, hp: float, skip:
             out[UNCHANGED[mode]] = ref
         out['real_linear'] = linear
         # every term fitted here held within the force it added on the records it was
-        # fitted on; the reference's own terms (a --model's) stay as they are
+        # fitted on (the reference's own terms, a --model's, stay as they are), and the same
+        # candidate with its laws unbounded after it: the held-out blocks choose
         own = ref.physics_terms if ref is not None else ()
-        return {name: bounded_terms(model, recordings, own) for name, model in out.items()}
+        bounded = {name: bounded_terms(model, recordings, own) for name, model in out.items()}
+        return {**bounded, **{name + UNBOUNDED: model for name, model in out.items()
+                              if bounded[name] is not model}}
     return build
 
 
@@ -196,6 +214,7 @@ def _bases(candidates) -> Dict[str, str]:
     """Return candidate -> the candidate it adds terms to (both present)."""
     pairs = [(AUGMENTED[m], UNCHANGED[m]) for m in ('sim', 'model')]
     pairs += [('real_frf+physics', 'real_linear'), (JOINT, 'real_frf+physics')]
+    pairs += [(n + UNBOUNDED, b) for n, b in pairs]
     return {n: b for n, b in pairs if n in candidates and b in candidates}
 
 

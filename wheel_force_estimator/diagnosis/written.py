@@ -54,7 +54,8 @@ def bounded_terms(model, recordings: Sequence, keep: Sequence = ()):
     them it holds the edge.  Terms that already carry a bound, and the terms of ``keep`` (a
     ``--model``'s own, fitted on other recordings), are left as they are.  Each term is
     evaluated alone on the linear prediction, which is what it reads in the stage, so the
-    bounds are exact on ``recordings``.
+    bounds are exact on ``recordings``.  Whether the bound is written is the held-out data's
+    choice: :func:`choice.candidate_builder` offers each bounded candidate unbounded too.
     """
     terms = model.physics_terms
     if all(t.force_range_n or t in keep for t in terms):
