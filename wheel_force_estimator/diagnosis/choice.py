@@ -129,7 +129,7 @@ def written_rows(pick: Mapping[str, str], choice: str, notes: List[str]) -> Dict
 
 def public_name(name: str) -> str:
     """Return the ``fit.model`` / ``fit.rows_from`` name of candidate ``name``."""
-    name = name[:-len(UNBOUNDED)] if name.endswith(UNBOUNDED) else name
+    name = name.removesuffix(UNBOUNDED)
     return 'real_frf+physics' if name == JOINT else name
 
 
