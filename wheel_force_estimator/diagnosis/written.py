@@ -255,6 +255,14 @@ def _strength_groups(findings) -> List[tuple]:
 def backfitted_model(findings, real: Sequence, linear_model,
                      refit: Callable[[Sequence], object], hp: float, skip: int,
                      iterations: int = 2, joint: bool = False):
+    """Return :func:`backfitted_models` from the one start ``joint`` names."""
+    return backfitted_models(findings, real, linear_model, refit, hp, skip, iterations,
+                             (joint,))[joint]
+
+
+def backfitted_models(findings, real: Sequence, linear_model,
+                      refit: Callable[[Sequence], object], hp: float, skip: int,
+                      iterations: int = 2, starts: Sequence[bool] = (False, True)):
     """
     Fit the best linear FRF on the real data and the findings' strengths jointly.
 
@@ -285,32 +293,44 @@ def backfitted_model(findings, real: Sequence, linear_model,
         Samples left out at the start of each record (feature filter settling).
     iterations : int
         FRF refits.
-    joint : bool
-        Start from the joint least-squares strengths of the motion-state groups
+    starts : sequence of bool
+        The starts to fit from: False, the strengths fitted on the first residual; True
+        (``joint``), the joint least-squares strengths of the motion-state groups
         (:func:`_partialled_fit`) when they fit the real data better than the first
-        residual fit; the alternation's shrunken strengths otherwise.
+        residual fit, the alternation's shrunken strengths otherwise.  Both starts share the
+        residual fit, and one alternation when the joint start is the residual one.
 
     Returns
     -------
-    (FrfModel, tuple of float)
-        The model with the scaled terms, and the factor of every group.
+    dict bool -> (FrfModel, tuple of float)
+        Per start, the model with the scaled terms and the factor of every group.
 
     """
     groups = _strength_groups(findings)
     if not groups:
-        return linear_model, ()
+        return dict.fromkeys(starts, (linear_model, ()))
     free = _free_groups(groups)
     model = linear_model
     base = _predictions(model, real)
     units = _units(model, groups, real, base)
     beta = _strengths(units, free, real, base, hp, skip)
-    best = (_weighted_sse(units, beta, real, base, hp, skip), model, beta)
-    if joint:
-        best = min(best, _partialled_fit(groups, free, units, real, base, refit, hp, skip),
-                   key=lambda item: item[0])
-    _, model, beta = _alternate(best, groups, free, units, real, refit, hp, skip, iterations)
-    return model.with_physics(term_dicts(_scaled_terms(groups, free, beta))), tuple(
-        float(b) for b in beta)
+    first = (_weighted_sse(units, beta, real, base, hp, skip), model, beta)
+    shared, out = None, {}  # the alternation from the first start, for both starts
+    for joint in starts:
+        best = first
+        if joint:
+            best = min(first, _partialled_fit(groups, free, units, real, base, refit, hp,
+                                              skip), key=lambda item: item[0])
+        if best is first:
+            shared = shared or _alternate(first, groups, free, units, real, refit, hp, skip,
+                                          iterations)
+            best = shared
+        else:
+            best = _alternate(best, groups, free, units, real, refit, hp, skip, iterations)
+        _, model, beta = best
+        out[joint] = (model.with_physics(term_dicts(_scaled_terms(groups, free, beta))),
+                      tuple(float(b) for b in beta))
+    return out
 
 
 def _free_groups(groups) -> List[bool]:
