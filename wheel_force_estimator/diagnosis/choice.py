@@ -33,6 +33,7 @@ from wheel_force_estimator.core.predict import predict_forces
 from wheel_force_estimator.diagnosis.crossval import cut
 from wheel_force_estimator.diagnosis.crossval import FIGURES
 from wheel_force_estimator.diagnosis.crossval import fixed_figures
+from wheel_force_estimator.diagnosis.crossval import held_out_pieces
 from wheel_force_estimator.diagnosis.crossval import held_out_scores
 from wheel_force_estimator.diagnosis.crossval import pick_rows
 from wheel_force_estimator.diagnosis.crossval import training_folds
@@ -387,23 +388,28 @@ def _held_out(findings, real, reference, ref_model, mode, holdout, channels, sou
                              partners, config, real_fit, lin_model, hp, skip, notes)
     with_terms = [f for f in findings if f.terms]
     gate = split.gate_half
+    build = None
     if lin_model is not None:
         build = candidate_builder(findings, ref_model, mode, real_fit, hp, skip)
-        candidates = _one_twin_each(build(real, lin_model), build, real, gate, metric, notes)
+        candidates = build(real, lin_model)
     elif ref_model is not None:
         terms = term_dicts(t for f in with_terms for t in f.terms)
         candidates = {AUGMENTED[mode] if terms else UNCHANGED[mode]:
                       ref_model.with_physics(list(ref_model.physics) + terms)}
     else:
         candidates = {}
+    # each candidate predicted on the gate half once: the twins' choice and the gate's share it
+    gate_pieces = {n: scored_pieces(lambda r, m=m: predict_forces(m, r.inputs), gate.records,
+                                    gate.masks)
+                   for n, m in candidates.items()} if len(candidates) > 1 else {}
+    if build is not None:
+        candidates = _one_twin_each(candidates, gate_pieces, build, real, metric, notes)
     named = sorted({c for f in with_terms for c in f.channels}) or list(motion_channels)
     gate_scores, model, choice, rows_from = {}, None, '', {}
     if len(candidates) == 1:
         choice, model = next(iter(candidates.items()))
     elif candidates:
-        scores = {n: evaluate_figures(lambda r, m=m: predict_forces(m, r.inputs),
-                                      gate.records, gate.masks)
-                  for n, m in candidates.items()}
+        scores = {n: figures_of(gate_pieces[n], gate.records[0]) for n in candidates}
         gate_scores = {n: float(np.mean([s[metric][c] for c in named or channels]))
                        for n, s in scores.items()}
         pick = pick_rows(scores, linked_channels(candidates, channels),
@@ -429,7 +435,7 @@ def _held_out(findings, real, reference, ref_model, mode, holdout, channels, sou
     return findings, fit, model
 
 
-def _one_twin_each(candidates, build, real, gate, metric: str, notes: List[str]):
+def _one_twin_each(candidates, gate_pieces, build, real, metric: str, notes: List[str]):
     """
     Return ``candidates`` with one law of each bounded / unbounded pair: all held-out data's.
 
@@ -439,37 +445,34 @@ def _one_twin_each(candidates, build, real, gate, metric: str, notes: List[str])
     7.8007 against 7.8007 %, its report half, pressed harder, 10.02 against 7.59 %).  The
     held-out blocks of the training recordings (:func:`crossval.training_folds`, each fold's
     twins bounded to its own training blocks) do hold such motion, so each pair is judged on
-    them pooled with the gate half, by the mean of ``metric`` over the channels its terms act
-    on; the unbounded law must be better, the bounded one stays on a tie.  Records too short
-    for the folds: the gate half alone judges.  ``notes`` gets one line per pair.
+    them pooled with the gate half (``gate_pieces``: each candidate's
+    :func:`holdout.scored_pieces` there), by the mean of ``metric`` over the channels its
+    terms act on; the unbounded law must be better, the bounded one stays on a tie.  Records
+    too short for the folds: the gate half alone judges.  ``notes`` gets one line per pair.
     """
     pairs = [(n, n + UNBOUNDED) for n in candidates if n + UNBOUNDED in candidates]
     if not pairs:
         return candidates
-    names = [name for pair in pairs for name in pair]
-    pieces = {name: scored_pieces(lambda r, m=candidates[name]: predict_forces(m, r.inputs),
-                                  gate.records, gate.masks) for name in names}
-    blocks = {name: [] for name in names}
+
+    def fold_build(recordings, _fold):
+        fold = build(recordings, only={b for b, _ in pairs})
+        # a fold whose terms stayed within their range has no twin: the same law
+        return {name: fold.get(name, fold[bounded])
+                for bounded, free in pairs for name in (bounded, free)}
     pooled = 'the held-out blocks of the training recordings and the gate half'
     try:
-        for train, held in training_folds(real):
-            fold = build(cut(real, train), only={b for b, _ in pairs})
-            for bounded, free in pairs:
-                for name in (bounded, free):
-                    # a fold whose terms stayed within their range has no twin: the same law
-                    model = fold.get(name, fold[bounded])
-                    blocks[name] += scored_pieces(
-                        lambda r, m=model: predict_forces(m, r.inputs), real, held)
+        blocks = held_out_pieces(fold_build, real, training_folds(real))
     except DiagnosisError as err:
         pooled = f'the gate half alone (training recordings too short for folds: {err})'
-        blocks = {name: [] for name in names}
-    figures = {name: figures_of(pieces[name] + blocks[name], real[0])[metric]
-               for name in names}
+        blocks = {}
     drop = set()
     for bounded, free in pairs:
         channels = sorted({c for t in candidates[free].physics_terms for c in t.channels})
-        score = {name: float(np.mean([figures[name][c] for c in channels]))
-                 for name in (bounded, free)}
+        score = {}
+        for name in (bounded, free):
+            pieces = gate_pieces[name] + [p for fold in blocks.get(name, ()) for p in fold]
+            figure = figures_of(pieces, real[0])[metric]
+            score[name] = float(np.mean([figure[c] for c in channels]))
         drop.add(bounded if score[free] < score[bounded] else free)
         notes.append(f'{bounded}: force laws '
                      f'{"unbounded" if bounded in drop else "bounded"} ({metric} over '

@@ -119,14 +119,28 @@ def held_out_scores(build: Callable[[Sequence], Mapping[str, object]], records: 
 
     Each fold's figures are those of its own held-out block, scored by its own models.
     """
-    pieces: Dict[str, List] = {}
-    blocks: Dict[str, List] = {}
+    pieces = held_out_pieces(build, records, folds)
+    return ({name: figures_of([p for fold in per_fold for p in fold], records[0])
+             for name, per_fold in pieces.items()},
+            {name: [figures_of(fold, records[0]) for fold in per_fold]
+             for name, per_fold in pieces.items()})
+
+
+def held_out_pieces(build: Callable[[Sequence], Mapping[str, object]], records: Sequence,
+                    folds) -> Dict[str, List[List]]:
+    """
+    Return ``{name: [pieces of fold k]}``: each fold's candidates on its held-out block.
+
+    ``build`` and ``folds`` as for :func:`held_out_figures`; the pieces
+    (:func:`holdout.scored_pieces`, cut as ``evaluate --samples`` cuts them) are what
+    :func:`holdout.figures_of` scores, alone or pooled with other held-out data.
+    """
+    pieces: Dict[str, List[List]] = {}
     for k, (train, held) in enumerate(folds):
         for name, model in build(cut(records, train), k).items():
-            segs = scored_pieces(lambda r, m=model: predict_forces(m, r.inputs), records, held)
-            pieces.setdefault(name, []).extend(segs)
-            blocks.setdefault(name, []).append(figures_of(segs, records[0]))
-    return ({name: figures_of(segs, records[0]) for name, segs in pieces.items()}, blocks)
+            pieces.setdefault(name, []).append(
+                scored_pieces(lambda r, m=model: predict_forces(m, r.inputs), records, held))
+    return pieces
 
 
 def fixed_figures(predict: Callable, records: Sequence, folds) -> Dict[str, Dict[str, float]]:
