@@ -59,6 +59,7 @@ import time
 
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.cli.heap import keep_freed_memory
 from wheel_force_estimator.core.design import product_fit_config
 from wheel_force_estimator.diagnosis import diagnose
 from wheel_force_estimator.diagnosis import DiagnosisConfig
@@ -612,6 +613,7 @@ def main(argv=None) -> int:
                         help='diagnose the simulator pairs without --holdout and score the '
                              'written model and the plain fit on the whole holdout recording')
     args = parser.parse_args(argv)
+    keep_freed_memory()              # as `wheel-force diagnose` does (cli/heap.py)
     chosen = args.effects.split(',') if args.effects else None
     global CAR, NO_HOLDOUT, NO_NAIVE
     NO_HOLDOUT, NO_NAIVE = args.no_holdout, args.no_naive

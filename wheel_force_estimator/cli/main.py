@@ -9,10 +9,14 @@ from typing import List, Optional
 
 from wheel_force_estimator import __version__
 from wheel_force_estimator.cli.common import UsageError
+from wheel_force_estimator.cli.heap import keep_freed_memory
 from wheel_force_estimator.core.errors import WheelForceError
 
 SUBCOMMANDS = ('simulate', 'fit', 'predict', 'evaluate', 'diagnose', 'fleet', 'node',
                'replay')
+#: One-shot numeric commands: freed memory stays in the process for reuse (:mod:`.heap`).
+#: The node, replay and fleet (long-lived, or a client of workers) keep the default.
+BATCH = ('simulate', 'fit', 'predict', 'evaluate', 'diagnose')
 #: Exit code when the reader of stdout went away (``wheel-force evaluate ... | head``): what a
 #: process killed by SIGPIPE reports to the shell.
 EXIT_BROKEN_PIPE = 128 + 13
@@ -58,6 +62,8 @@ def main(argv: Optional[List[str]] = None) -> int:
 def _run(argv: Optional[List[str]]) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.subcommand in BATCH:
+        keep_freed_memory()
     try:
         return int(args._command(args))
     except UsageError as err:
