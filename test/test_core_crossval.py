@@ -405,6 +405,20 @@ def test_response_on_grid_wraps_taps_longer_than_the_grid():
     np.testing.assert_allclose(h[:, 0, :], want, atol=1e-12)
 
 
+def test_response_on_grid_is_line_major_and_equals_each_pairs_transform():
+    """Every line's (n_out, n_in) matrix is one contiguous piece (BlendScorer's products)."""
+    rng = np.random.default_rng(9)
+    taps = rng.normal(size=(3, 4, 40))
+    h = response_on_grid(taps, 6, 32)
+    assert h.shape == (17, 3, 4) and h.flags.c_contiguous
+    for o in range(3):
+        for i in range(4):
+            np.testing.assert_allclose(
+                h[:, o, i], np.fft.rfft(np.roll(np.pad(taps[o, i], (0, 24)), -6)[:32]
+                                        + np.roll(np.pad(taps[o, i], (0, 24)), -6)[32:]),
+                atol=1e-12)
+
+
 def test_a_live_look_ahead_beyond_the_least_squares_fir_is_refused_naming_the_range():
     x, y = _known_system(40000, 5)
     cfg = FitConfig(segment_length=512, long_segment_length=0,

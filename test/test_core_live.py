@@ -15,6 +15,7 @@ from wheel_force_estimator.core.live_estimator import CausalEstimator
 from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import design_causal
 from wheel_force_estimator.core.live_estimator import design_live
+from wheel_force_estimator.core.live_estimator import gather
 from wheel_force_estimator.core.live_estimator import lag_edges
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import solve_leading
@@ -145,6 +146,18 @@ def random_estimator(look_ahead=3, seed=0):
     n_fine = 8 + look_ahead
     return CausalEstimator(look_ahead, rng.normal(size=(2, 3, n_fine)), edges[n_fine:],
                            rng.normal(size=(2, 3, edges.size - 1 - n_fine)) * 0.01, {})
+
+
+@pytest.mark.parametrize('n_rows, n_cols', [(150, 120), (150, 30), (7, 200), (0, 120)])
+def test_gather_equals_the_fancy_index_for_wide_and_narrow_blocks(n_rows, n_cols):
+    # 120 / 200 of 200 columns: rows copied 64 at a time; 30: the fancy index; 0 rows: empty
+    rng = np.random.default_rng(n_rows + n_cols)
+    a = rng.normal(size=(200, 200))
+    rows = rng.permutation(200)[:n_rows]
+    cols = rng.permutation(200)[:n_cols]
+    got = gather(a, rows, cols)
+    assert got.flags.c_contiguous
+    np.testing.assert_array_equal(got, a[np.ix_(rows, cols)])
 
 
 @pytest.mark.parametrize('m, k', [(60, 1), (60, 3), (20, 50), (80, 3)])

@@ -538,7 +538,7 @@ class NormalEquations:
         """
         if self._parent is not None and 'a' not in self.__dict__:
             return self._parent.block(self._index[rows], self._index[cols])
-        return self.a[np.ix_(rows, cols)]
+        return gather(self.a, rows, cols)
 
     @functools.cached_property
     def a(self) -> np.ndarray:
@@ -550,7 +550,7 @@ class NormalEquations:
         the factorisation.
         """
         if self._parent is not None:
-            return self._parent.a[np.ix_(self._index, self._index)]
+            return gather(self._parent.a, self._index, self._index)
         rxx, t_max, edges, n_in = self._rxx, self._t_max, self.edges, self.n_in
         n_b = edges.size - 1
         # sum_{l in p} sum_{m in q} r(l - m) from C2, the double cumulative sum of r:
@@ -581,6 +581,27 @@ class NormalEquations:
         a = a.reshape(n_in * n_b, n_in * n_b)
         a[np.diag_indices_from(a)] += self.info['regularisation'] * self.ridge_unit
         return a
+
+
+def gather(a: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """
+    Return ``a[np.ix_(rows, cols)]`` (a new C-ordered array).
+
+    numpy's two-index fancy indexing computes every element's offset from both index arrays.
+    When most of the columns are taken, copying 64 whole rows and taking the columns from
+    them while they are in cache is about twice as fast (5256 of 6132 unknowns in `fit`:
+    212 -> 100 ms, measured 2026-12-06; docs/performance.md); for a narrow block the copied
+    rows are mostly waste (876 of 6132 columns: 26 -> 21 ms the other way), and the fancy
+    index is kept.
+    """
+    rows = np.asarray(rows, dtype=np.intp)
+    cols = np.asarray(cols, dtype=np.intp)
+    if 2 * cols.size < a.shape[1]:
+        return a[np.ix_(rows, cols)]
+    out = np.empty((rows.size, cols.size), dtype=a.dtype)
+    for lo in range(0, rows.size, 64):
+        np.take(a[rows[lo:lo + 64]], cols, axis=1, out=out[lo:lo + 64])
+    return out
 
 
 def _fine_count(edges: np.ndarray) -> int:
