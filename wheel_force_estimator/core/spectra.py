@@ -259,7 +259,8 @@ def _window_spectra(signals: Sequence[np.ndarray], config: WelchConfig):
             # the projection on the unit ramp is the least-squares line fit.
             block -= (block @ ramp)[..., np.newaxis] * ramp
         block *= win
-        spec = scipy.fft.rfft(block, axis=-1)
+        # every core (independent transforms, the same numbers as one; docs/performance.md)
+        spec = scipy.fft.rfft(block, axis=-1, workers=-1)
         spec *= amp
         yield np.ascontiguousarray(spec.transpose(2, 0, 1))
 
