@@ -572,7 +572,12 @@ class NormalEquations:
             c2 = np.concatenate([np.zeros((n_in - i, 1)),
                                  np.cumsum(np.cumsum(r, axis=-1), axis=-1)], axis=-1)
             # A[(i,p),(j,q)] uses r_ij(l - m) summed over l in p and m in q
-            row = (c2[:, pp[0]] - c2[:, pp[1]] - c2[:, pp[2]] + c2[:, pp[3]]).transpose(1, 0, 2)
+            # np.take: twice as fast as the fancy index here, the same sums in the same order
+            row = np.take(c2, pp[0], axis=1)
+            row -= np.take(c2, pp[1], axis=1)
+            row -= np.take(c2, pp[2], axis=1)
+            row += np.take(c2, pp[3], axis=1)
+            row = row.transpose(1, 0, 2)
             # the (i, i) block symmetrised against rounding; A[(j,q),(i,p)] = A[(i,p),(j,q)]
             # for j > i: the symmetric matrix from half the gathers, no full-size temporaries
             row[:, 0, :] = 0.5 * (row[:, 0, :] + row[:, 0, :].T)
