@@ -136,6 +136,24 @@ def test_chunking_does_not_change_the_result(monkeypatch):
     np.testing.assert_allclose(chunked.syy, whole.syy, rtol=1e-13)
 
 
+def test_products_batched_across_chunks_and_segments_equal_window_by_window(monkeypatch):
+    # Long windows: one window per chunk, and segments of one to three windows; the products
+    # gather 8 windows across them (_PRODUCT_WINDOWS), with a partial last batch.
+    x, y = _signals(5, n=6000)
+    config = WelchConfig(FS_HZ, 256, 0.5)
+    cuts = [(0, 256), (256, 768), (768, 1024), (1024, 1536), (1536, 2048), (2048, 4100)]
+    pairs = [(x[:, a:b], y[:, a:b]) for a, b in cuts]
+    monkeypatch.setattr(spectra_mod, '_CHUNK_BYTES', 5 * 256 * 8)
+    batched = pooled_cross_spectra(pairs, config)
+    monkeypatch.setattr(spectra_mod, '_PRODUCT_WINDOWS', 1)
+    single = pooled_cross_spectra(pairs, config)
+    assert batched.n_windows == single.n_windows == 1 + 3 + 1 + 3 + 3 + 15
+    for field in ('sxx', 'syx', 'syy'):
+        want = getattr(single, field)
+        np.testing.assert_allclose(getattr(batched, field), want, rtol=0,
+                                   atol=1e-13 * abs(want).max())
+
+
 def test_memory_does_not_grow_with_record_length():
     # 24 channels x 400k samples is 77 MB of data; the spectra need a 4 MiB chunk, its FFT and
     # the (nf, 24, 24) accumulator.  A copy of the record would show up as >= 77 MB.
