@@ -41,7 +41,8 @@ _CHUNK_BYTES = 4 * 2**20
 # one window: products window by window paid that traffic per window, 2.9 s of the
 # 20-minute bag's fit for 52 windows.  8 measured best (8 segments of 40000 samples, 26
 # channels: 32768-sample windows 0.48 -> 0.24 s, 8192 0.32 -> 0.24 s; 4 and 16 slower);
-# chunks of short windows hold more than 8 and are used as they come.
+# chunks of short windows hold more than 8 and are used as they come.  Memory: up to 8
+# windows' spectra and their concatenation (2 x 54 MB at 32768 samples and 26 channels).
 _PRODUCT_WINDOWS = 8
 
 
