@@ -9,7 +9,10 @@ Prints, from one run:
   one output channel, 12 pairs, extrapolated to 144), with the largest difference between them;
 - streaming ``OverlapAddFilter.process`` cost per block (mean and p99 in us) for the block
   lengths the node may use, and the resulting real-time factor;
-- the per-frequency 12x12 multiply done by ``matmul`` (used) versus ``einsum``.
+- the per-frequency 12x12 multiply done by ``matmul`` (used) versus ``einsum``;
+- short records, each through a new filter over one model's read-only 8192 taps (what the
+  diagnosis does ~400 times per case): the tap spectra shared across filters
+  (``overlap_add._SHARED``) against the same calls with that cache emptied before each one.
 
 Usage: ``.venv/bin/python bench/bench_predict.py [--minutes 60] [--blocks 2000]``.
 """
@@ -21,7 +24,9 @@ import numpy as np
 from scipy import signal
 import scipy.fft
 
+from wheel_force_estimator.core import overlap_add
 from wheel_force_estimator.core.filtering import fir_from_frf
+from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.overlap_add import apply_fir
 from wheel_force_estimator.core.overlap_add import OverlapAddFilter
 
@@ -30,9 +35,9 @@ N_CH = 12
 N_FFT = 1024
 
 
-def make_fir(rng):
-    """Return a 12x12 FIR from a smooth random FRF (two resonances per pair)."""
-    f_hz = np.arange(N_FFT // 2 + 1) * FS_HZ / N_FFT
+def make_fir(rng, n_fft=N_FFT):
+    """Return a 12x12 FIR of ``n_fft`` taps from a smooth random FRF (two resonances/pair)."""
+    f_hz = np.arange(n_fft // 2 + 1) * FS_HZ / n_fft
     s = 2j * np.pi * f_hz[:, None, None]
     h = np.zeros((f_hz.size, N_CH, N_CH), complex)
     for f0_hz, zeta in ((1.5, 0.3), (12.0, 0.15)):
@@ -114,6 +119,39 @@ def main():
     for n_fft in (scipy.fft.next_fast_len(128 + N_FFT - 1, real=True), 8 * N_FFT):
         t_mm, t_es = multiply_us(n_fft, rng)
         print(f'{n_fft:6d} {t_mm:10.0f} {t_es:10.0f}')
+
+    short_records(rng)
+
+
+def short_records(rng, n_records=20):
+    """Print the shared tap-spectrum cache against re-transforming the taps per filter."""
+    model_fir = make_fir(rng, 8192)
+    records = [rng.standard_normal((N_CH, n)) for n in rng.integers(3000, 60000, n_records)]
+    n_s = sum(r.shape[1] for r in records)
+
+    def run(shared):
+        out = []
+        for x in records:
+            if not shared:
+                overlap_add._SHARED.clear()
+            fir = FirFilter(model_fir.taps, model_fir.delay_samples, FS_HZ)   # a new filter
+            out.append(apply_fir(fir, x))
+        return out
+
+    run(True)                       # warm: both variants then start from a filled cache
+    t_shared, y_shared = best_of(lambda: run(True), 3)
+    t_fresh, y_fresh = best_of(lambda: run(False), 3)
+    diff = max(np.abs(a - b).max() for a, b in zip(y_shared, y_fresh))
+    print(f'\n{n_records} records ({n_s / FS_HZ:.0f} s in all, 3000-60000 samples each), '
+          f'a new filter over one {model_fir.n_out}x{model_fir.n_in}x{model_fir.n_taps} '
+          f'taps array per record (best of 3)')
+    print(f'{"tap spectra":48s} {"time s":>8s} {"ms/record":>10s}')
+    print(f'{"shared across filters (used)":48s} {t_shared:8.3f} '
+          f'{1e3 * t_shared / n_records:10.1f}')
+    print(f'{"baseline: transformed again per filter":48s} {t_fresh:8.3f} '
+          f'{1e3 * t_fresh / n_records:10.1f}')
+    print(f'speed-up {t_fresh / t_shared:.2f}x, max |difference| {diff:.1e} (expected 0: the '
+          f'same spectrum); cache held {overlap_add._SHARED.n_bytes / 2**20:.0f} MiB')
 
 
 if __name__ == '__main__':

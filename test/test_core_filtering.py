@@ -272,6 +272,31 @@ def test_apply_fir_block_size_and_short_records():
             np.testing.assert_allclose(y, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
 
 
+def test_filters_over_one_frozen_taps_array_share_its_spectrum_and_stay_exact():
+    # A model's read-only taps keep their identity through FirFilter, so every filter built
+    # over them (one per prediction) reuses one transform; the results are unchanged.
+    rng = np.random.default_rng(10)
+    taps = rng.standard_normal((3, 2, 40))
+    taps.flags.writeable = False
+    first, second = FirFilter(taps, 13, FS_HZ), FirFilter(taps, 13, FS_HZ)
+    assert first.taps is taps and second.taps is taps
+    x = rng.standard_normal((2, 300))
+    expected = direct_convolution(taps, x)
+    a, b = OverlapAddFilter(first), OverlapAddFilter(second)
+    y_a = a.process(x)
+    np.testing.assert_allclose(y_a, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    np.testing.assert_array_equal(b.process(x), y_a)
+    assert a._tap_spectrum(512) is b._tap_spectrum(512)
+    # Writable taps are copied: changing the caller's array afterwards changes nothing.
+    own = rng.standard_normal((3, 2, 40))
+    fir = FirFilter(own, 13, FS_HZ)
+    assert fir.taps is not own and not fir.taps.flags.writeable
+    before = apply_fir(fir, x)
+    own[:] = 0.0
+    assert np.abs(before).max() > 0
+    np.testing.assert_array_equal(apply_fir(FirFilter(fir.taps, 13, FS_HZ), x), before)
+
+
 # --------------------------------------------------------------------------- errors
 
 

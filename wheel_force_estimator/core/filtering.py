@@ -49,6 +49,7 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import NonFiniteError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.validation import positive_float
+from wheel_force_estimator.core.validation import read_only_array
 
 #: Fraction of each side (look-ahead, causal) of the impulse response that is cosine-tapered.
 DEFAULT_TAPER_FRACTION = 0.25
@@ -103,7 +104,8 @@ class FirFilter:
     fs_hz: float
 
     def __post_init__(self):
-        taps = np.array(self.taps, dtype=np.float64)
+        # Shared when already frozen (a model's taps), so its tap spectra are cached once.
+        taps = read_only_array(self.taps, np.float64)
         if taps.ndim != 3 or min(taps.shape) == 0:
             raise ShapeError(
                 f'FIR taps: expected shape (n_out, n_in, n_taps) with no empty axis, '
@@ -116,7 +118,6 @@ class FirFilter:
             raise ConfigError(
                 f'delay_samples must be in [0, {taps.shape[2]}) for {taps.shape[2]} taps, '
                 f'got {delay}')
-        taps.flags.writeable = False
         object.__setattr__(self, 'taps', taps)
         object.__setattr__(self, 'delay_samples', delay)
         object.__setattr__(self, 'fs_hz', positive_float(self.fs_hz, 'fs_hz'))

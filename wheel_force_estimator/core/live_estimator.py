@@ -84,6 +84,7 @@ from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.errors import ModelFileError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filtering import FirFilter
+from wheel_force_estimator.core.validation import read_only_array
 
 # The look-ahead the node and `predict --causal` use when nothing else is configured [s]
 # (DESIGN.md `live_look_ahead_s`): 26 samples at 512 Hz.
@@ -279,13 +280,12 @@ class CausalEstimator:
 
 def _read_only(value, dtype, name: str, d: int) -> np.ndarray:
     try:
-        arr = np.array(value, dtype=dtype, copy=True)
+        arr = read_only_array(value, dtype)
     except (TypeError, ValueError) as err:
         raise ModelFileError(f'live estimator (look-ahead {d}) {name}: not convertible '
                              f'to {np.dtype(dtype).name}') from err
     if arr.dtype.kind == 'f' and not np.all(np.isfinite(arr)):
         raise ModelFileError(f'live estimator (look-ahead {d}) {name}: NaN or infinity')
-    arr.setflags(write=False)
     return arr
 
 

@@ -50,6 +50,7 @@ from wheel_force_estimator.core.live_estimator import live_arrays
 from wheel_force_estimator.core.live_estimator import live_from_contents
 from wheel_force_estimator.core.live_estimator import live_meta
 from wheel_force_estimator.core.physics_terms import PhysicsTerm
+from wheel_force_estimator.core.validation import read_only_array
 
 SCHEMA_VERSION = 3
 # Versions this code reads: 1 has no live estimators; 2 has one unit per side (3 may add
@@ -64,14 +65,13 @@ _META_REQUIRED = ('schema_version', 'sample_rate_hz', 'input_channels', 'output_
 
 def _frozen_array(value, name: str, dtype, shape: Tuple[int, ...]) -> np.ndarray:
     try:
-        arr = np.array(value, dtype=dtype, copy=True)
+        arr = read_only_array(value, dtype)
     except (TypeError, ValueError) as err:
         raise ModelFileError(f'model field {name!r}: not convertible to {dtype}') from err
     if arr.shape != shape:
         raise ModelFileError(f'model field {name!r}: expected shape {shape}, got {arr.shape}')
     if not np.all(np.isfinite(arr)):
         raise ModelFileError(f'model field {name!r}: contains NaN or infinity')
-    arr.setflags(write=False)
     return arr
 
 

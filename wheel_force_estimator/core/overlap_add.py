@@ -10,7 +10,9 @@ output sample ``n`` of a filter with look-ahead ``delay`` uses inputs up to ``n 
 record and flushes the look-ahead with zeros, so batch and live predictions are the same code.
 """
 from collections import OrderedDict
+import threading
 from typing import Optional
+import weakref
 
 import numpy as np
 import scipy.fft
@@ -26,10 +28,95 @@ from wheel_force_estimator.core.validation import as_signals
 _FFT_LENGTH_PER_TAP = 8
 # Distinct FFT lengths whose tap spectra are kept (streaming calls with varied block lengths).
 _MAX_CACHED_SPECTRA = 8
+# Tap spectra shared by every filter over the same taps array, at most this many bytes (LRU).
+# Each Predictor builds a new filter, so without sharing the diagnosis transformed one model's
+# taps again for each of its 423 predictions: 858 transforms of 48 distinct taps arrays, 27 s
+# of a 169 s run (measured).
+# 256 MiB: 2 spectra of 12x14x8192 taps at a 65536-point FFT, or 15 at 12288.  One damper case
+# (bench/diagnose_blind.py, seed 6) at 0 / 128 / 256 / 512 MiB: 170 / 154 / 146 / 133-154 s,
+# 2.90 / 3.11 / 3.43 / 4.0-4.2 GB peak RSS, the same rows.
+_MAX_SHARED_SPECTRA_BYTES = 256 * 2**20
 # Whole segments transformed together in one long call: memory ~ 6 x 12 x batch x n_fft x 8 B
 # (75 MB for 2 segments of 65536-point FFTs).  2 already streams the tap spectrum half as often
 # as 1; 4 was no faster on 1 h of data and needs 75 MB more (fresh memory is slow on a VM).
 _SEGMENTS_PER_BATCH = 2
+
+
+class _SharedSpectra:
+    """
+    Tap spectra keyed by taps array and FFT length, shared across filters (LRU in bytes).
+
+    A key is the taps array's ``id`` with a weak reference that must still point at that array,
+    so an id reused by a later array never matches; entries go when their taps array is freed.
+    Only read-only taps whose memory no numpy object can write are cached
+    (:func:`~wheel_force_estimator.core.validation.read_only_array` returns such arrays).
+    """
+
+    def __init__(self, max_bytes: int):
+        self._max_bytes = int(max_bytes)
+        self._entries = OrderedDict()      # (id, n_fft) -> (weakref, spectrum)
+        self._bytes = 0
+        self._lock = threading.Lock()
+        # Weak references whose taps were freed.  The callback only appends (atomic, no lock):
+        # it may run from the garbage collector inside any of these methods.
+        self._dead = []
+
+    @property
+    def n_bytes(self) -> int:
+        """Return the bytes of the spectra held."""
+        with self._lock:
+            self._purge()
+            return self._bytes
+
+    def __len__(self) -> int:
+        with self._lock:
+            self._purge()
+            return len(self._entries)
+
+    def clear(self) -> None:
+        """Drop every spectrum."""
+        with self._lock:
+            self._entries.clear()
+            self._bytes = 0
+
+    def get(self, taps: np.ndarray, n_fft: int) -> Optional[np.ndarray]:
+        """Return the spectrum of ``taps`` at ``n_fft`` if held, else ``None``."""
+        key = (id(taps), n_fft)
+        with self._lock:
+            self._purge()
+            entry = self._entries.get(key)
+            if entry is None or entry[0]() is not taps:
+                return None
+            self._entries.move_to_end(key)
+            return entry[1]
+
+    def put(self, taps: np.ndarray, n_fft: int, spectrum: np.ndarray) -> None:
+        """Hold ``spectrum`` for ``taps`` at ``n_fft``, evicting the least recently used."""
+        if spectrum.nbytes > self._max_bytes:
+            return
+        key = (id(taps), n_fft)
+        with self._lock:
+            self._purge()
+            self._drop(key)
+            self._entries[key] = (weakref.ref(taps, self._dead.append), spectrum)
+            self._bytes += spectrum.nbytes
+            while self._bytes > self._max_bytes:
+                self._drop(next(iter(self._entries)))
+
+    def _drop(self, key) -> None:
+        entry = self._entries.pop(key, None)
+        if entry is not None:
+            self._bytes -= entry[1].nbytes
+
+    def _purge(self) -> None:
+        """Drop the spectra of freed taps arrays (call with the lock held)."""
+        while self._dead:
+            ref = self._dead.pop()
+            for key in [k for k, v in self._entries.items() if v[0] is ref]:
+                self._drop(key)
+
+
+_SHARED = _SharedSpectra(_MAX_SHARED_SPECTRA_BYTES)
 
 
 class OverlapAddFilter:
@@ -105,8 +192,13 @@ class OverlapAddFilter:
         """Return rfft of the taps at ``n_fft`` as (nf, n_out, n_in), cached (LRU)."""
         spectrum = self._spectra.get(n_fft)
         if spectrum is None:
+            spectrum = _SHARED.get(self._taps, n_fft)
+        if spectrum is None:
             spectrum = np.ascontiguousarray(
                 scipy.fft.rfft(self._taps, n=n_fft, axis=-1).transpose(2, 0, 1))
+            spectrum.flags.writeable = False
+            _SHARED.put(self._taps, n_fft, spectrum)
+        if n_fft not in self._spectra:
             self._spectra[n_fft] = spectrum
             if len(self._spectra) > _MAX_CACHED_SPECTRA:
                 self._spectra.popitem(last=False)

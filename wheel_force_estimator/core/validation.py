@@ -162,3 +162,42 @@ def freeze_paired_record(record, label: str, quantities: Sequence[str],
                          ('input_channels', tuple(record.input_channels)),
                          ('output_channels', tuple(record.output_channels))):
         object.__setattr__(record, field, value)
+
+
+def read_only_array(value, dtype) -> np.ndarray:
+    """
+    Return ``value`` as a read-only array of ``dtype``, shared when that is already safe.
+
+    An array that is already of ``dtype``, read-only, and whose every base is a read-only
+    array too (so no numpy object can write its memory) is returned itself; anything else is
+    copied and the copy made read-only.  Rebuilding a frozen model or filter from another's
+    arrays therefore keeps the same array objects, and caches keyed on them (the tap spectra
+    of :mod:`wheel_force_estimator.core.overlap_add`) keep serving them.
+
+    Parameters
+    ----------
+    value : array_like
+        The values.
+    dtype : numpy dtype
+        The dtype of the result.
+
+    Returns
+    -------
+    numpy.ndarray
+        Read-only array of ``dtype``, equal to ``value``.
+
+    Raises
+    ------
+    TypeError, ValueError
+        ``value`` is not convertible to ``dtype`` (numpy's errors, unchanged).
+
+    """
+    if isinstance(value, np.ndarray) and value.dtype == np.dtype(dtype):
+        base = value
+        while isinstance(base, np.ndarray) and not base.flags.writeable:
+            base = base.base
+        if base is None:
+            return value
+    arr = np.array(value, dtype=dtype, copy=True)
+    arr.setflags(write=False)
+    return arr
