@@ -60,8 +60,11 @@ def test_read_only_array_shares_only_arrays_nothing_can_write():
     rng = np.random.default_rng(4)
     frozen = _frozen(rng)
     assert read_only_array(frozen, np.float64) is frozen
-    view = frozen[:, :, ::2]                           # read-only view of a read-only base
+    view = frozen[1:]                                  # read-only view of a read-only base
     assert read_only_array(view, np.float64) is view
+    strided = frozen[:, :, ::2]                        # copied to C order, like any other
+    assert read_only_array(strided, np.float64) is not strided
+    assert read_only_array(strided, np.float64).flags.c_contiguous
     writable = rng.standard_normal((2, 2, 8))
     ro_view = writable.view()
     ro_view.flags.writeable = False                    # its base can still be written

@@ -168,11 +168,12 @@ def read_only_array(value, dtype) -> np.ndarray:
     """
     Return ``value`` as a read-only array of ``dtype``, shared when that is already safe.
 
-    An array that is already of ``dtype``, read-only, and whose every base is a read-only
-    array too (so no numpy object can write its memory) is returned itself; anything else is
-    copied and the copy made read-only.  Rebuilding a frozen model or filter from another's
-    arrays therefore keeps the same array objects, and caches keyed on them (the tap spectra
-    of :mod:`wheel_force_estimator.core.overlap_add`) keep serving them.
+    A plain C-contiguous array that is already of ``dtype``, read-only, and whose every base
+    is a read-only array too (so no numpy object can write its memory) is returned itself;
+    anything else is copied (C order) and the copy made read-only.  Rebuilding a frozen model
+    or filter from another's arrays therefore keeps the same array objects, and caches keyed
+    on them (the tap spectra of :mod:`wheel_force_estimator.core.overlap_add`) keep serving
+    them.
 
     Parameters
     ----------
@@ -192,7 +193,8 @@ def read_only_array(value, dtype) -> np.ndarray:
         ``value`` is not convertible to ``dtype`` (numpy's errors, unchanged).
 
     """
-    if isinstance(value, np.ndarray) and value.dtype == np.dtype(dtype):
+    if type(value) is np.ndarray and value.dtype == np.dtype(dtype) \
+            and value.flags.c_contiguous:
         base = value
         while isinstance(base, np.ndarray) and not base.flags.writeable:
             base = base.base
