@@ -21,11 +21,11 @@ from wheel_force_estimator.core.crossval import block_pieces
 from wheel_force_estimator.core.crossval import held_out_power
 from wheel_force_estimator.core.crossval import hp_power_weight
 from wheel_force_estimator.core.crossval import Piece
-from wheel_force_estimator.core.crossval import response_on_grid
 from wheel_force_estimator.core.crossval import splice
 from wheel_force_estimator.core.design import fit_design
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.filtering import FirFilter
+from wheel_force_estimator.core.filtering import response_on_grid
 from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import design_causal
 from wheel_force_estimator.core.live_estimator import LagOrderedFactor

@@ -36,7 +36,7 @@ from wheel_force_estimator.core.crossval import BlendScorer
 from wheel_force_estimator.core.crossval import HeldOutPower
 from wheel_force_estimator.core.crossval import hp_power_weight
 from wheel_force_estimator.core.crossval import Piece
-from wheel_force_estimator.core.crossval import response_on_grid
+from wheel_force_estimator.core.filtering import response_on_grid
 from wheel_force_estimator.core.live_estimator import CausalEstimator
 from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import Correlations

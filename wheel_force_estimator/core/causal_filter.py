@@ -28,6 +28,7 @@ import scipy.fft
 
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filtering import FirFilter
+from wheel_force_estimator.core.filtering import response_on_grid
 from wheel_force_estimator.core.live_estimator import CausalEstimator
 from wheel_force_estimator.core.overlap_add import OverlapAddFilter
 from wheel_force_estimator.core.validation import as_signals
@@ -145,8 +146,7 @@ class CausalFilter:
         if spectrum is None:
             kernel = np.zeros(self._coef.shape[:2] + (self._span + 1,))
             kernel[:, :, self._lags] = self._coef
-            spectrum = np.ascontiguousarray(
-                scipy.fft.rfft(kernel, n=n_fft, axis=-1).transpose(2, 0, 1))
+            spectrum = response_on_grid(kernel, 0, n_fft)          # line-major, no wrap
             if len(self._spectra) >= 2:    # one segment length and the last remainder
                 self._spectra.pop(next(iter(self._spectra)))
             self._spectra[n_fft] = spectrum

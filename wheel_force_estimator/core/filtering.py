@@ -158,6 +158,29 @@ class FirFilter:
         return np.einsum('fk,oik->foi', phasor, self.taps)
 
 
+def response_on_grid(taps: np.ndarray, delay: int, n_fft: int) -> np.ndarray:
+    """
+    Return the exact response of FIR taps on the ``n_fft`` grid, shape (nf, n_out, n_in).
+
+    Taps longer than ``n_fft`` are wrapped (sampling the DTFT at ``k fs / n_fft``).
+    ``taps[:, :, k]`` is lag ``k - delay``.
+
+    The result is C-contiguous, each line's ``(n_out, n_in)`` matrix in one piece: the
+    transform runs along the first axis.  The transposed view of a transform along the last
+    axis (lines last in memory) made every product of :class:`BlendScorer` stride across the
+    whole array: scoring a 16385-line response took 160 ms, 43 ms contiguous
+    (docs/performance.md).  The overlap-add and live filters' tap spectra are this
+    response too (``delay`` 0 on a grid at least as long as the taps: no wrapping).
+    """
+    n_taps = taps.shape[2]
+    index = (np.arange(n_taps) - delay) % n_fft          # lag k - delay, modulo the grid
+    wrapped = np.zeros((n_fft,) + taps.shape[:2])
+    for start in range(0, n_taps, n_fft):                # one period of taps at a time
+        wrapped[index[start:start + n_fft]] += taps[:, :, start:start + n_fft].transpose(2, 0, 1)
+    # every core: independent transforms, the same numbers as one (2.3x faster on two)
+    return scipy.fft.rfft(wrapped, axis=0, workers=-1)
+
+
 def _taper(n_taps: int, delay: int, fraction: float) -> np.ndarray:
     """
     Tukey window split at lag zero: each side's outer ``fraction`` rolled off by a cosine.

@@ -21,6 +21,7 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filtering import as_index
 from wheel_force_estimator.core.filtering import FirFilter
+from wheel_force_estimator.core.filtering import response_on_grid
 from wheel_force_estimator.core.validation import as_signals
 
 # Overlap-add segments use FFTs of about 8 filter lengths: for 1024 taps 4x and 8x measured
@@ -194,8 +195,7 @@ class OverlapAddFilter:
         if spectrum is None:
             spectrum = _SHARED.get(self._taps, n_fft)
         if spectrum is None:
-            spectrum = np.ascontiguousarray(
-                scipy.fft.rfft(self._taps, n=n_fft, axis=-1).transpose(2, 0, 1))
+            spectrum = response_on_grid(self._taps, 0, n_fft)      # line-major, no wrap
             spectrum.flags.writeable = False
             _SHARED.put(self._taps, n_fft, spectrum)
         if n_fft not in self._spectra:

@@ -25,11 +25,11 @@ from typing import Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from wheel_force_estimator.core.crossval import blend_weight
-from wheel_force_estimator.core.crossval import response_on_grid
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.filtering import fir_from_frf
 from wheel_force_estimator.core.filtering import FirFilter
+from wheel_force_estimator.core.filtering import response_on_grid
 from wheel_force_estimator.core.frf import bridge_unexcited
 from wheel_force_estimator.core.frf import bridged_line_counts
 from wheel_force_estimator.core.frf import estimate_frf

@@ -71,10 +71,10 @@ from wheel_force_estimator.core.crossval import block_pieces
 from wheel_force_estimator.core.crossval import HeldOutPower
 from wheel_force_estimator.core.crossval import N_BLOCKS
 from wheel_force_estimator.core.crossval import Piece
-from wheel_force_estimator.core.crossval import response_on_grid
 from wheel_force_estimator.core.crossval import splice
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.filtering import FirFilter
+from wheel_force_estimator.core.filtering import response_on_grid
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import look_ahead_samples
 from wheel_force_estimator.core.pipeline import estimate_h1
