@@ -8,6 +8,11 @@ output sample ``n`` of a filter with look-ahead ``delay`` uses inputs up to ``n 
 
 :class:`OverlapAddFilter` is the only filtering engine.  :func:`apply_fir` runs it over a
 record and flushes the look-ahead with zeros, so batch and live predictions are the same code.
+
+The one piece of module state is a memo: the tap spectra, shared by every filter over the same
+read-only taps array (``_SHARED``).  A spectrum is a pure function of immutable taps and an FFT
+length, so the cache changes no result, only how often the taps are transformed; it is bounded
+in bytes and drops a spectrum when its taps array is freed (docs/performance.md).
 """
 from collections import OrderedDict
 import threading
