@@ -53,6 +53,7 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.spectra import CrossSpectra
+from wheel_force_estimator.core.validation import read_only_array
 
 ESTIMATORS = ('h1', 'h1_tikhonov', 'h1_tsvd')
 
@@ -153,12 +154,12 @@ class FrfEstimate:
     def __post_init__(self):
         if not isinstance(self.config, FrfConfig):
             raise ConfigError(f'FrfEstimate.config must be a FrfConfig, got {self.config!r}')
-        # Own read-only copies, so freezing never touches a caller's array.
-        f_hz = np.array(self.f_hz, dtype=np.float64)
-        h = np.array(self.h, dtype=np.complex128)
-        coh = np.array(self.coherence_ordinary, dtype=np.float64)
-        mcoh = np.array(self.coherence_multiple, dtype=np.float64)
-        cond = np.array(self.cond_sxx, dtype=np.float64)
+        # Read-only, copied unless already frozen: freezing never touches a caller's array.
+        f_hz = read_only_array(self.f_hz, np.float64)
+        h = read_only_array(self.h, np.complex128)
+        coh = read_only_array(self.coherence_ordinary, np.float64)
+        mcoh = read_only_array(self.coherence_multiple, np.float64)
+        cond = read_only_array(self.cond_sxx, np.float64)
         nf = f_hz.shape[0] if f_hz.ndim == 1 else -1
         if nf < 1 or h.ndim != 3 or h.shape[0] != nf:
             raise ShapeError(f'FrfEstimate: h must be (nf, n_out, n_in) with nf = len(f_hz), '
@@ -171,7 +172,6 @@ class FrfEstimate:
                 raise ShapeError(f'FrfEstimate: {name} must have shape {shape}, got {arr.shape}')
         for name, arr in (('f_hz', f_hz), ('h', h), ('coherence_ordinary', coh),
                           ('coherence_multiple', mcoh), ('cond_sxx', cond)):
-            arr.flags.writeable = False
             object.__setattr__(self, name, arr)
 
     @property

@@ -34,6 +34,7 @@ import numpy as np
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.validation import as_signals
+from wheel_force_estimator.core.validation import read_only_array
 
 RESIDUE_POLICIES = ('half', 'none')
 
@@ -64,14 +65,13 @@ class RainflowCycles:
     counts: np.ndarray
 
     def __post_init__(self):
-        """Store read-only float64 copies after checking the three arrays match."""
-        arrays = [np.array(a, dtype=np.float64) for a in (self.ranges, self.means, self.counts)]
+        """Store read-only float64 arrays (copied unless frozen) after checking they match."""
+        arrays = [read_only_array(a, np.float64) for a in (self.ranges, self.means, self.counts)]
         if any(a.ndim != 1 for a in arrays) or len({a.shape for a in arrays}) != 1:
             raise ShapeError(
                 'RainflowCycles: ranges, means and counts must be 1-D of equal length, got '
                 f'shapes {[a.shape for a in arrays]}')
         for field, arr in zip(('ranges', 'means', 'counts'), arrays):
-            arr.flags.writeable = False
             object.__setattr__(self, field, arr)
 
 

@@ -29,6 +29,7 @@ from wheel_force_estimator.core.errors import InsufficientDataError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.validation import as_signals
 from wheel_force_estimator.core.validation import positive_float
+from wheel_force_estimator.core.validation import read_only_array
 
 DETRENDS = ('constant', 'linear', 'none')
 
@@ -186,11 +187,11 @@ class CrossSpectra:
             raise ConfigError(f'CrossSpectra.n_windows must be an integer >= 1, '
                               f'got {self.n_windows!r}')
         object.__setattr__(self, 'n_windows', int(self.n_windows))
-        # Own read-only copies (a few MB at most), so freezing never touches a caller's array.
-        f_hz = np.array(self.f_hz, dtype=np.float64)
-        sxx = np.array(self.sxx, dtype=np.complex128)
-        syx = np.array(self.syx, dtype=np.complex128)
-        syy = np.array(self.syy, dtype=np.float64)
+        # Read-only, copied unless already frozen: freezing never touches a caller's array.
+        f_hz = read_only_array(self.f_hz, np.float64)
+        sxx = read_only_array(self.sxx, np.complex128)
+        syx = read_only_array(self.syx, np.complex128)
+        syy = read_only_array(self.syy, np.float64)
         nf = f_hz.shape[0] if f_hz.ndim == 1 else -1
         if nf < 1 or sxx.ndim != 3 or sxx.shape[0] != nf or sxx.shape[1] != sxx.shape[2]:
             raise ShapeError(f'CrossSpectra: sxx must be (nf, n_in, n_in) with nf = len(f_hz), '
@@ -202,7 +203,6 @@ class CrossSpectra:
             raise ShapeError(f'CrossSpectra: syy must be (nf, n_out) = {syx.shape[:2]}, '
                              f'got {syy.shape}')
         for name, arr in (('f_hz', f_hz), ('sxx', sxx), ('syx', syx), ('syy', syy)):
-            arr.flags.writeable = False
             object.__setattr__(self, name, arr)
 
     @property
