@@ -54,11 +54,11 @@ import numpy as np
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.cli.common import load_fit_config
+from wheel_force_estimator.core.correlations import CorrelationAccumulator
 from wheel_force_estimator.core.derived import spin_acceleration
 from wheel_force_estimator.core.derived import traction_braking
 from wheel_force_estimator.core.design import fit_design
 from wheel_force_estimator.core.filtering import FirFilter
-from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import SWEEP_LOOK_AHEADS_S
 from wheel_force_estimator.core.metrics import rmse_hp_pct

@@ -36,10 +36,10 @@ import numpy as np
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator.cli.common import load_fit_config
+from wheel_force_estimator.core.correlations import CorrelationAccumulator
 from wheel_force_estimator.core.evaluation import EvalSegment
 from wheel_force_estimator.core.evaluation import evaluate_segments
 from wheel_force_estimator.core.filtering import FirFilter
-from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.overlap_add import apply_fir
 from wheel_force_estimator.core.pipeline import fit_model

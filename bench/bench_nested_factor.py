@@ -23,12 +23,12 @@ import time
 import numpy as np
 from scipy import signal
 
-from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
-from wheel_force_estimator.core.live_estimator import LagOrderedFactor
+from wheel_force_estimator.core.correlations import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import look_ahead_samples
-from wheel_force_estimator.core.live_estimator import NormalEquations
 from wheel_force_estimator.core.nested_factor import BorderedFactor
+from wheel_force_estimator.core.normal_equations import LagOrderedFactor
+from wheel_force_estimator.core.normal_equations import NormalEquations
 
 FS_HZ = 512.0
 LOOKS_S = (0.05, 0.25)

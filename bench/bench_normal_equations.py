@@ -15,7 +15,7 @@ builds it once per input set and solves with leading blocks of its Cholesky fact
   against that of its transpose (the same symmetric matrix, already in Fortran order);
 - leading-block solve, 12 right-hand sides, look-aheads 0 and 50 ms of the 0.25 s factor:
   ``scipy.linalg.solve_triangular`` of the leading block (which scipy copies to a contiguous
-  array first) against :func:`.live_estimator.solve_leading` (zero padding, the whole factor).
+  array first) against :func:`.normal_equations.solve_leading` (zero padding, the whole factor).
 
 Prints the best of ``--repeat`` wall times.  Inputs: coloured noise, 90 s, 12 outputs.
 
@@ -28,12 +28,12 @@ import numpy as np
 from scipy import linalg
 from scipy import signal
 
-from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
-from wheel_force_estimator.core.live_estimator import LagOrderedFactor
+from wheel_force_estimator.core.correlations import CorrelationAccumulator
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import look_ahead_samples
-from wheel_force_estimator.core.live_estimator import NormalEquations
-from wheel_force_estimator.core.live_estimator import solve_leading
+from wheel_force_estimator.core.normal_equations import LagOrderedFactor
+from wheel_force_estimator.core.normal_equations import NormalEquations
+from wheel_force_estimator.core.normal_equations import solve_leading
 
 FS_HZ = 512.0
 N_IN = 12

@@ -15,6 +15,7 @@ from wheel_force_estimator.core.candidates import combine_correlations
 from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
 from wheel_force_estimator.core.candidates import LsSolutions
 from wheel_force_estimator.core.candidates import SCORING
+from wheel_force_estimator.core.correlations import CorrelationAccumulator
 from wheel_force_estimator.core.crossval import blend_weight
 from wheel_force_estimator.core.crossval import BlendScorer
 from wheel_force_estimator.core.crossval import block_pieces
@@ -26,14 +27,13 @@ from wheel_force_estimator.core.design import fit_design
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.filtering import response_on_grid
-from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
-from wheel_force_estimator.core.live_estimator import design_causal
-from wheel_force_estimator.core.live_estimator import LagOrderedFactor
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import look_ahead_samples
-from wheel_force_estimator.core.live_estimator import NormalEquations
 from wheel_force_estimator.core.metrics import rmse_hp_pct
 from wheel_force_estimator.core.metrics import rmse_pct
+from wheel_force_estimator.core.normal_equations import design_causal
+from wheel_force_estimator.core.normal_equations import LagOrderedFactor
+from wheel_force_estimator.core.normal_equations import NormalEquations
 from wheel_force_estimator.core.overlap_add import apply_fir
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.pipeline import TrainingSegment

@@ -160,8 +160,8 @@ def test_a_subsets_normal_equations_are_a_sub_block_of_the_full_ones():
     # Bug caught: a sub-block taken at the wrong unknowns (the lag-ordered factor's order, or
     # outputs for inputs), which would fit a subset's rows to other inputs' correlations.
     from wheel_force_estimator.core.candidates import subset_correlations
-    from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
-    from wheel_force_estimator.core.live_estimator import NormalEquations
+    from wheel_force_estimator.core.correlations import CorrelationAccumulator
+    from wheel_force_estimator.core.normal_equations import NormalEquations
     rng = np.random.default_rng(3)
     x, y = rng.normal(size=(4, 3000)), rng.normal(size=(2, 3000))
     acc = CorrelationAccumulator(4, 2, 40)

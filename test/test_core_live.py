@@ -9,18 +9,18 @@ import pytest
 from scipy import signal
 
 from wheel_force_estimator.core.causal_filter import CausalFilter
+from wheel_force_estimator.core.correlations import CorrelationAccumulator
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ModelFileError
 from wheel_force_estimator.core.live_estimator import CausalEstimator
-from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
-from wheel_force_estimator.core.live_estimator import design_causal
-from wheel_force_estimator.core.live_estimator import design_live
-from wheel_force_estimator.core.live_estimator import gather
 from wheel_force_estimator.core.live_estimator import lag_edges
 from wheel_force_estimator.core.live_estimator import LiveDesign
-from wheel_force_estimator.core.live_estimator import solve_leading
 from wheel_force_estimator.core.model import load_model
 from wheel_force_estimator.core.model import save_model
+from wheel_force_estimator.core.normal_equations import design_causal
+from wheel_force_estimator.core.normal_equations import design_live
+from wheel_force_estimator.core.normal_equations import gather
+from wheel_force_estimator.core.normal_equations import solve_leading
 from wheel_force_estimator.core.overlap_add import OverlapAddFilter
 from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import FitConfig

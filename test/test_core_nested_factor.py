@@ -5,12 +5,12 @@ import numpy as np
 import pytest
 from scipy import signal
 
+from wheel_force_estimator.core.correlations import CorrelationAccumulator
 from wheel_force_estimator.core.errors import InsufficientDataError
-from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
-from wheel_force_estimator.core.live_estimator import LagOrderedFactor
 from wheel_force_estimator.core.live_estimator import LiveDesign
-from wheel_force_estimator.core.live_estimator import NormalEquations
 from wheel_force_estimator.core.nested_factor import BorderedFactor
+from wheel_force_estimator.core.normal_equations import LagOrderedFactor
+from wheel_force_estimator.core.normal_equations import NormalEquations
 
 FS_HZ = 128.0
 DESIGN = LiveDesign(look_aheads_s=(0.1,), history_s=0.3, fine_s=0.05, blocks_per_octave=4,

@@ -31,6 +31,9 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator.core.correlations import CorrelationAccumulator
+from wheel_force_estimator.core.correlations import Correlations
+from wheel_force_estimator.core.correlations import straddling_products
 from wheel_force_estimator.core.crossval import blend_weight
 from wheel_force_estimator.core.crossval import BlendScorer
 from wheel_force_estimator.core.crossval import HeldOutPower
@@ -38,14 +41,11 @@ from wheel_force_estimator.core.crossval import hp_power_weight
 from wheel_force_estimator.core.crossval import Piece
 from wheel_force_estimator.core.filtering import response_on_grid
 from wheel_force_estimator.core.live_estimator import CausalEstimator
-from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
-from wheel_force_estimator.core.live_estimator import Correlations
-from wheel_force_estimator.core.live_estimator import LagOrderedFactor
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import look_ahead_samples
-from wheel_force_estimator.core.live_estimator import NormalEquations
-from wheel_force_estimator.core.live_estimator import straddling_products
 from wheel_force_estimator.core.nested_factor import BorderedFactor
+from wheel_force_estimator.core.normal_equations import LagOrderedFactor
+from wheel_force_estimator.core.normal_equations import NormalEquations
 from wheel_force_estimator.core.spectra import CrossSpectra
 from wheel_force_estimator.core.spectra import pooled_cross_spectra
 
@@ -249,7 +249,7 @@ class Straddling:
     ``total`` sums every such pair; ``touching[b]`` those with a sample in block ``b``.  A
     fold's training data is every block but one, so its straddling pairs are ``total -
     touching[k]`` (:meth:`for_fold`), formed by sums as the blocks' own correlations are.
-    Arrays as :class:`.live_estimator.Correlations` (``rxx``, ``rxy``), summed, not averaged.
+    Arrays as :class:`.correlations.Correlations` (``rxx``, ``rxy``), summed, not averaged.
     """
 
     total: Tuple[np.ndarray, np.ndarray]
@@ -267,7 +267,7 @@ def straddling_sums(segments, blocks: Sequence[Sequence[Piece]], max_lag: int,
 
     Every two chunks of one segment less than ``max_lag`` samples apart contribute the pairs
     between the end of the first and the start of the second
-    (:func:`.live_estimator.straddling_products`), with its segment's mean removed as
+    (:func:`.correlations.straddling_products`), with its segment's mean removed as
     :func:`block_stats` removes it (``means``: :func:`segment_means`, computed when not
     given).  With them a fold's training correlations are those of
     its chunks as one piecewise signal: the per-chunk sums alone dropped the pairs across

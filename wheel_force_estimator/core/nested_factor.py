@@ -5,7 +5,7 @@ The least-squares FIR factorisation of an input set, bordered from a nested smal
 
 The fit's search scores nested input sets (``accel`` then ``accel+split``, ...:
 :func:`.spindle.input_sets`): each set's columns begin with the previous set's.  The
-unknowns of the normal equations (:class:`.live_estimator.NormalEquations`) are numbered
+unknowns of the normal equations (:class:`.normal_equations.NormalEquations`) are numbered
 input by input, so the smaller set's matrix ``A11`` is a block of the larger set's, and the
 block Cholesky factorisation gives the larger factor from the smaller one::
 
@@ -27,7 +27,7 @@ one per look-ahead: the largest cost of bordering at 48 blocks per octave and mo
 ``inner`` does not number its unknowns that way, and gets its ``W`` per look-ahead.
 
 Only the factorisation is new: the equations, the ridge and the solution are those of
-:class:`.live_estimator.LagOrderedFactor` of the larger set, to rounding (tested).
+:class:`.normal_equations.LagOrderedFactor` of the larger set, to rounding (tested).
 """
 from typing import Dict, Tuple
 
@@ -35,10 +35,10 @@ import numpy as np
 import scipy.linalg
 
 from wheel_force_estimator.core.errors import InsufficientDataError
-from wheel_force_estimator.core.live_estimator import lag_order
-from wheel_force_estimator.core.live_estimator import LagOrderedFactor
-from wheel_force_estimator.core.live_estimator import NormalEquations
-from wheel_force_estimator.core.live_estimator import TriangularFactor
+from wheel_force_estimator.core.normal_equations import lag_order
+from wheel_force_estimator.core.normal_equations import LagOrderedFactor
+from wheel_force_estimator.core.normal_equations import NormalEquations
+from wheel_force_estimator.core.normal_equations import TriangularFactor
 
 
 class BorderedFactor(TriangularFactor):

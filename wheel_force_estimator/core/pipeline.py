@@ -24,6 +24,7 @@ from typing import Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator.core.correlations import CorrelationAccumulator
 from wheel_force_estimator.core.crossval import blend_weight
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import InsufficientDataError
@@ -35,10 +36,9 @@ from wheel_force_estimator.core.frf import bridged_line_counts
 from wheel_force_estimator.core.frf import estimate_frf
 from wheel_force_estimator.core.frf import FrfConfig
 from wheel_force_estimator.core.frf import FrfEstimate
-from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
-from wheel_force_estimator.core.live_estimator import design_live
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.model import FrfModel
+from wheel_force_estimator.core.normal_equations import design_live
 from wheel_force_estimator.core.physics_laws import QUANTITIES
 from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spectra import cross_spectra

@@ -439,7 +439,7 @@ def _linear_part_correlations(model, recordings: Sequence, max_lag: int):
 
     A model with the traction/braking split gets it derived from each record's accelerations.
     """
-    from wheel_force_estimator.core.live_estimator import CorrelationAccumulator
+    from wheel_force_estimator.core.correlations import CorrelationAccumulator
     linear = model.with_physics(())
     corr = CorrelationAccumulator(len(model.input_channels), len(model.output_channels),
                                   max_lag)
@@ -492,7 +492,7 @@ def with_live_estimators(model, recordings: Sequence, design, real_fit=None):
 
     """
     from wheel_force_estimator.core.errors import WheelForceError
-    from wheel_force_estimator.core.live_estimator import design_live
+    from wheel_force_estimator.core.normal_equations import design_live
     from wheel_force_estimator.core.search import chosen_live
     from wheel_force_estimator.core.search import max_lag
     fs = model.fs_hz
