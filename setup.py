@@ -50,7 +50,7 @@ setup(
     entry_points={
         'console_scripts': [
             'wheel-force = wheel_force_estimator.cli.main:main',
-            'wheel_force_node = wheel_force_estimator.ros.node:main',
+            'wheel_force_node = wheel_force_estimator.ros.run:main',
         ],
     },
 )

@@ -85,7 +85,7 @@ def prefix(tmp_path, monkeypatch):
     lib.mkdir(parents=True)
     exe = lib / 'wheel_force_node'
     exe.write_text(f'#!{sys.executable}\nimport sys\n'
-                   f'from wheel_force_estimator.ros.node import main\nsys.exit(main())\n')
+                   f'from wheel_force_estimator.ros.run import main\nsys.exit(main())\n')
     exe.chmod(0o755)
     monkeypatch.setenv('AMENT_PREFIX_PATH', os.pathsep.join(
         [str(root)] + [p for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep)

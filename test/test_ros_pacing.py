@@ -8,6 +8,7 @@ from wheel_force_estimator.ros.pacing import CATCH_UP_FACTOR
 from wheel_force_estimator.ros.pacing import HURRY_FACTOR
 from wheel_force_estimator.ros.pacing import OutputPacer
 from wheel_force_estimator.ros.pacing import PACE_BURST_S
+from wheel_force_estimator.ros.pacing import PacedOutput
 
 FS_HZ = 512.0
 BLOCK = 16
@@ -163,3 +164,46 @@ def test_the_rate_is_kept_through_a_pause_and_late_idle_ticks_do_not_add_up():
     pacer.published(1, 8)
     assert pacer.on_idle(1.5, 8) == 1                # ... and never more than one per tick
     assert pacer.on_idle(1.5, 0) == 0
+
+
+def _recorders(n_topics):
+    """Return (publish functions, the shared log of (topic, message) they append to)."""
+    log = []
+    return [lambda msg, k=k: log.append((k, msg)) for k in range(n_topics)], log
+
+
+def test_paced_output_publishes_sample_major_oldest_first_and_counts():
+    fns, log = _recorders(4)
+    out = PacedOutput(fns, FS_HZ, 2 * BLOCK)
+    out.add([[f'a{k}{i}' for i in range(3)] for k in range(4)], ready_s=1.0)
+    out.add([[f'b{k}{i}' for i in range(2)] for k in range(4)], ready_s=None)   # a tail
+    out.add([[] for _ in range(4)], ready_s=2.0)                                # nothing
+    assert (out.waiting, out.published) == (5, 0)
+    assert out.pump(4, now_s=1.5) == 4                 # across the two blocks
+    assert log == [(k, f'a{k}{i}') for i in range(3) for k in range(4)] + [
+        (k, 'b{}0'.format(k)) for k in range(4)]
+    assert (out.waiting, out.published) == (1, 4)
+    assert out.pump(10, now_s=1.6) == 1 and out.pump(10, now_s=1.7) == 0
+    assert (out.waiting, out.published) == (0, 5)
+    # only the computed block's three samples waited (0.5 s); the tail is not latency
+    assert out.latency_ms() == (500.0, 500.0, 500.0)
+
+
+def test_paced_output_drain_publishes_everything_within_its_bound():
+    fns, log = _recorders(2)
+    out = PacedOutput(fns, FS_HZ, 2 * BLOCK)
+    n = 3000                                           # 5.9 s at the model's rate
+    out.add([list(range(n)), list(range(n))], ready_s=None)
+    clock = {'t': 0.0}
+
+    def sleep(dt):
+        clock['t'] += dt
+    out.drain(1.0, clock=lambda: clock['t'], sleep=sleep)
+    assert out.waiting == 0 and out.published == n and len(log) == 2 * n
+    assert [m for k, m in log if k == 1] == list(range(n))
+    assert clock['t'] <= 1.0 + 0.01                    # faster than the model's rate
+    out.add([list(range(8)), list(range(8))], ready_s=None)
+    clock['t'] = 0.0
+    out.drain(1.0, clock=lambda: clock['t'], sleep=sleep)
+    assert out.waiting == 0
+    assert clock['t'] == pytest.approx(8 / FS_HZ, abs=0.005)   # a short tail at its rate

@@ -262,12 +262,12 @@ def test_cli_refusal_is_one_clear_line_and_exit_1(tmp_path, model_file):
                            str(tmp_path / 'none.yaml')], env=env, capture_output=True,
                           text=True, timeout=60)
     assert proc.returncode == 1 and 'none.yaml: params file not found' in proc.stderr
-    proc = subprocess.run([sys.executable, '-m', 'wheel_force_estimator.ros.node', '--ros-args',
+    proc = subprocess.run([sys.executable, '-m', 'wheel_force_estimator.ros.run', '--ros-args',
                            '--params-file', str(tmp_path / 'none.yaml')],
                           env=env, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 1 and 'refusing to start' in proc.stderr
     assert 'Traceback' not in proc.stderr
-    proc = subprocess.run([sys.executable, '-m', 'wheel_force_estimator.ros.node', '--ros-args',
+    proc = subprocess.run([sys.executable, '-m', 'wheel_force_estimator.ros.run', '--ros-args',
                            '-p', f'model_path:={model_file}', '-p', 'block_size:=0'],
                           env=env, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 1

@@ -131,7 +131,7 @@ def without_shared_memory(env: Mapping[str, str]) -> Dict[str, str]:
 def node_command(model_path, params: Mapping[str, object] = (),
                  params_file: Optional[Path] = None, ros_args: Sequence[str] = ()) -> list:
     """Return the command line running ``wheel_force_node`` with parameter overrides."""
-    cmd = [sys.executable, '-m', 'wheel_force_estimator.ros.node', '--ros-args', *ros_args]
+    cmd = [sys.executable, '-m', 'wheel_force_estimator.ros.run', '--ros-args', *ros_args]
     if params_file is not None:
         cmd += ['--params-file', str(params_file)]
     cmd += ['-p', f'model_path:={model_path}']

@@ -42,5 +42,5 @@ def command(args: argparse.Namespace) -> int:
     config = Path(args.config) if args.config else default_config_path()
     if config is not None and not config.is_file():
         raise ConfigError(f'{config}: params file not found')
-    from wheel_force_estimator.ros.node import main
+    from wheel_force_estimator.ros.run import main
     return main(build_ros_args(config, args.model, args.ros_args))

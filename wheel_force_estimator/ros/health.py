@@ -23,8 +23,6 @@ from wheel_force_estimator.ros.diagnostics import WARN
 IMU_TYPE = 'sensor_msgs/msg/Imu'
 #: Throttle of repeated fault warnings [s].
 WARN_THROTTLE_S = 5.0
-#: Pacing latencies kept for the percentiles.
-LATENCY_WINDOW = 4096
 #: Why a decoded message is dropped before alignment (per-corner counters).
 DROP_REASONS = ('malformed', 'wrong_frame', 'nonfinite', 'no_angular_rate')
 
@@ -35,18 +33,19 @@ class NodeHealth:
     def stale_reasons(self, now: float):
         """Return, per corner, why its input is stale (``''`` when it is not)."""
         reasons = []
-        lasts = [self._aligner.last_stamp_ns(c) for c in range(len(CORNERS))]
+        aligner = self._intake.aligner
+        lasts = [aligner.last_stamp_ns(c) for c in range(len(CORNERS))]
         newest = max((s for s in lasts if s is not None), default=None)
         limit_ns = self._params.stale_timeout_samples * 1e9 / self._fs_hz
         for c in range(len(CORNERS)):
-            rx = self._last_rx_s[c]
+            rx = self._intake.last_rx_s[c]
             wrong = (f' (publisher of type {self._wrong_types[c]} on the topic)'
                      if self._wrong_types[c] else '')
             if rx is None:
                 reasons.append('no message received yet' + wrong)
             elif now - rx > self._stale_s:
                 reasons.append(f'no message for {now - rx:.2f} s' + wrong)
-            elif (newest is not None and lasts[c] is not None and not self._aligner.in_transition
+            elif (newest is not None and lasts[c] is not None and not aligner.in_transition
                   and newest - lasts[c] > limit_ns):
                 reasons.append(f'stamps {(newest - lasts[c]) * 1e-9:.2f} s behind the others')
             else:
@@ -55,13 +54,13 @@ class NodeHealth:
 
     def _stream_counters(self):
         """Return (received, dropped by reason, aligner counters) of every aligned stream."""
-        align = self._aligner.counters()
-        dropped = {f'dropped_{reason}': self._dropped[reason] for reason in DROP_REASONS}
+        align = self._intake.aligner.counters()
+        dropped = {f'dropped_{reason}': self._intake.dropped[reason] for reason in DROP_REASONS}
         dropped['dropped_duplicate'] = align['duplicate']
         dropped['dropped_late'] = align['late']
         dropped['dropped_incomplete'] = align['incomplete']
         dropped['dropped_out_of_tolerance'] = align['out_of_tolerance']
-        return self._received, dropped, align
+        return self._intake.received, dropped, align
 
     def joint_state_counters(self):
         """
@@ -84,7 +83,7 @@ class NodeHealth:
         """Return why the JointState wheel-spin input is stale, ``''`` if not (or none)."""
         if not self._spin:
             return ''
-        rx = self._last_rx_s[len(CORNERS)]
+        rx = self._intake.last_rx_s[len(CORNERS)]
         if rx is None:
             return 'no message received yet'
         return f'no message for {now - rx:.2f} s' if now - rx > self._stale_s else ''
@@ -99,31 +98,20 @@ class NodeHealth:
         received = received[:n]
         align = {key: value[:n] for key, value in align.items()}
         total = sum(dropped.values())
-        out = {'received': received, 'published': [self._published] * n,
+        out = {'received': received, 'published': [self._output.published] * n,
                'dropped': total, 'gaps': [stream['gaps']] * n,
                'missing_samples': [stream['missing_samples']] * n,
                'short_steps': [stream['short_steps']] * n, 'resets': [stream['jumps']] * n}
         out.update(dropped)
         out.update({'aligned': align['aligned'], 'pending': align['pending'],
                     'sync_offset_max_us': self._sync_offset_ns[:n] // 1000,
-                    'in_flight': [self._stream.in_flight + self._n_unpublished] * n,
+                    'in_flight': [self._stream.in_flight + self._output.waiting] * n,
                     'flushes': [stream['flushes']] * n})
         return {key: [int(v) for v in value] for key, value in out.items()}
 
     def pacing_latency_ms(self):
-        """
-        Return (p50, p99, max) of the time estimates waited to be published [ms].
-
-        Per published sample, over the last :data:`LATENCY_WINDOW` publications, from the
-        moment the estimate was computed; end-of-stream tails are not included.
-        """
-        if not self._latency_s:
-            return (0.0, 0.0, 0.0)
-        pairs = np.asarray(self._latency_s)
-        order = np.argsort(pairs[:, 0])
-        lat, weight = pairs[order, 0] * 1e3, np.cumsum(pairs[order, 1])
-        p50, p99 = (lat[np.searchsorted(weight, q * weight[-1])] for q in (0.5, 0.99))
-        return float(p50), float(p99), float(lat[-1])
+        """Return (p50, p99, max) of the pacing latency [ms] (:meth:`.PacedOutput.latency_ms`)."""
+        return self._output.latency_ms()
 
     def _corner_rows(self, corner: int):
         rows = list(self._layout.force_rows[corner])
@@ -223,7 +211,7 @@ class NodeHealth:
                   ('look_ahead_samples', self._stream.delay_samples),
                   ('sync_tolerance_s', f'{self._layout.sync_tolerance_ns * 1e-9:g}'),
                   ('samples_in', stream['samples_in']), ('samples_out', stream['samples_out']),
-                  ('published', self._published), ('waiting', self._n_unpublished),
+                  ('published', self._output.published), ('waiting', self._output.waiting),
                   ('gaps', stream['gaps']), ('missing_samples', stream['missing_samples']),
                   ('flushes', stream['flushes']), ('resets', stream['jumps']),
                   ('damage_messages', self._damage_messages), ('damage_budget', f'{budget:g}'),

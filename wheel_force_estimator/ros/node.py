@@ -50,72 +50,56 @@ leave when the data resumes, exactly as offline.  The stall only marks the input
 publishes the damage so far.  The look-ahead is completed only at a gap in the stamps, at a
 stamp jump, and at shutdown.
 
-At SIGINT/SIGTERM the look-ahead is completed, the remaining estimates leave paced (at most
-:data:`SHUTDOWN_TAIL_S`), a final damage message is published, the acknowledgements are awaited
-against one deadline (:data:`SHUTDOWN_ACK_S`) and the node exits 0.  A second signal exits at
-once (status :data:`EXIT_INTERRUPTED`), logging how many estimates were not published.
+At SIGINT/SIGTERM (:meth:`WheelForceNode.finish`, called by :mod:`.run`, the process around
+the node) the look-ahead is completed, the remaining estimates leave paced (at most
+:data:`SHUTDOWN_TAIL_S`), a final damage message is published and the acknowledgements are
+awaited against one deadline (:data:`SHUTDOWN_ACK_S`).
 
 Faults never stop the node: they are counted, shown in the diagnostics, logged (gaps one line
 each, with the stamps either side; repeated faults with a throttled warning) and summarised at
-shutdown.  Run with the ``EventsExecutor`` spun with a finite timeout (without one it
-busy-spins and runs nothing).
+shutdown.
+
+Collaborators: the model's estimation chain is built by :mod:`.chain`, the waiting estimates
+are published by :class:`.pacing.PacedOutput`, and what the node reports is
+:class:`.health.NodeHealth`'s.
 """
-import collections
 import dataclasses
-import gc
-import os
-import signal
-import threading
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 import numpy as np
-import rclpy
 from rclpy.clock import Clock
 from rclpy.clock import ClockType
 from rclpy.duration import Duration
-from rclpy.executors import ExternalShutdownException
-from rclpy.experimental import EventsExecutor
 from rclpy.lifecycle import LifecycleNode
 from rclpy.lifecycle import LifecycleState
 from rclpy.lifecycle import TransitionCallbackReturn
-from rclpy.node import Node
 from rclpy.qos import HistoryPolicy
 from rclpy.qos import QoSPolicyKind
 from rclpy.qos import QoSProfile
 from rclpy.qos import ReliabilityPolicy
 from rclpy.qos_overriding_options import QoSOverridingOptions
-from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import Imu
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from wheel_force_estimator import CORNERS
-from wheel_force_estimator import SPLIT_CHANNELS
-from wheel_force_estimator.bagio.cdr import decode_imu
-from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.bagio.cdr import encode_wrench
 from wheel_force_estimator.core.errors import ModelFileError
 from wheel_force_estimator.core.errors import WheelForceError
-from wheel_force_estimator.core.model import load_model
-from wheel_force_estimator.core.predict import Predictor
 from wheel_force_estimator.ros.aligner import AlignedSamples
-from wheel_force_estimator.ros.aligner import CornerAligner
 from wheel_force_estimator.ros.aligner import OutOfTolerance
-from wheel_force_estimator.ros.health import DROP_REASONS
-from wheel_force_estimator.ros.health import LATENCY_WINDOW
+from wheel_force_estimator.ros.chain import load_chain
 from wheel_force_estimator.ros.health import NodeHealth
 from wheel_force_estimator.ros.health import WARN_THROTTLE_S
-from wheel_force_estimator.ros.joints import decode_wheel_spin
-from wheel_force_estimator.ros.pacing import OutputPacer
+from wheel_force_estimator.ros.intake import Intake
+from wheel_force_estimator.ros.pacing import PacedOutput
 from wheel_force_estimator.ros.params import declare_node_parameters
 from wheel_force_estimator.ros.params import default as _default
 from wheel_force_estimator.ros.params import DEPRECATED_QOS_PARAMETERS
-from wheel_force_estimator.ros.params import model_layout
 from wheel_force_estimator.ros.params import unknown_parameters
-from wheel_force_estimator.ros.stream import ForceStream
 
 NODE_NAME = 'wheel_force_node'
 #: The ROS-wide health topic (absolute: never moves with the namespace).
@@ -131,18 +115,8 @@ SHUTDOWN_ACK_S = 2.0
 #: when more waits) [s].  With the drain and the acknowledgements, a stop stays within the 5 s
 #: after which ``ros2 launch`` escalates to SIGTERM.
 SHUTDOWN_TAIL_S = 1.0
-#: Longest a shutdown spends taking the input messages DDS already delivered [s]; it stops
-#: as soon as the inputs are quiet.  0.5 s lost 841 of 3072 samples per corner of a
-#: six-component model replayed at 4x on a slower 2-core machine (2026-12-02: the node took
-#: ~1100 samples/s there, the replay sent 2048/s).  With the tail and the acknowledgements a
-#: stop stays within the 5 s of ``ros2 launch`` (1.5 + 1 + 2 s).
-SHUTDOWN_DRAIN_S = 1.5
-#: Step of the paced shutdown tail [s].
-_TAIL_STEP_S = 0.002
 #: Longest single acknowledgement wait at shutdown (signals are handled between them) [s].
 _ACK_SLICE_S = 0.05
-#: Exit status after a second SIGINT/SIGTERM (128 + SIGINT, as a shell reports Ctrl-C).
-EXIT_INTERRUPTED = 130
 #: QoS policies settable through ``qos_overrides.<topic>.<publisher|subscription>.<policy>``.
 QOS_OVERRIDE_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH,
                          QoSPolicyKind.RELIABILITY, QoSPolicyKind.DURABILITY)
@@ -276,14 +250,10 @@ class WheelForceNode(NodeHealth, LifecycleNode):
 
     def _load(self, model_path: str):
         """Return (model, layout, stream) for ``model_path``, checked; raise WheelForceError."""
-        params = dataclasses.replace(self._params, model_path=model_path)
-        model = load_model(model_path)
-        layout = model_layout(model, params)
-        stream = _make_stream(model, layout, params)
+        model, layout, stream = load_chain(self._params, model_path)
         if stream.fallback:
             # Once per load: the model predates the live estimator (issue 16).
             self.get_logger().warning(f'{model_path}: {stream.fallback}')
-        _warm_up(model, layout, params)
         return model, layout, stream
 
     def _setup(self, model, layout, stream):
@@ -292,35 +262,24 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         self._stream = stream
         self._fs_hz = model.fs_hz
         self._model = model
-        # with angular-rate inputs each corner's sample is 6 values: acceleration, then rates
-        self._rates = layout.rates
-        self._rate_error_s = {}           # corner -> when its missing rates were last logged
         # with spin inputs a fifth stream: the JointState wheel spin rates (4 values)
         self._spin = layout.spin
         n = len(CORNERS)
-        n_streams = n + (1 if layout.spin else 0)
-        self._aligner = CornerAligner(
-            n_streams, (6 if layout.rates else 3,) * n + ((len(CORNERS),) if layout.spin else ()),
-            max(params.input_qos_depth, params.stale_timeout_samples, 64),
-            tolerance_ns=layout.sync_tolerance_ns, period_ns=1e9 / model.fs_hz)
+        self._imu_names = [self.resolve_topic_name(t) for t in params.imu_topics]
+        # names of the aligned streams, for messages (the Imu topics, then the JointState one)
+        self._input_names = self._imu_names + (
+            [self.resolve_topic_name(params.travel_topic)] if layout.spin else [])
+        self._intake = Intake(layout, params, model.fs_hz, self._input_names, self.get_logger())
+        # the subscriptions' callbacks append the serialized messages here
+        self._raw = self._intake.raw
         self._stale_s = params.stale_timeout_samples / model.fs_hz
-        self._check_frames = any(params.imu_frame_ids)
-        # serialized Imu messages per corner, then (spin) the JointState messages
-        self._raw = [[] for _ in range(n_streams)]
         self._queued = 0                  # stream samples waiting for their block
-        self._out = collections.deque()   # [per-corner serialized messages, next index, ready]
-        self._n_unpublished = 0
-        self._pacer = OutputPacer(model.fs_hz, 2 * params.block_size, n)
-        self._published = 0
-        self._latency_s = collections.deque(maxlen=LATENCY_WINDOW)
-        self._received = np.zeros(n_streams, dtype=np.int64)
-        self._dropped = {reason: np.zeros(n_streams, dtype=np.int64) for reason in DROP_REASONS}
-        self._last_rx_s = [None] * n_streams
         self._last_input_s = None
         self._input_since_tick = False
         self._final_sent_for = None       # samples_out at the last end-of-stream report
         self._paused_at = None            # samples_out when the input was last seen stopping
-        self._sync_offset_ns = np.zeros(n_streams, dtype=np.int64)  # worst offset out of tol.
+        # worst offset out of tolerance per stream
+        self._sync_offset_ns = np.zeros(len(self._input_names), dtype=np.int64)
         self._off_reported = np.zeros(n, dtype=np.int64)     # out-of-tolerance at last health
         self._damage_messages = 0
         self._wrong_types = [''] * n
@@ -334,15 +293,12 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         self._pubs = [self.create_publisher(WrenchStamped, topic, out_qos,
                                             qos_overriding_options=qos_opts)
                       for topic in params.output_topics]
-        self._publish_fns = [pub.publish for pub in self._pubs]
+        self._output = PacedOutput([pub.publish for pub in self._pubs], model.fs_hz,
+                                   2 * params.block_size)
         self._damage_pub = self.create_publisher(DiagnosticArray, params.damage_topic, 10,
                                                  qos_overriding_options=qos_opts)
         self._health_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10,
                                                  qos_overriding_options=qos_opts)
-        self._imu_names = [self.resolve_topic_name(t) for t in params.imu_topics]
-        # names of the aligned streams, for messages (the Imu topics, then the JointState one)
-        self._input_names = self._imu_names + (
-            [self.resolve_topic_name(params.travel_topic)] if layout.spin else [])
         delay = stream.delay_samples
         self.get_logger().info(
             f'{self.get_fully_qualified_name()}: model {params.model_path}: '
@@ -395,15 +351,15 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         if any(self._raw):
             self._process(time.monotonic())
         self._end_of_stream('deactivated', always=True)
-        self._publish_tail()
+        self._output.drain(SHUTDOWN_TAIL_S)
         self._publish_health()
         self._active = False
 
     def _release(self):
         for pub in self._pubs + [self._damage_pub, self._health_pub]:
             self.destroy_publisher(pub)
-        self._pubs, self._publish_fns = [], []
-        self._model = self._stream = None
+        self._pubs = []
+        self._model = self._stream = self._output = None
         self.get_logger().info('cleaned up: model released')
 
     # -- services ----------------------------------------------------------------------------
@@ -480,8 +436,8 @@ class WheelForceNode(NodeHealth, LifecycleNode):
             # A block can only complete once every corner has delivered enough messages.
             if self._queued + min(map(len, raws)) >= block:
                 self._process(time.monotonic())
-            if self._n_unpublished:
-                self._pace(time.monotonic())
+            if self._output.waiting:
+                self._output.on_message(time.monotonic())
         return on_imu
 
     def _on_joint_state(self, msg: JointState):
@@ -500,7 +456,7 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         # The event carries no stamp: the new run starts after the newest sample received.
         if any(self._raw):
             self._process(time.monotonic())
-        lasts = [self._aligner.last_stamp_ns(c) for c in range(len(CORNERS))]
+        lasts = [self._intake.aligner.last_stamp_ns(c) for c in range(len(CORNERS))]
         newest = max((t for t in lasts if t is not None), default=None)
         if newest is None:
             self._stream.split_damage(-1, msg.data)     # before any data: the first run
@@ -513,57 +469,26 @@ class WheelForceNode(NodeHealth, LifecycleNode):
         if any(self._raw):
             self._process(now)
         # the Imu messages set the output rhythm (four per sample; not the JointState ones)
-        self._pacer.measure(now, int(self._received[:len(CORNERS)].sum()))
+        self._output.measure(now, int(self._intake.received[:len(CORNERS)].sum()))
         if (self._last_input_s is not None and now - self._last_input_s > self._stale_s
                 and self._paused_at != self._stream.counts['samples_in']):
             self._on_pause(now - self._last_input_s)
-        if self._n_unpublished and not had_input and self._idle_timer.is_canceled():
+        if self._output.waiting and not had_input and self._idle_timer.is_canceled():
             # No input to pace by (end of a replay, a stall): the model's sample rate.
             self._idle_timer.reset()
 
     def _on_idle_tick(self):
-        if self._n_unpublished and not self._input_since_tick:
-            due = self._pacer.on_idle(time.monotonic(), self._n_unpublished)
-            if due:
-                self._pacer.published(self._pump(due), self._n_unpublished)
+        if self._output.waiting and not self._input_since_tick:
+            self._output.on_idle(time.monotonic())
         else:
             self._idle_timer.cancel()
 
     # -- processing --------------------------------------------------------------------------
 
     def _process(self, now: float):
-        batches = []
-        for c, buf in enumerate(self._raw):
-            batches.append(buf[:])
-            buf.clear()
-        joint_msgs = batches.pop() if self._spin else []
-        counts = [len(b) for b in batches]
-        if self._check_frames:
-            decoded = [decode_imu(b, self._params.imu_frame_ids[c], self._rates) if b else None
-                       for c, b in enumerate(batches)]
-        else:
-            whole = decode_imu([raw for b in batches for raw in b], rates=self._rates)
-            decoded, lo = [], 0
-            for n in counts:
-                decoded.append(whole.sliced(lo, lo + n) if n else None)
-                lo += n
-        if joint_msgs:
-            decoded.append(decode_wheel_spin(joint_msgs))
-            counts.append(len(joint_msgs))
-        for c, d in enumerate(decoded):
-            if d is None:
-                continue
-            self._received[c] += counts[c]
-            self._last_rx_s[c] = now
-            valid = d.valid
-            if not valid.all():
-                self._count_drops(c, d)
-                self._aligner.push(c, d.stamp_ns[valid], d.values()[:, valid])
-            else:
-                self._aligner.push(c, d.stamp_ns, d.values())
-        for event in self._aligner.drain():
+        for event in self._intake.take(now):
             if isinstance(event, AlignedSamples):
-                self._stream.feed(event.stamp_ns, self._model_inputs(event.accel_mps2))
+                self._stream.feed(event.stamp_ns, self._intake.model_inputs(event.accel_mps2))
                 self._last_input_s = now
             elif isinstance(event, OutOfTolerance):
                 self._on_out_of_tolerance(event)
@@ -588,7 +513,7 @@ class WheelForceNode(NodeHealth, LifecycleNode):
     def _on_out_of_tolerance(self, event: OutOfTolerance):
         c = event.corner
         self._sync_offset_ns[c] = max(self._sync_offset_ns[c], event.offset_ns)
-        total = int(self._aligner.counters()['out_of_tolerance'][c])
+        total = int(self._intake.aligner.counters()['out_of_tolerance'][c])
         self.get_logger().warning(
             f'{self._input_names[c]}: dropped {event.n_messages} message(s) whose stamps no '
             f'other corner matched within sync_tolerance_s '
@@ -631,49 +556,6 @@ class WheelForceNode(NodeHealth, LifecycleNode):
                 self.get_logger().info(f'{why}: estimates in flight completed; '
                                        f'{self.summary()}')
 
-    def _model_inputs(self, values: np.ndarray) -> np.ndarray:
-        """
-        Return the model's inputs from aligned corner values.
-
-        Corner-major rows: 3 accelerations per corner, or 3 accelerations and 3 angular
-        rates per corner for a model with rates, whose inputs are the 12 accelerations,
-        then the 12 rates; then, for a model with spin, the 4 wheel spin rates (the stream
-        differentiates them to the model's spin accelerations).
-        """
-        if not self._rates:
-            return values
-        n_imu = 6 * len(CORNERS)
-        per = values[:n_imu].reshape(len(CORNERS), 6, -1)
-        return np.concatenate([per[:, :3].reshape(12, -1), per[:, 3:].reshape(12, -1),
-                               values[n_imu:]])
-
-    def _count_drops(self, corner: int, decoded):
-        topic = self._input_names[corner]
-        for reason in DROP_REASONS:
-            mask = getattr(decoded, reason)
-            n = 0 if mask is None else int(mask.sum())
-            if n and reason == 'no_angular_rate':
-                self._dropped[reason][corner] += n
-                # the model needs the rates: an error, never zeros (REP-145 "not provided");
-                # throttled per topic, so every corner at fault is named
-                now = time.monotonic()
-                last = self._rate_error_s.get(corner)
-                if last is None or now - last >= WARN_THROTTLE_S:
-                    self._rate_error_s[corner] = now
-                    self.get_logger().error(
-                        f'{topic}: {n} message(s) without angular velocity (covariance[0] = '
-                        f'-1, first stamped {int(decoded.stamp_ns[int(np.argmax(mask))])} ns);'
-                        ' the model needs the spindle angular rates: those samples are dropped'
-                        f' (total {int(self._dropped[reason][corner])})')
-            elif n:
-                self._dropped[reason][corner] += n
-                first = int(np.argmax(mask))
-                self.get_logger().warning(
-                    f'{topic}: dropped {n} {reason.replace("_", " ")} message(s), first '
-                    f'stamped {int(decoded.stamp_ns[first])} ns (total '
-                    f'{int(self._dropped[reason][corner])})',
-                    throttle_duration_sec=WARN_THROTTLE_S)
-
     def _enqueue(self, stamp_ns: np.ndarray, force_n: np.ndarray, ready_s: float,
                  tail: bool):
         if stamp_ns.size == 0:
@@ -691,38 +573,7 @@ class WheelForceNode(NodeHealth, LifecycleNode):
                                        torque))
         # A tail (flushed after the input stopped) has no input to pace it: it leaves at the
         # model's rate and is left out of the pacing latency, which measures steady running.
-        self._out.append([blobs, 0, None if tail else ready_s])
-        self._n_unpublished += stamp_ns.size
-
-    def _pace(self, now: float):
-        """One input message arrived: publish what the pacing allows (see the module notes)."""
-        due = self._pacer.on_message(now, self._n_unpublished)
-        if due > 0:
-            self._pacer.published(self._pump(due), self._n_unpublished)
-
-    def _pump(self, budget: int) -> int:
-        """Publish up to ``budget`` waiting output samples, oldest first; return the count."""
-        publishers = self._publish_fns
-        now = time.monotonic()
-        done = 0
-        while budget > done and self._out:
-            entry = self._out[0]
-            blobs, first, ready = entry
-            last = min(len(blobs[0]), first + budget - done)
-            if ready is not None:
-                self._latency_s.append((now - ready, last - first))
-            # Sample-major order: a subscriber sees the four corners of a sample together.
-            for k in range(first, last):
-                for publish, corner_blobs in zip(publishers, blobs):
-                    publish(corner_blobs[k])
-            done += last - first
-            if last == len(blobs[0]):
-                self._out.popleft()
-            else:
-                entry[1] = last
-        self._published += done
-        self._n_unpublished -= done
-        return done
+        self._output.add(blobs, None if tail else ready_s)
 
     def finish(self):
         """
@@ -748,151 +599,9 @@ class WheelForceNode(NodeHealth, LifecycleNode):
                 f'acknowledged the last messages within {SHUTDOWN_ACK_S:g} s (a stalled '
                 f'reliable subscriber?)')
 
-    def _publish_tail(self):
-        """Publish what waits, paced (see :meth:`finish`)."""
-        n = self._n_unpublished
-        if not n:
-            return
-        rate = max(self._fs_hz, n / SHUTDOWN_TAIL_S)
-        start = time.monotonic()
-        while self._n_unpublished:
-            due = min(n, int(rate * (time.monotonic() - start)) + 1) - (n - self._n_unpublished)
-            if due > 0:
-                self._pump(due)
-            time.sleep(_TAIL_STEP_S)
-
     @property
     def waiting(self) -> int:
         """Return the estimates not published yet: held for the look-ahead or paced [samples]."""
         if self._model is None:
             return 0
-        return self._stream.in_flight + self._n_unpublished
-
-
-def _make_stream(model, layout, params) -> ForceStream:
-    """Return the node's estimation stream: the one place its Predictor is made."""
-    # The live (causal) estimator for this look-ahead (the model's, else the cut FIR).
-    predictor = Predictor(model, causal_delay_samples=layout.causal_delay_samples)
-    # the rows fed: the model's inputs but the traction/braking split, which the stream
-    # derives from the accelerations
-    n_fed = predictor.n_inputs - (len(SPLIT_CHANNELS) if layout.split else 0)
-    # the model's spin inputs, last fed, arrive as spin rates: the stream differentiates them
-    spin_rows = range(n_fed - len(CORNERS), n_fed) if layout.spin else ()
-    return ForceStream(predictor, params.block_size, params.sn_slope,
-                       damage_period_s=params.damage_publish_period_s,
-                       sn_slope_moment=params.sn_slope_moment, spin_rows=spin_rows,
-                       split=layout.split)
-
-
-def _warm_up(model, layout, params):
-    """
-    Run the whole processing chain once on made-up samples, on throwaway objects.
-
-    The first call of the filter, the damage counter (numba) and the codecs compiles and plans
-    (~0.2 s measured, more on a loaded machine); done while the first messages arrive, it
-    stalls the executor long enough to overflow the input queues.
-    """
-    n = 2 * params.block_size + layout.causal_delay_samples
-    period_ns = int(round(1e9 / model.fs_hz))
-    stamps = np.arange(1, n + 1, dtype=np.int64) * period_ns
-    n_fed = len(model.input_channels) - (len(SPLIT_CHANNELS) if layout.split else 0)
-    accel = np.repeat(np.asarray(model.static_accel_mps2, float)[:n_fed, None], n, axis=1)
-    blobs = [raw for c in range(len(CORNERS))
-             for raw in encode_imu(stamps, accel[3 * c:3 * c + 3], 'warm_up')]
-    decode_imu(blobs)
-    stream = _make_stream(model, layout, params)     # a throwaway twin of the node's
-    stream.feed(stamps, accel)
-    stream.flush()
-    out_stamps, force = stream.take()
-    encode_wrench(out_stamps, force[list(layout.force_rows[0])], 'warm_up')
-    stream.final_damage_report()
-
-
-def spin(node: Node, timeout_s: float = 0.1, stop: threading.Event = None):
-    """
-    Spin ``node`` with an EventsExecutor until the context shuts down or ``stop`` is set.
-
-    At ``stop`` the messages DDS already delivered are still taken (up to
-    :data:`SHUTDOWN_DRAIN_S`): a Ctrl-C just after a replay must not lose its last samples.
-    """
-    executor = EventsExecutor(context=node.context)
-    executor.add_node(node)
-    try:
-        while node.context.ok() and not (stop is not None and stop.is_set()):
-            executor.spin_once(timeout_sec=timeout_s)
-        deadline = time.monotonic() + SHUTDOWN_DRAIN_S
-        idle = 0
-        while node.context.ok() and idle < 3 and time.monotonic() < deadline:
-            before = node.messages_taken
-            executor.spin_once(timeout_sec=0.01)
-            idle = idle + 1 if node.messages_taken == before else 0
-    finally:
-        executor.remove_node(node)
-        executor.shutdown()
-
-
-def main(args=None) -> int:
-    """Run the node until SIGINT/SIGTERM; return 0, or 1 when it refuses to start."""
-    # SIGINT/SIGTERM only request a stop, checked between executor turns: rclpy's own handler
-    # would raise KeyboardInterrupt inside whatever callback is running (a FATAL log line and
-    # a half-processed block); this way the last block is finished, published and counted.
-    stop = threading.Event()
-    try:
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    except RuntimeError as err:         # rclpy's RCLError
-        # e.g. an unreadable --params-file: rcl refuses before any node exists.
-        rclpy.logging.get_logger(NODE_NAME).fatal(f'refusing to start: {err}')
-        return 1
-    try:
-        node = WheelForceNode()
-    except WheelForceError as err:
-        rclpy.logging.get_logger(NODE_NAME).fatal(f'refusing to start: {err}')
-        rclpy.try_shutdown()
-        return 1
-    if node.get_parameter('autostart').value:
-        # Plain use stays one command: configure and activate now (autostart:=false waits
-        # unconfigured for `ros2 lifecycle set`).
-        if not node.start():
-            rclpy.logging.get_logger(NODE_NAME).fatal(
-                f'refusing to start: {node.configure_error}')
-            node.destroy_node()
-            rclpy.try_shutdown()
-            return 1
-    # Everything allocated so far (rclpy, numpy, scipy, numba, the model) lives for the whole
-    # run: keep it out of the cyclic collector, whose full passes otherwise stall the executor
-    # for ~80 ms (measured), long enough to overflow the input queues at a fast replay.
-    gc.freeze()
-
-    def on_signal(signum, _frame):
-        if not stop.is_set():
-            stop.set()
-            return
-        # Asked twice: leave now, saying what is lost.
-        rclpy.logging.get_logger(NODE_NAME).warning(
-            f'{signal.Signals(signum).name} again: exiting at once, {node.waiting} estimate(s) '
-            f'per corner not published')
-        os._exit(EXIT_INTERRUPTED)
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, on_signal)
-    try:
-        spin(node, stop=stop)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node.context.ok():
-            node.finish()
-        summary = node.summary()
-        node.destroy_node()
-        rclpy.try_shutdown()
-        # rclpy restores the handlers it found at init: keep ours, a second signal must still
-        # exit at once, never kill the process half-way through its summary.
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, on_signal)
-        # After destroy_node: the context may be gone, so no /rosout publication.
-        rclpy.logging.get_logger(NODE_NAME).info(summary)
-    return 0
-
-
-if __name__ == '__main__':
-    import sys
-    sys.exit(main())
+        return self._stream.in_flight + self._output.waiting

@@ -25,8 +25,16 @@ as one burst).  Two rules, kept together here (no ROS, a steady-clock time passe
 The input rate is measured on the steady clock over the last ~0.25 s (:meth:`measure`, from the
 node's housekeeping timer), so the bound follows a replay at 5x or 20x: the pacing scales with
 the input, not with the model's sample rate (used only until a rate is measured).
+
+:class:`PacedOutput` is the queue those rules pace: the node's serialized estimates, published
+sample-major through the publish functions it is given (no ROS here either), with the wait of
+each measured (the pacing latency of ``/diagnostics``).
 """
 import collections
+import time
+from typing import Callable, List, Optional, Sequence
+
+import numpy as np
 
 #: Output may leave at most this multiple of the measured input rate (a catch-up after a stall).
 CATCH_UP_FACTOR = 2.0
@@ -40,6 +48,10 @@ RATE_WINDOW_TICKS = 12
 #: Shortest time over which the input rate is measured: over one tick a burst of input would
 #: look like a fast stream [s].
 RATE_MIN_SPAN_S = 0.035
+#: Pacing latencies kept for the percentiles.
+LATENCY_WINDOW = 4096
+#: Step of a paced drain (:meth:`PacedOutput.drain`) [s].
+DRAIN_STEP_S = 0.002
 
 
 class OutputPacer:
@@ -143,3 +155,127 @@ class OutputPacer:
         self._input_hz = input_hz
         self._catch_up_hz = CATCH_UP_FACTOR * input_hz
         self._cap = max(1.0, self._catch_up_hz * PACE_BURST_S)
+
+
+class PacedOutput:
+    """
+    Serialized estimates waiting to be published, and their publication as paced.
+
+    Blocks are queued as the estimation emits them, one list of serialized messages per
+    output topic, and published oldest first and **sample-major** (a subscriber sees the
+    corners of a sample together), as many as the :class:`OutputPacer` allows.
+
+    Parameters
+    ----------
+    publish_fns : sequence of callable
+        One publish function per output topic (the corners), each taking one message.
+    nominal_hz : float
+        The model's sample rate [Hz]: the pace until the input rate is measured, and of a
+        drain without input.
+    max_waiting : int
+        See :class:`OutputPacer` [samples].
+
+    Attributes
+    ----------
+    waiting : int
+        Samples queued, not published yet.
+    published : int
+        Samples published since this object was made.
+
+    """
+
+    def __init__(self, publish_fns: Sequence[Callable], nominal_hz: float, max_waiting: int):
+        self._publish = list(publish_fns)
+        self._nominal_hz = float(nominal_hz)
+        self._pacer = OutputPacer(nominal_hz, max_waiting, len(self._publish))
+        # [per-topic serialized messages, next index, when computed (None: a tail)]
+        self._queue = collections.deque()
+        self._latency_s = collections.deque(maxlen=LATENCY_WINDOW)
+        self.waiting = 0
+        self.published = 0
+
+    def add(self, blobs: List[list], ready_s: Optional[float]):
+        """
+        Queue one block: ``blobs[k]`` the messages of topic ``k``, all of one length.
+
+        ``ready_s`` is when the block was computed (steady clock); ``None`` for a tail
+        (flushed after the input stopped): it has no input to pace it and is left out of the
+        latency, which measures steady running.
+        """
+        n = len(blobs[0])
+        if n:
+            self._queue.append([blobs, 0, ready_s])
+            self.waiting += n
+
+    def measure(self, now_s: float, n_messages: int):
+        """Follow the input rate (:meth:`OutputPacer.measure`)."""
+        self._pacer.measure(now_s, n_messages)
+
+    def on_message(self, now_s: float):
+        """Publish what the pacing allows now that one input message arrived."""
+        due = self._pacer.on_message(now_s, self.waiting)
+        if due > 0:
+            self._pacer.published(self.pump(due, now_s), self.waiting)
+
+    def on_idle(self, now_s: float):
+        """Publish what the pacing allows on a tick without input (the idle rate)."""
+        due = self._pacer.on_idle(now_s, self.waiting)
+        if due:
+            self._pacer.published(self.pump(due, now_s), self.waiting)
+
+    def pump(self, budget: int, now_s: float) -> int:
+        """Publish up to ``budget`` waiting samples, oldest first; return the count."""
+        publishers = self._publish
+        done = 0
+        while budget > done and self._queue:
+            entry = self._queue[0]
+            blobs, first, ready = entry
+            last = min(len(blobs[0]), first + budget - done)
+            if ready is not None:
+                self._latency_s.append((now_s - ready, last - first))
+            for k in range(first, last):
+                for publish, topic_blobs in zip(publishers, blobs):
+                    publish(topic_blobs[k])
+            done += last - first
+            if last == len(blobs[0]):
+                self._queue.popleft()
+            else:
+                entry[1] = last
+        self.published += done
+        self.waiting -= done
+        return done
+
+    def drain(self, max_s: float, clock: Callable[[], float] = time.monotonic,
+              sleep: Callable[[float], None] = time.sleep):
+        """
+        Publish everything waiting, paced, within about ``max_s`` [s].
+
+        At the nominal rate, faster when that would take longer than ``max_s`` (a shutdown,
+        a deactivate).  ``clock`` and ``sleep`` are the steady clock and its wait.
+        """
+        n = self.waiting
+        if not n:
+            return
+        rate = max(self._nominal_hz, n / max_s)
+        start = clock()
+        while self.waiting:
+            now = clock()
+            due = min(n, int(rate * (now - start)) + 1) - (n - self.waiting)
+            if due > 0:
+                self.pump(due, now)
+            sleep(DRAIN_STEP_S)
+
+    def latency_ms(self):
+        """
+        Return (p50, p99, max) of the time estimates waited to be published [ms].
+
+        Per published sample, over the last :data:`LATENCY_WINDOW` publications, from the
+        moment the estimate was computed; tails are not included.
+        """
+        if not self._latency_s:
+            return (0.0, 0.0, 0.0)
+        pairs = np.asarray(self._latency_s)
+        order = np.argsort(pairs[:, 0])
+        lat, weight = pairs[order, 0] * 1e3, np.cumsum(pairs[order, 1])
+        p50, p99 = (lat[np.searchsorted(weight, q * weight[-1])] for q in (0.5, 0.99))
+        return float(p50), float(p99), float(lat[-1])
