@@ -11,12 +11,12 @@ from wheel_force_estimator.bagio.fastcdr import decode_rows
 from wheel_force_estimator.bagio.fastcdr import IMU
 from wheel_force_estimator.bagio.fastcdr import TopicDecoder
 from wheel_force_estimator.bagio.fastcdr import WRENCH
+from wheel_force_estimator.bagio.plan import make_imu
+from wheel_force_estimator.bagio.plan import make_wrench
 from wheel_force_estimator.bagio.reader import jazzy_typestore
-from wheel_force_estimator.bagio.writer import _make_imu
-from wheel_force_estimator.bagio.writer import _make_wrench
 
 STORE = jazzy_typestore()
-LAYOUTS = [(IMU, _make_imu), (WRENCH, _make_wrench)]
+LAYOUTS = [(IMU, make_imu), (WRENCH, make_wrench)]
 
 
 def _serialize(layout):
@@ -54,8 +54,8 @@ def test_disagreement_with_generic_falls_back():
     """If the bulk view ever disagrees with the deserialiser, the deserialiser wins."""
     stamp = 10**9 + np.arange(5, dtype=np.int64)
     values = np.arange(15, dtype=float).reshape(5, 3)
-    rows = encode_rows(WRENCH, stamp, values, _make_wrench(STORE, 'f'), _serialize(WRENCH))
-    other = _make_wrench(STORE, 'f')(42, (1.0, 2.0, 3.0))
+    rows = encode_rows(WRENCH, stamp, values, make_wrench(STORE, 'f'), _serialize(WRENCH))
+    other = make_wrench(STORE, 'f')(42, (1.0, 2.0, 3.0))
     got_stamp, got_values, n_fast = decode_rows(WRENCH, rows, lambda data: other)
     assert n_fast == 0
     assert np.all(got_stamp == 42) and np.all(got_values == [1.0, 2.0, 3.0])
@@ -63,7 +63,7 @@ def test_disagreement_with_generic_falls_back():
 
 def test_unrecognised_rows_use_generic():
     """Big-endian payloads and foreign lengths are decoded by the deserialiser only."""
-    msg = _make_imu(STORE, 'lf_spindle')(5 * 10**9 + 7, (1.5, -2.5, 9.81))
+    msg = make_imu(STORE, 'lf_spindle')(5 * 10**9 + 7, (1.5, -2.5, 9.81))
     big = bytes(STORE.serialize_cdr(msg, IMU.msgtype, little_endian=False))
     calls = []
 
@@ -89,8 +89,8 @@ def test_records_decoded_in_place_at_any_offset():
     n = 50
     stamp = 10**9 + 1_953_125 * np.arange(n, dtype=np.int64)
     values = rng.standard_normal((n, 3))
-    short = encode_rows(IMU, stamp, values, _make_imu(STORE, 'lf'), _serialize(IMU))
-    long = encode_rows(IMU, stamp, values, _make_imu(STORE, 'lf_spindle_frame'),
+    short = encode_rows(IMU, stamp, values, make_imu(STORE, 'lf'), _serialize(IMU))
+    long = encode_rows(IMU, stamp, values, make_imu(STORE, 'lf_spindle_frame'),
                        _serialize(IMU))
     rows = [short[i] if i % 3 else long[i] for i in range(n)]
     gaps = rng.integers(1, 40, n)  # junk bytes between payloads
@@ -126,7 +126,7 @@ def test_reserved_decoder_equals_joined_batches(reserved):
     n = 30
     stamp = 10**9 + 1_953_125 * np.arange(n, dtype=np.int64)
     values = rng.standard_normal((n, 3))
-    rows = encode_rows(IMU, stamp, values, _make_imu(STORE, 'lf'), _serialize(IMU))
+    rows = encode_rows(IMU, stamp, values, make_imu(STORE, 'lf'), _serialize(IMU))
     log_time = stamp + 5
     log_time[[12, 13]] = log_time[[13, 12]]  # out of bag order: finish() sorts stably
     sink = TopicDecoder(IMU, _deserialize(IMU))

@@ -104,7 +104,7 @@ class RowSource:
     """
     Rows ``row..row+2`` of a :class:`BlockWindow` seen as an (n, 3) array, for slicing only.
 
-    What a dense topic's value field needs (:class:`.writer.DenseTopic` slices
+    What a dense topic's value field needs (:class:`.plan.DenseTopic` slices
     ``source[first:stop]`` in increasing order).
     """
 

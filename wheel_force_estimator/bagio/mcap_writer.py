@@ -18,7 +18,7 @@ it, the ``rosbag2`` Metadata record, DataEnd (data section CRC 0 = not computed,
 writer's default), and the summary (Schemas, Channels, ChunkIndexes, MetadataIndex, Statistics),
 SummaryOffsets, Footer (with summary CRC) and magic.
 
-``plan`` is :class:`.writer.BagPlan` (duck-typed here to keep the import one-way).
+``plan`` is :class:`.plan.BagPlan` (duck-typed here to keep the import one-way).
 """
 from collections import deque
 from concurrent.futures import Future

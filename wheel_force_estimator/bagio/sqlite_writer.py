@@ -14,7 +14,7 @@ given explicitly, so the rosbag2 order (timestamp, id) never depends on the quer
 The file is new and is deleted by the caller on any error, so the rollback journal is off and
 syncing is left to the OS, as rosbag2's own non-resilient writing preset does.
 
-``plan`` is :class:`.writer.BagPlan` (duck-typed here to keep the import one-way).
+``plan`` is :class:`.plan.BagPlan` (duck-typed here to keep the import one-way).
 """
 from pathlib import Path
 import sqlite3
