@@ -24,10 +24,12 @@ unfiltered figure; the last two again on the 1 Hz high-passed one (line ``hp``),
 margin in points.
 
 ``--inputs`` sets what ``offline``/``live50`` are fitted on, as ``wheel-force fit`` declares
-it on a bag: ``accel+split`` (the default: the 12 accelerations and the traction/braking
-split derived from them, what ``fit`` declares on every bag), ``accel`` (the accelerations
-alone, ``inputs: []``), and with the wheel spin acceleration (and the spindle angular rates)
-a logger with wheel speeds records, ``accel+spin+split`` / ``accel+rates+spin+split``.  Every
+it on a bag: ``accel+split+cornering`` (the default: the 12 accelerations and the
+traction/braking and cornering splits derived from them, what ``fit`` declares on every bag),
+``accel+split`` (before the cornering split), ``accel`` (the accelerations alone,
+``inputs: []``), and with the wheel spin acceleration (and the spindle angular rates) a
+logger with wheel speeds records, ``accel+spin+split+cornering`` /
+``accel+rates+spin+split+cornering``.  Every
 output row chooses its nested input set by the same cross-validation, as ``fit`` does, while
 ``paper`` stays the paper's 12 accelerations; ``ls2s`` gets the same inputs as ``offline``,
 so the live comparison stays like for like.
@@ -41,7 +43,7 @@ no default was tuned on, judged the same way.
 
 Run: ``python bench/bench_design.py [--minutes 10]
 [--cars compact,suv,van,coupe,pickup,hatch,mpv|PATH.yaml]
-[--inputs accel+split|accel|accel+spin+split|...] [--train-scale 1] [--val-scale 0.5]``
+[--inputs accel+split+cornering|accel+split|accel|...] [--train-scale 1] [--val-scale 0.5]``
 """
 import argparse
 import dataclasses
@@ -51,12 +53,14 @@ import time
 
 import numpy as np
 
+from wheel_force_estimator import CORNERING_CHANNELS
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator import SPLIT_CHANNELS
 from wheel_force_estimator.cli.common import load_fit_config
 from wheel_force_estimator.core.correlations import CorrelationAccumulator
+from wheel_force_estimator.core.derived import specific_force_parts
 from wheel_force_estimator.core.derived import spin_acceleration
-from wheel_force_estimator.core.derived import traction_braking
 from wheel_force_estimator.core.design import fit_design
 from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.live_estimator import LiveDesign
@@ -119,8 +123,10 @@ def input_signals(result, inputs: str, n=None):
         rows.append(result.rate_radps)
     if 'spin' in inputs:
         rows.append(spin_acceleration(result.spin_radps, result.stamp_ns))
-    if 'split' in inputs:
-        rows.append(traction_braking(result.accel_mps2, result.fs_hz))
+    derived = (SPLIT_CHANNELS if 'split' in inputs else ()) + (
+        CORNERING_CHANNELS if 'cornering' in inputs else ())
+    if derived:
+        rows.append(specific_force_parts(result.accel_mps2, result.fs_hz, derived))
     return np.vstack(rows)[:, :n]
 
 
@@ -133,7 +139,8 @@ def car_rows(name, minutes, inputs='accel', train_scale=1.0, val_scale=0.5):
     fs = train.fs_hz
     n = min(train.accel_mps2.shape[1], int(minutes * 60 * fs))
     x, y = input_signals(train, inputs, n), train.force_n[:, :n]
-    channels = declared_inputs('rates' in inputs, 'spin' in inputs, 'split' in inputs)
+    channels = declared_inputs('rates' in inputs, 'spin' in inputs, 'split' in inputs,
+                               'cornering' in inputs)
     paper = fit_model([TrainingSegment(x[:12], y, f'{name}_seed1')], fs, FitConfig(),
                       INPUT_CHANNELS, OUTPUT_CHANNELS)
     t0 = time.perf_counter()
@@ -215,7 +222,7 @@ def main():
                         help='cars to judge: names of the shipped cars, or paths of vehicle '
                              'YAML files (a car never used to tune anything: a blind check)')
     parser.add_argument('--no-mr-damper', action='store_true')
-    parser.add_argument('--inputs', default='accel+split',
+    parser.add_argument('--inputs', default='accel+split+cornering',
                         choices=('accel+split', 'accel', 'accel+spin', 'accel+spin+split',
                                  'accel+rates+spin', 'accel+rates+spin+split'),
                         help='inputs of offline / live50 / ls2s (paper: the accelerations)')

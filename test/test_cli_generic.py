@@ -522,7 +522,7 @@ def test_spindle_channel_keys_are_validated_and_said_to_be_ignored_for_generic_r
             str(config)]
     config.write_text('wheel_force_fit:\n  ros__parameters:\n    inputs: [foo]\n')
     assert main(head + ROLES) == 1
-    assert "inputs must be \"auto\" or a list among ['rates', 'spin', 'split']" in (
+    assert "inputs must be \"auto\" or a list among ['rates', 'spin', 'split', 'cornering']" in (
         capsys.readouterr().err)
     config.write_text('wheel_force_fit:\n  ros__parameters:\n    inputs: [rates]\n')
     assert main(head + ROLES) == 0

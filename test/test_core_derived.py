@@ -139,27 +139,70 @@ def test_split_passes_driver_inputs_and_stops_road_vibration():
 
 @pytest.mark.parametrize('chunks', [[1] * 50, [7, 13, 1, 300], [5000]])
 def test_split_chunked_equals_batch_exactly(chunks):
-    from wheel_force_estimator.core.derived import traction_braking
-    from wheel_force_estimator.core.derived import TractionBrakingStream
+    from wheel_force_estimator.core.derived import ACCEL_DERIVED_CHANNELS
+    from wheel_force_estimator.core.derived import SpecificForceParts
+    from wheel_force_estimator.core.derived import specific_force_parts
     rng = np.random.default_rng(8)
     n = sum(chunks)
     x = np.concatenate([_accel_with_ax(np.cumsum(rng.standard_normal(n)) * 0.05, n),
                         rng.standard_normal((4, n))])       # rows after the 12 ride along
-    stream = TractionBrakingStream(FS_HZ)
-    edges = np.cumsum([0] + chunks)
-    got = np.concatenate([stream.push(x[:, a:b]) for a, b in zip(edges, edges[1:])], axis=1)
-    np.testing.assert_array_equal(got, traction_braking(x, FS_HZ))
-    stream.reset()      # a new segment starts in its own first sample's steady state
-    np.testing.assert_array_equal(stream.push(x[:, 10:]), traction_braking(x[:, 10:], FS_HZ))
+    x[1:12:3] += np.cumsum(rng.standard_normal(n)) * 0.05    # a slow lateral force too
+    for names in (ACCEL_DERIVED_CHANNELS, ACCEL_DERIVED_CHANNELS[::-1][:3]):
+        stream = SpecificForceParts(FS_HZ, names)
+        edges = np.cumsum([0] + chunks)
+        got = np.concatenate([stream.push(x[:, a:b]) for a, b in zip(edges, edges[1:])],
+                             axis=1)
+        np.testing.assert_array_equal(got, specific_force_parts(x, FS_HZ, names))
+        stream.reset()      # a new segment starts in its own first sample's steady state
+        np.testing.assert_array_equal(stream.push(x[:, 10:]),
+                                      specific_force_parts(x[:, 10:], FS_HZ, names))
+
+
+def test_cornering_split_is_the_lateral_twin_of_the_traction_braking_split():
+    # the same filter on the mean ay: swapping the ax and ay rows swaps the two splits,
+    # bit for bit (bugs caught: ax rows taken for ay, the parts' order or signs swapped)
+    from wheel_force_estimator import CORNERING_CHANNELS
+    from wheel_force_estimator import SPLIT_CHANNELS
+    from wheel_force_estimator.core.derived import specific_force_parts
+    from wheel_force_estimator.core.derived import traction_braking
+    rng = np.random.default_rng(3)
+    n = 3000
+    x = rng.standard_normal((12, n)) + np.sin(np.arange(n) / 300.0) * 3.0
+    swapped = x.copy()
+    swapped[0::3], swapped[1::3] = x[1::3], x[0::3]
+    both = specific_force_parts(x, FS_HZ, SPLIT_CHANNELS + CORNERING_CHANNELS)
+    np.testing.assert_array_equal(both[:2], traction_braking(x, FS_HZ))
+    np.testing.assert_array_equal(both[2:], traction_braking(swapped, FS_HZ))
+    left, right = both[2:]
+    assert np.all(left >= 0) and np.all(right <= 0) and left.max() > 1 and right.min() < -1
+    # a steady left turn (f_y = +3 m/s^2, ISO 8855 y left) is all left_turn_ay
+    steady = np.zeros((12, 200))
+    steady[1::3] = 3.0
+    np.testing.assert_allclose(specific_force_parts(steady, FS_HZ, CORNERING_CHANNELS),
+                               [[3.0] * 200, [0.0] * 200], rtol=0, atol=1e-9)
+
+
+def test_accel_derived_count_counts_the_trailing_splits_only():
+    from wheel_force_estimator import CORNERING_CHANNELS
+    from wheel_force_estimator import INPUT_CHANNELS
+    from wheel_force_estimator import SPLIT_CHANNELS
+    from wheel_force_estimator.core.derived import accel_derived_count
+    assert accel_derived_count(INPUT_CHANNELS) == 0
+    assert accel_derived_count(INPUT_CHANNELS + SPLIT_CHANNELS) == 2
+    assert accel_derived_count(INPUT_CHANNELS + SPLIT_CHANNELS + CORNERING_CHANNELS) == 4
+    assert accel_derived_count(SPLIT_CHANNELS + INPUT_CHANNELS) == 0
 
 
 def test_split_bad_arguments():
+    from wheel_force_estimator.core.derived import specific_force_parts
     from wheel_force_estimator.core.derived import traction_braking
     from wheel_force_estimator.core.errors import ConfigError
     with pytest.raises(ShapeError, match='12 spindle accelerations'):
         traction_braking(np.zeros((11, 5)), FS_HZ)
     with pytest.raises(ConfigError, match='twice the 2 Hz'):
         traction_braking(np.zeros((12, 5)), 3.5)
+    with pytest.raises(ConfigError, match=r"\['up_ay'\]: not among"):
+        specific_force_parts(np.zeros((12, 5)), FS_HZ, ('left_turn_ay', 'up_ay'))
 
 
 def test_the_cli_does_not_import_scipy_signal_to_start():

@@ -203,6 +203,7 @@ def test_the_moment_lines_name_each_moments_chosen_set():
 # --- the traction/braking split (issue 29) ---------------------------------------------------
 
 def test_the_split_is_the_last_nested_group_and_a_spindle_layout():
+    from wheel_force_estimator import CORNERING_CHANNELS
     from wheel_force_estimator import SPLIT_CHANNELS
     from wheel_force_estimator.core.spindle import spindle_layout
     from support.ros_testing import synthetic_model
@@ -211,60 +212,81 @@ def test_the_split_is_the_last_nested_group_and_a_spindle_layout():
         ('accel', tuple(range(N_ACC))), ('accel+split', tuple(range(N_ACC + 2))))
     assert [n for n, _ in input_sets(declared_inputs(True, True, True))] == [
         'accel', 'accel+rates', 'accel+rates+spin', 'accel+rates+spin+split']
+    assert [n for n, _ in input_sets(declared_inputs(True, True, True, True))] == [
+        'accel', 'accel+rates', 'accel+rates+spin', 'accel+rates+spin+split',
+        'accel+rates+spin+split+cornering']
+    assert declared_inputs(False, False, True, True)[-4:] == SPLIT_CHANNELS + CORNERING_CHANNELS
+    assert [n for n, _ in input_sets(declared_inputs(False, False, False, True))] == [
+        'accel', 'accel+cornering']
     # the split anywhere but last is no spindle model (refused, not guessed at)
     assert input_sets(INPUT_CHANNELS + SPLIT_CHANNELS + RATE_CHANNELS)[0][0] == 'all'
-    layout = spindle_layout(synthetic_model(n_taps=8, delay_samples=2, seed=1,
-                                            input_channels=INPUT_CHANNELS + SPLIT_CHANNELS),
-                            'm.npz')
-    assert layout.split and not layout.rates and not layout.spin and layout.extras == ()
+    assert input_sets(INPUT_CHANNELS + CORNERING_CHANNELS + SPLIT_CHANNELS)[0][0] == 'all'
+    for inputs, derived in ((INPUT_CHANNELS + SPLIT_CHANNELS, SPLIT_CHANNELS),
+                            (declared_inputs(False, False, True, True),
+                             SPLIT_CHANNELS + CORNERING_CHANNELS)):
+        layout = spindle_layout(synthetic_model(n_taps=8, delay_samples=2, seed=1,
+                                                input_channels=inputs), 'm.npz')
+        assert layout.derived == derived and not layout.rates and not layout.spin
+        assert layout.extras == ()
 
 
 def _kinked_system(n, seed):
     """
-    12 accelerations with driver-made braking and traction in their ``ax`` -> 2 outputs.
+    12 accelerations with driver-made braking, traction and turns -> 3 outputs.
 
     Output 0 is linear in the accelerations; output 1, like a driven wheel's Fx, takes the
     low-passed mean ``ax`` with slope 1 kN per m/s² when positive (traction), 3 kN when
-    negative (braking): a kink no linear model holds.  5 % output noise.
+    negative (braking): a kink no linear model holds; output 2 has the same kind of kink in
+    the low-passed mean ``ay`` (1 kN left turns, 2.5 kN right turns).  5 % output noise.
+    Inputs: the 12 accelerations, then the traction/braking and cornering splits.
     """
-    from wheel_force_estimator.core.derived import traction_braking
+    from wheel_force_estimator import CORNERING_CHANNELS
+    from wheel_force_estimator import SPLIT_CHANNELS
+    from wheel_force_estimator.core.derived import specific_force_parts
     rng = np.random.default_rng(seed)
     b, a = signal.butter(2, 30.0, fs=FS_HZ)
     x = signal.lfilter(b, a, rng.normal(size=(N_ACC, n)), axis=1)
     bs, as_ = signal.butter(2, 0.2, fs=FS_HZ)
     x[0::3] += 20.0 * signal.lfilter(bs, as_, rng.normal(size=n))[None]
-    trac, brake = traction_braking(x, FS_HZ)
+    x[1::3] += 20.0 * signal.lfilter(bs, as_, rng.normal(size=n))[None]
+    parts = specific_force_parts(x, FS_HZ, SPLIT_CHANNELS + CORNERING_CHANNELS)
+    trac, brake, left, right = parts
     b1, a1 = signal.butter(2, 12.0, fs=FS_HZ)
-    y0 = signal.lfilter(b1, a1, x[1]) + 0.5 * x[2]
+    y0 = signal.lfilter(b1, a1, x[2]) + 0.5 * x[5]     # az rows: no slow driver content
     y1 = 1000.0 * trac + 3000.0 * brake + 200.0 * signal.lfilter(b1, a1, x[3])
-    y = np.vstack([y0, y1])
+    # like an outer wheel's Fy: a steeper slope in right turns than in left turns
+    y2 = 1000.0 * left + 2500.0 * right + 200.0 * signal.lfilter(b1, a1, x[5])
+    y = np.vstack([y0, y1, y2])
     y = y + 0.05 * y.std(axis=1, keepdims=True) * rng.normal(size=y.shape)
-    return np.concatenate([x, np.vstack([trac, brake])]), y
+    return np.concatenate([x, parts]), y
 
 
 def test_a_kinked_row_chooses_the_split_and_a_linear_row_does_not():
-    # Known answer: the split holds row 1's kink exactly, so the cross-validation must choose
-    # it there (and predict the held-out record far better than the accelerations alone);
-    # row 0 does not depend on it and keeps the accelerations.  Bugs caught: the split not
-    # offered, offered but never chosen, the split's columns mixed with others.
-    from wheel_force_estimator import SPLIT_CHANNELS
+    # Known answer: the split holds row 1's kink exactly and the cornering split row 2's, so
+    # the cross-validation must choose them there (and predict the held-out record far better
+    # than the accelerations alone); row 0 depends on neither and keeps the accelerations.
+    # Bugs caught: a split not offered, offered but never chosen, its columns mixed with
+    # others, the cornering parts taken from ax.
     from wheel_force_estimator.core.metrics import rmse_pct
     from wheel_force_estimator.core.predict import predict_forces
-    inputs = INPUT_CHANNELS + SPLIT_CHANNELS
+    inputs = declared_inputs(False, False, True, True)
     x, y = _kinked_system(28000, 3)
     xv, yv = _kinked_system(14000, 4)
-    fitted = fit_design([TrainingSegment(x, y, 'train')], FS_HZ, CONFIG, inputs, ('f', 'g'))
+    fitted = fit_design([TrainingSegment(x, y, 'train')], FS_HZ, CONFIG, inputs,
+                        ('f', 'g', 'h'))
     rows = fitted.model.fit['design']['rows']
     assert rows['f']['inputs'] == 'accel' and rows['g']['inputs'] == 'accel+split'
+    assert rows['h']['inputs'] == 'accel+split+cornering'
     with_split = rmse_pct(yv, predict_forces(fitted.model, xv))
     # the model derives its split itself from the 12 accelerations: the same prediction
     np.testing.assert_allclose(predict_forces(fitted.model, xv[:N_ACC]),
                                predict_forces(fitted.model, xv), rtol=0, atol=1e-6)
     plain = fit_design([TrainingSegment(x[:N_ACC], y, 'train')], FS_HZ, CONFIG,
-                       INPUT_CHANNELS, ('f', 'g'))
+                       INPUT_CHANNELS, ('f', 'g', 'h'))
     without = rmse_pct(yv, predict_forces(plain.model, xv[:N_ACC]))
-    assert with_split[1] < 0.5 * without[1], (with_split, without)
-    assert with_split[1] < 10.0, with_split
+    for row in (1, 2):
+        assert with_split[row] < 0.5 * without[row], (with_split, without)
+        assert with_split[row] < 10.0, with_split
 
 
 def test_the_long_window_guard_counts_the_smallest_searched_set():

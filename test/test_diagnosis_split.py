@@ -39,12 +39,14 @@ def test_the_plain_fit_offers_the_split_and_predicts_from_the_12_accelerations()
     # model diagnose wrote without --holdout scored 19.3 % on a held-out bag where `fit`
     # (which offers the split) scored 13.9 %.
     train, test = [_record(1), _record(2)], _record(3)
-    with_, without = (real_linear_fit(train, DiagnosisConfig(split=s)) for s in (True, False))
+    with_, without = (real_linear_fit(train, DiagnosisConfig(derived=d))
+                      for d in (SPLIT_CHANNELS, ()))
     assert with_.model.input_channels == INPUT_CHANNELS + SPLIT_CHANNELS
     assert without.model.input_channels == INPUT_CHANNELS
     # the diagnosis predicts from the record's 12 rows, exactly as from the derived 14
     pred = with_.predict(test)
-    np.testing.assert_array_equal(pred, predict_forces(with_.model, with_split(test)))
+    np.testing.assert_array_equal(pred, predict_forces(with_.model,
+                                                       with_split(test, SPLIT_CHANNELS)))
     # the braking part is what the split lets the linear model follow
     err = [rmse_pct(test.outputs[0], p[0]) for p in (pred, without.predict(test))]
     assert err[0] < 0.5 * err[1], err
@@ -57,5 +59,5 @@ def test_recordings_other_than_the_12_accelerations_are_fitted_as_they_are():
     rec = _record(1)
     names = tuple(f'a{i}' for i in range(12))
     generic = MotionRecording('rig', FS_HZ, rec.inputs, rec.outputs, names, OUTPUT_CHANNELS)
-    ref = FrfReference.fit([generic, generic], 'real', split=True)
-    assert ref.model.input_channels == names and not ref.split
+    ref = FrfReference.fit([generic, generic], 'real', derived=SPLIT_CHANNELS)
+    assert ref.model.input_channels == names and not ref.derived

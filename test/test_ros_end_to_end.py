@@ -15,6 +15,7 @@ import pytest
 from support.ros_testing import start_node
 from support.ros_testing import stop_node
 
+from wheel_force_estimator import CORNERING_CHANNELS
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
@@ -212,7 +213,7 @@ def test_simulated_six_component_bag_default_fit_node_equals_predict_causal(ros_
     assert main(['fit', str(tmp_path / 'train'), '-o', str(tmp_path / 'model.npz')]) == 0
     model = load_model(tmp_path / 'model.npz')
     assert model.input_channels == (INPUT_CHANNELS + RATE_CHANNELS + SPIN_ACCEL_CHANNELS
-                                    + SPLIT_CHANNELS)
+                                    + SPLIT_CHANNELS + CORNERING_CHANNELS)
     assert model.output_channels == OUTPUT_CHANNELS + MOMENT_CHANNELS
     assert main(['predict', str(tmp_path / 'model.npz'), str(tmp_path / 'val'), '-o',
                  str(tmp_path / 'pred'), '--causal']) == 0

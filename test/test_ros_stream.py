@@ -323,35 +323,41 @@ def test_spin_latency_is_one_more_sample_and_a_lone_sample_is_counted(spin_model
 def split_models():
     from wheel_force_estimator import INPUT_CHANNELS
     from wheel_force_estimator import SPIN_ACCEL_CHANNELS
+    from wheel_force_estimator import CORNERING_CHANNELS
     from wheel_force_estimator import SPLIT_CHANNELS
     return (synthetic_model(n_taps=96, delay_samples=40, seed=6,
                             input_channels=INPUT_CHANNELS + SPLIT_CHANNELS),
             synthetic_model(n_taps=96, delay_samples=40, seed=7,
                             input_channels=INPUT_CHANNELS + SPIN_ACCEL_CHANNELS
-                            + SPLIT_CHANNELS))
+                            + SPLIT_CHANNELS + CORNERING_CHANNELS))
 
 
 @pytest.mark.parametrize('block_size', [1, 16, 1000])
 def test_split_rows_are_derived_per_segment_as_offline(split_models, block_size):
     # issue 29: the node feeds the accelerations (and spin rates) only; the stream derives
-    # the traction/braking split, restarting its low-pass at each gap exactly as the offline
-    # reader derives it per segment (bugs caught: the filter carried across a gap, the split
-    # taken before the spin derivative releases its held sample, a row order mix-up)
+    # the traction/braking (and cornering) split, restarting its low-pass at each gap exactly
+    # as the offline reader derives it per segment (bugs caught: the filter carried across a
+    # gap, the split taken before the spin derivative releases its held sample, a row order
+    # mix-up)
+    from wheel_force_estimator import CORNERING_CHANNELS
+    from wheel_force_estimator import SPLIT_CHANNELS
+    from wheel_force_estimator.core.derived import specific_force_parts
     from wheel_force_estimator.core.derived import spin_acceleration
-    from wheel_force_estimator.core.derived import traction_braking
     split_model, spin_split_model = split_models
     n = 1500
     rng = np.random.default_rng(21)
     accel = synthetic_accel(n, seed=22)
     accel[0::3] += np.sin(np.arange(n) * 2 * np.pi / 900)[None] * 3.0   # braking and traction
+    accel[1::3] += np.cos(np.arange(n) * 2 * np.pi / 700)[None] * 3.0   # left and right turns
     spin = 30.0 + np.cumsum(rng.standard_normal((4, n)), axis=1) * 0.05
     stamps = sample_stamps(n)
     keep = np.r_[0:700, 703:n]
-    for model, fed, spin_rows in ((split_model, accel, ()),
-                                  (spin_split_model, np.concatenate([accel, spin]),
-                                   range(12, 16))):
+    for model, fed, spin_rows, derived in (
+            (split_model, accel, (), SPLIT_CHANNELS),
+            (spin_split_model, np.concatenate([accel, spin]), range(12, 16),
+             SPLIT_CHANNELS + CORNERING_CHANNELS)):
         stream = ForceStream(Predictor(model), block_size, 5.0, spin_rows=spin_rows,
-                             split=True)
+                             derived=derived)
         s, y = run(stream, stamps[keep], fed[:, keep], np.random.default_rng(3))
         np.testing.assert_array_equal(s, stamps[keep])
         expected = []
@@ -359,9 +365,9 @@ def test_split_rows_are_derived_per_segment_as_offline(split_models, block_size)
             seg = fed[:, lo:hi].copy()
             if len(spin_rows):
                 seg[12:] = spin_acceleration(seg[12:], stamps[lo:hi])
-            seg = np.concatenate([seg, traction_braking(seg, model.fs_hz)])
+            seg = np.concatenate([seg, specific_force_parts(seg, model.fs_hz, derived)])
             expected.append(predict_forces(model, seg))
         assert_close(y, np.concatenate(expected, axis=1))
     with pytest.raises(ShapeError, match='expected \\(12, 3\\)'):
-        ForceStream(Predictor(split_model), 8, 5.0, split=True).feed(
+        ForceStream(Predictor(split_model), 8, 5.0, derived=SPLIT_CHANNELS).feed(
             sample_stamps(3), np.zeros((14, 3)))

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from wheel_force_estimator import CORNERING_CHANNELS
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import MOMENT_CHANNELS
 from wheel_force_estimator import OUTPUT_CHANNELS
@@ -198,8 +199,8 @@ def test_cli_fit_and_evaluate_a_24_output_model(tmp_path):
     assert main(['fit', str(tmp_path / 'train'), '-o', str(tmp_path / 'm.npz')]) == 0
     model = load_model(tmp_path / 'm.npz')
     assert model.output_channels == OUTPUT_CHANNELS + MOMENT_CHANNELS
-    # no rates, no spin in this bag; the split is derived from the accelerations (auto)
-    assert model.input_channels == INPUT_CHANNELS + SPLIT_CHANNELS
+    # no rates, no spin in this bag; the splits are derived from the accelerations (auto)
+    assert model.input_channels == INPUT_CHANNELS + SPLIT_CHANNELS + CORNERING_CHANNELS
     assert channel_units(model)[1] == ('N',) * 12 + ('N*m',) * 12
     assert main(['evaluate', str(tmp_path / 'm.npz'), str(tmp_path / 'val'), '--json',
                  str(tmp_path / 'e.json'), '--sn-slope-moment', '7']) == 0

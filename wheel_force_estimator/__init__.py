@@ -24,3 +24,8 @@ SPIN_ACCEL_CHANNELS = tuple(f'{c}_spin_accel' for c in CORNERS)
 # The traction/braking split (issue 29): the car's low-passed longitudinal specific force,
 # derived from the four spindle ax (core.derived), as its positive and negative parts [m/s^2].
 SPLIT_CHANNELS = ('traction_ax', 'braking_ax')
+# The cornering split (issue 29): the car's low-passed lateral specific force, derived from
+# the four spindle ay (core.derived), as its positive (left turn, ISO 8855 y left) and
+# negative (right turn) parts [m/s^2].  A tyre's lateral force grows with its load, and the
+# load moves to the outer wheels, so each wheel's quasi-static Fy has one slope per turn side.
+CORNERING_CHANNELS = ('left_turn_ay', 'right_turn_ay')

@@ -20,9 +20,9 @@ from wheel_force_estimator import OUTPUT_CHANNELS
 from wheel_force_estimator import RATE_CHANNELS
 from wheel_force_estimator import SPIN_ACCEL_CHANNELS
 from wheel_force_estimator import SPIN_CHANNELS
-from wheel_force_estimator import SPLIT_CHANNELS
+from wheel_force_estimator.core.derived import ACCEL_DERIVED_CHANNELS
+from wheel_force_estimator.core.derived import specific_force_parts
 from wheel_force_estimator.core.derived import spin_acceleration
-from wheel_force_estimator.core.derived import traction_braking
 from wheel_force_estimator.core.errors import BagError
 from wheel_force_estimator.core.errors import NonFiniteError
 from wheel_force_estimator.core.errors import ShapeError
@@ -137,10 +137,10 @@ class Segment:
         Channels are looked up by name in the groups (accelerations, angular rates, spin,
         forces, moments), so a model's declared inputs or outputs come out in its order; the
         spin accelerations (``SPIN_ACCEL_CHANNELS``) are derived from the spin rates on this
-        segment (:func:`..core.derived.spin_acceleration`), the traction/braking split
-        (``SPLIT_CHANNELS``) from its accelerations (:func:`..core.derived.traction_braking`)
-        with the low-pass designed at ``fs_hz`` (the model's rate; ``None``: this segment's
-        median sample rate).
+        segment (:func:`..core.derived.spin_acceleration`), the traction/braking and cornering
+        splits (``SPLIT_CHANNELS``, ``CORNERING_CHANNELS``) from its accelerations
+        (:func:`..core.derived.specific_force_parts`) with the low-pass designed at ``fs_hz``
+        (the model's rate; ``None``: this segment's median sample rate).
 
         Raises
         ------
@@ -153,14 +153,15 @@ class Segment:
             if channels == group and getattr(self, attr) is not None:
                 return getattr(self, attr)  # a whole group: the array itself, no copy
         rows = []
+        parts = [n for n in channels if n in ACCEL_DERIVED_CHANNELS]
         split = None
         for name in channels:
-            if name in SPLIT_CHANNELS:  # derived: the split of this segment's f_x
+            if name in ACCEL_DERIVED_CHANNELS:  # derived: the splits of this segment's f_x, f_y
                 if split is None:
                     rate = fs_hz if fs_hz is not None else _NS_PER_S / float(
                         np.median(np.diff(self.stamp_ns)))
-                    split = traction_braking(self.accel_mps2, rate)
-                rows.append(split[SPLIT_CHANNELS.index(name)])
+                    split = specific_force_parts(self.accel_mps2, rate, parts)
+                rows.append(split[parts.index(name)])
                 continue
             if name in SPIN_ACCEL_CHANNELS:  # derived: d(spin)/dt on this segment
                 if self.spin_radps is None:

@@ -66,9 +66,9 @@ def default_config_path() -> Optional[Path]:
 #: Keys of the fit section choosing the model's channels (six components, issue 33).
 _CHANNEL_KEYS = ('inputs', 'moments')
 #: Input groups a spindle model may declare beyond the 12 accelerations.
-INPUT_GROUPS = ('rates', 'spin', 'split')
-#: Of those, the groups read from a recording's topics (``split`` is derived from the
-#: accelerations: core.derived).
+INPUT_GROUPS = ('rates', 'spin', 'split', 'cornering')
+#: Of those, the groups read from a recording's topics (``split`` and ``cornering`` are
+#: derived from the accelerations: core.derived).
 READ_GROUPS = ('rates', 'spin')
 
 
@@ -78,8 +78,9 @@ class FitChannels:
     The channels ``fit`` gives a spindle model (params file, ``wheel_force_fit`` section).
 
     ``inputs``: ``"auto"`` (default: the angular rates and the spin where every training
-    recording carries them, and the traction/braking split, which every recording has) or
-    a list among ``rates``, ``spin``, ``split`` (``[]`` = the 12 accelerations only); a
+    recording carries them, and the traction/braking and cornering splits, which every
+    recording has) or a list among ``rates``, ``spin``, ``split``, ``cornering`` (``[]`` =
+    the 12 accelerations only); a
     declared group that a recording lacks is an error naming its topic.  With ``"auto"``
     each output row takes the groups its blocked cross-validation chooses; a list imposes
     them on every row.  ``moments``: ``"auto"`` (fitted when every recording's WFT messages carry a
@@ -101,6 +102,11 @@ class FitChannels:
     def split(self) -> bool:
         """Say if the model declares the traction/braking inputs (unless a list omits them)."""
         return self.inputs is None or 'split' in self.inputs
+
+    @property
+    def cornering(self) -> bool:
+        """Say if the model declares the cornering inputs (unless a list omits them)."""
+        return self.inputs is None or 'cornering' in self.inputs
 
 
 def fit_channels(path) -> FitChannels:

@@ -72,9 +72,9 @@ def _generic(request, args):
 def _bags(args, reference=None):
     from wheel_force_estimator import INPUT_CHANNELS
     from wheel_force_estimator import OUTPUT_CHANNELS
-    from wheel_force_estimator import SPLIT_CHANNELS
     from wheel_force_estimator.bagio.travel import TRAVEL_CHANNELS
     from wheel_force_estimator.cli.common import read_recordings
+    from wheel_force_estimator.core.derived import accel_derived_count
     from wheel_force_estimator.diagnosis.recording import from_bag_recording
     topics = topic_config(args)
 
@@ -95,11 +95,14 @@ def _bags(args, reference=None):
         print(f'suspension travel not used: {"no --sim reference" if not args.sim else ""}'
               f'{"; " if not args.sim and without else ""}'
               f'{"not in " + ", ".join(without) if without else ""}')
-    # the spindle accelerations; with the traction/braking split derived from them when the
-    # --model declares it (a model of `wheel-force fit`: its inputs are read as predict reads
-    # them)
-    inputs = INPUT_CHANNELS + (SPLIT_CHANNELS if reference is not None and tuple(
-        reference.input_channels) == INPUT_CHANNELS + SPLIT_CHANNELS else ())
+    # the spindle accelerations; with the splits derived from them when the --model declares
+    # them (a model of `wheel-force fit`: its inputs are read as predict reads them)
+    inputs = INPUT_CHANNELS
+    if reference is not None:
+        declared = tuple(reference.input_channels)
+        n_derived = accel_derived_count(declared)
+        if n_derived and declared[:-n_derived] == INPUT_CHANNELS:
+            inputs = declared
     channels = ((TRAVEL_CHANNELS, tuple(c for c in OUTPUT_CHANNELS if c.endswith('fz')))
                 if travel else (inputs, OUTPUT_CHANNELS))
 
@@ -145,13 +148,19 @@ def command(args: argparse.Namespace) -> int:
     features = FeatureConfig() if args.highpass_hz is None else FeatureConfig(args.highpass_hz)
     # One fit design with `wheel-force fit`: same params file, same short-record rule.
     explicit = explicit_fit_keys(args.config)
-    # The plain fit on the real data is `fit`'s: the traction/braking split offered to every
-    # row of bags unless the params file's `inputs` leaves it out (generic recordings and
-    # the suspension travel are fitted on their own channels, as `fit` fits them).
+    # The plain fit on the real data is `fit`'s: the traction/braking and cornering splits
+    # offered to every row of bags unless the params file's `inputs` leaves them out (generic
+    # recordings and the suspension travel are fitted on their own channels, as `fit` fits
+    # them).
+    from wheel_force_estimator import CORNERING_CHANNELS
+    from wheel_force_estimator import SPLIT_CHANNELS
     from wheel_force_estimator.cli.common import fit_channels
+    wanted = fit_channels(args.config)
+    derived = () if request is not None else (
+        (SPLIT_CHANNELS if wanted.split else ()) + (CORNERING_CHANNELS if wanted.cornering
+                                                    else ()))
     config = DiagnosisConfig(features=features, fit=load_fit_config(args.config),
-                             linear=args.linear,
-                             split=request is None and fit_channels(args.config).split,
+                             linear=args.linear, derived=derived,
                              fit_fallback=request is not None
                              and 'long_segment_length' not in explicit,
                              long_window_fallback='long_segment_length' not in explicit,

@@ -96,7 +96,8 @@ def _bag_data(args) -> _TrainingData:
         available = set()
     extras = channels.extras(available)
     recordings = read_recordings(args.recordings, topics, require_wft=True, extras=extras)
-    inputs = declared_inputs('rates' in extras, 'spin' in extras, channels.split)
+    inputs = declared_inputs('rates' in extras, 'spin' in extras, channels.split,
+                             channels.cornering)
     outputs = declared_outputs('moments' in extras)
     fs_hz = nominal_fs_hz(recordings)
     segments = [TrainingSegment(seg.signals(inputs, fs_hz), seg.signals(outputs),

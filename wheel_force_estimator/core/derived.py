@@ -37,11 +37,25 @@ input set, and each row takes them only when the blocked cross-validation says s
 segment's first sample (nothing invented before the record, no start transient);
 :class:`TractionBrakingStream` carries its state across chunks, so chunked == batch, and is
 restarted where the stream breaks, as the offline reader starts a new segment.
+
+**Cornering split** (issue 29), the same for the lateral specific force ``f_y`` (the mean of
+the four spindle ``ay`` through the same low-pass): a tyre's lateral force grows with its
+vertical load, and in a turn the load moves to the outer wheels, so each wheel's
+quasi-static ``Fy`` is close to ``a f_y + b s f_y |f_y|`` (``s`` = +1 on one side, -1 on the
+other): one slope in left turns and another in right turns.  ``left_turn_ay`` =
+``max(f_y, 0)`` (ISO 8855: y to the left) and ``right_turn_ay`` = ``min(f_y, 0)`` let the
+linear fit learn both.  Offered after the traction/braking split as one more nested input set;
+measured on held-out simulated cars (docs/fit_design.md), the ``Fy`` rows take it.
+
+Both splits are :class:`SpecificForceParts` (and :func:`specific_force_parts` of a whole
+segment): any of the four parts by name, each axis filtered once.
 """
 from typing import Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator import CORNERING_CHANNELS
+from wheel_force_estimator import SPLIT_CHANNELS
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 
@@ -233,13 +247,26 @@ class SpinAccelerationStream:
 SPLIT_LOW_PASS_HZ = 2.0
 #: Butterworth order of that low-pass.
 SPLIT_FILTER_ORDER = 2
-#: Rows of the four spindle ``ax`` among the 12 accelerations (corner-major x, y, z).
-_AX_ROWS = slice(0, 12, 3)
+#: The inputs derived from the 12 accelerations, in the order a model declares them: name ->
+#: (axis of the mean specific force: 0 = x, 1 = y, its part: +1 positive, -1 negative).
+ACCEL_PARTS = {SPLIT_CHANNELS[0]: (0, 1), SPLIT_CHANNELS[1]: (0, -1),
+               CORNERING_CHANNELS[0]: (1, 1), CORNERING_CHANNELS[1]: (1, -1)}
+#: Every such input, in that order.
+ACCEL_DERIVED_CHANNELS = tuple(ACCEL_PARTS)
 
 
-def traction_braking(accel_mps2, fs_hz: float) -> np.ndarray:
+def accel_derived_count(input_channels) -> int:
+    """Return how many of a model's last inputs are derived from its accelerations."""
+    names = tuple(input_channels)
+    n = 0
+    while n < len(names) and names[len(names) - 1 - n] in ACCEL_PARTS:
+        n += 1
+    return n
+
+
+def specific_force_parts(accel_mps2, fs_hz: float, names=SPLIT_CHANNELS) -> np.ndarray:
     """
-    Return the traction and braking parts of one gap-free segment's ``f_x`` (module notes).
+    Return the parts ``names`` of one gap-free segment's low-passed specific force.
 
     Parameters
     ----------
@@ -247,47 +274,64 @@ def traction_braking(accel_mps2, fs_hz: float) -> np.ndarray:
         The 12 spindle accelerations [m/s²] first (package order), any rows after them.
     fs_hz : float
         Sample rate [Hz].
+    names : sequence of str
+        Among :data:`ACCEL_DERIVED_CHANNELS`: ``traction_ax`` ``max(f_x, 0)``,
+        ``braking_ax`` ``min(f_x, 0)``, ``left_turn_ay`` ``max(f_y, 0)``, ``right_turn_ay``
+        ``min(f_y, 0)``.
 
     Returns
     -------
-    numpy.ndarray, shape (2, n)
-        ``max(f_x, 0)`` and ``min(f_x, 0)`` [m/s²].
+    numpy.ndarray, shape (len(names), n)
+        The parts [m/s²], in the order of ``names``.
 
     Raises
     ------
     ConfigError
-        A sample rate with the low-pass corner at or above Nyquist.
+        An unknown name, or a sample rate with the low-pass corner at or above Nyquist.
     ShapeError
         Fewer than 12 rows.
 
     """
-    return TractionBrakingStream(fs_hz).push(accel_mps2)
+    return SpecificForceParts(fs_hz, names).push(accel_mps2)
 
 
-class TractionBrakingStream:
+def traction_braking(accel_mps2, fs_hz: float) -> np.ndarray:
+    """Return the traction/braking split ``(max(f_x, 0), min(f_x, 0))`` (module notes)."""
+    return specific_force_parts(accel_mps2, fs_hz, SPLIT_CHANNELS)
+
+
+class SpecificForceParts:
     """
-    :func:`traction_braking` of a segment that arrives in chunks (no delay).
+    :func:`specific_force_parts` of a segment that arrives in chunks (no delay).
 
-    Causal, so every sample leaves with its chunk; the filter state carries across chunks and
-    the values equal :func:`traction_braking` of the concatenation.  :meth:`reset` starts a
-    new segment.
+    Causal, so every sample leaves with its chunk; the filter states carry across chunks and
+    the values equal :func:`specific_force_parts` of the concatenation.  :meth:`reset` starts
+    a new segment.
 
     Parameters
     ----------
     fs_hz : float
         Sample rate [Hz].
+    names : sequence of str
+        The parts to return (:func:`specific_force_parts`).
 
     Raises
     ------
     ConfigError
-        A sample rate with the low-pass corner at or above Nyquist.
+        An unknown name, or a sample rate with the low-pass corner at or above Nyquist.
 
     """
 
-    def __init__(self, fs_hz: float):
+    def __init__(self, fs_hz: float, names=SPLIT_CHANNELS):
+        self._names = tuple(names)
+        unknown = [n for n in self._names if n not in ACCEL_PARTS]
+        if unknown:
+            raise ConfigError(f'derived inputs {unknown}: not among '
+                              f'{list(ACCEL_DERIVED_CHANNELS)}')
         if not fs_hz > 2.0 * SPLIT_LOW_PASS_HZ:
-            raise ConfigError(f'traction/braking split: sample rate {fs_hz!r} Hz must exceed '
-                              f'twice the {SPLIT_LOW_PASS_HZ:g} Hz low-pass corner')
+            raise ConfigError(f'specific force split {list(self._names)}: sample rate '
+                              f'{fs_hz!r} Hz must exceed twice the {SPLIT_LOW_PASS_HZ:g} Hz '
+                              'low-pass corner')
         # imported here: scipy.signal costs ~0.7 s at import, and the bag reader imports this
         # module, so every CLI command (``--help`` included) paid it before its first line
         import scipy.signal
@@ -295,15 +339,17 @@ class TractionBrakingStream:
         self._sos = scipy.signal.butter(SPLIT_FILTER_ORDER, SPLIT_LOW_PASS_HZ, fs=fs_hz,
                                         output='sos')
         self._zi_unit = scipy.signal.sosfilt_zi(self._sos)
+        # the axes filtered, each once however many of its parts are asked for
+        self._axes = tuple(sorted({ACCEL_PARTS[n][0] for n in self._names}))
         self.reset()
 
     def reset(self) -> None:
-        """Start a new segment: its first sample sets the filter's steady state."""
-        self._zi = None
+        """Start a new segment: its first sample sets the filters' steady state."""
+        self._zi = dict.fromkeys(self._axes)
 
     def push(self, accel_mps2) -> np.ndarray:
         """
-        Return the split of the next samples of the segment.
+        Return the parts of the next samples of the segment.
 
         Parameters
         ----------
@@ -312,8 +358,8 @@ class TractionBrakingStream:
 
         Returns
         -------
-        numpy.ndarray, shape (2, m)
-            Traction ``max(f_x, 0)``, braking ``min(f_x, 0)`` [m/s²].
+        numpy.ndarray, shape (len(names), m)
+            The parts [m/s²], in the order of ``names``.
 
         Raises
         ------
@@ -323,12 +369,19 @@ class TractionBrakingStream:
         """
         x = np.asarray(accel_mps2, dtype=np.float64)
         if x.ndim != 2 or x.shape[0] < 12:
-            raise ShapeError(f'traction/braking split: samples {x.shape} need the 12 spindle '
-                             'accelerations as their first rows')
+            raise ShapeError(f'specific force split {list(self._names)}: samples {x.shape} '
+                             'need the 12 spindle accelerations as their first rows')
         if x.shape[1] == 0:
-            return np.empty((2, 0))
-        mean_ax = x[_AX_ROWS].mean(axis=0)
-        if self._zi is None:
-            self._zi = self._zi_unit * mean_ax[0]
-        f_x, self._zi = self._sosfilt(self._sos, mean_ax, zi=self._zi)
-        return np.vstack([np.maximum(f_x, 0.0), np.minimum(f_x, 0.0)])
+            return np.empty((len(self._names), 0))
+        force = {}
+        for axis in self._axes:
+            mean = x[axis:12:3].mean(axis=0)
+            if self._zi[axis] is None:
+                self._zi[axis] = self._zi_unit * mean[0]
+            force[axis], self._zi[axis] = self._sosfilt(self._sos, mean, zi=self._zi[axis])
+        rows = []
+        for name in self._names:
+            axis, sign = ACCEL_PARTS[name]
+            rows.append(np.maximum(force[axis], 0.0) if sign > 0
+                        else np.minimum(force[axis], 0.0))
+        return np.vstack(rows)

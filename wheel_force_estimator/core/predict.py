@@ -31,17 +31,18 @@ No recorded sample is changed, added or dropped.  The output stream lags the inp
 (re)start while the feature filters settle (:func:`.physics.settle_weight`), counted from the
 first recorded sample (the stage's first ``delay_samples`` inputs are the rest level).
 
-A model whose inputs end with the traction/braking split (issue 29) may be given its inputs
-without those two rows: :func:`predict_forces` and :func:`iter_forces` derive them from the
-accelerations of the segment (:func:`.derived.traction_braking`, as the bag reader does).
+A model whose inputs end with the traction/braking and/or cornering split (issue 29) may be
+given its inputs without those rows: :func:`predict_forces` and :func:`iter_forces` derive
+them from the accelerations of the segment (:func:`.derived.specific_force_parts`, as the bag
+reader does).
 """
 from typing import Iterator, Optional
 
 import numpy as np
 
-from wheel_force_estimator import SPLIT_CHANNELS
 from wheel_force_estimator.core.causal_filter import CausalFilter
-from wheel_force_estimator.core.derived import traction_braking
+from wheel_force_estimator.core.derived import accel_derived_count
+from wheel_force_estimator.core.derived import specific_force_parts
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.filtering import FirFilter
@@ -271,9 +272,9 @@ def model_inputs(model: FrfModel, accel_mps2) -> np.ndarray:
     """
     Return one gap-free segment's inputs to ``model``, checked.
 
-    As given, or, for a model whose inputs end with the traction/braking split given without
-    those two rows, with the split derived from the segment's accelerations at the model's
-    sample rate.
+    As given, or, for a model whose inputs end with the splits (traction/braking, cornering)
+    given without those rows, with the splits derived from the segment's accelerations at
+    the model's sample rate.
 
     Raises
     ------
@@ -284,11 +285,11 @@ def model_inputs(model: FrfModel, accel_mps2) -> np.ndarray:
 
     """
     channels = tuple(model.input_channels)
-    n_split = len(SPLIT_CHANNELS)
-    if channels[-n_split:] == SPLIT_CHANNELS and np.ndim(accel_mps2) == 2 \
+    n_split = accel_derived_count(channels)
+    if n_split and np.ndim(accel_mps2) == 2 \
             and np.shape(accel_mps2)[0] == len(channels) - n_split:
         x = as_signals(accel_mps2, 'accelerations', channels[:-n_split], min_samples=0)
-        return np.concatenate([x, traction_braking(x, model.fs_hz)])
+        return np.concatenate([x, specific_force_parts(x, model.fs_hz, channels[-n_split:])])
     return as_signals(accel_mps2, 'accelerations', channels, min_samples=0)
 
 

@@ -29,6 +29,7 @@ Everything else (a generic DAQ model, another channel set) is refused with the f
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
+from wheel_force_estimator import CORNERING_CHANNELS
 from wheel_force_estimator import CORNERS
 from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator import MOMENT_CHANNELS
@@ -46,7 +47,8 @@ SPINDLE_UNITS = {'input': 'm/s^2', 'output': 'N'}
 #: The unit of every channel group, as the messages carry it (REP-103 SI).
 GROUP_UNITS = ((INPUT_CHANNELS, 'm/s^2'), (RATE_CHANNELS, 'rad/s'),
                (SPIN_ACCEL_CHANNELS, 'rad/s^2'), (SPLIT_CHANNELS, 'm/s^2'),
-               (OUTPUT_CHANNELS, 'N'), (MOMENT_CHANNELS, 'N*m'))
+               (CORNERING_CHANNELS, 'm/s^2'), (OUTPUT_CHANNELS, 'N'),
+               (MOMENT_CHANNELS, 'N*m'))
 #: Channel name -> unit of the messages.
 CHANNEL_UNITS = {name: unit for group, unit in GROUP_UNITS for name in group}
 #: Where each group comes from, for messages.
@@ -55,17 +57,19 @@ _SOURCES = {'m/s^2': 'Imu linear_acceleration', 'N': 'WrenchStamped force',
             'rad/s^2': 'JointState wheel velocity (differentiated)'}
 
 
-def declared_inputs(rates: bool, spin: bool, split: bool = False) -> Tuple[str, ...]:
-    """Return the input channels of a spindle model with or without rates, spin and split."""
+def declared_inputs(rates: bool, spin: bool, split: bool = False,
+                    cornering: bool = False) -> Tuple[str, ...]:
+    """Return the input channels of a spindle model with or without each group of inputs."""
     return (INPUT_CHANNELS + (RATE_CHANNELS if rates else ())
-            + (SPIN_ACCEL_CHANNELS if spin else ()) + (SPLIT_CHANNELS if split else ()))
+            + (SPIN_ACCEL_CHANNELS if spin else ()) + (SPLIT_CHANNELS if split else ())
+            + (CORNERING_CHANNELS if cornering else ()))
 
 
 def _variants():
-    """Return ``{declared inputs: (rates, spin, split)}`` of every spindle model."""
+    """Return ``{declared inputs: (rates, spin, split, cornering)}`` of every spindle model."""
     flags = (False, True)
-    return {declared_inputs(r, sp, sl): (r, sp, sl)
-            for r in flags for sp in flags for sl in flags}
+    return {declared_inputs(r, sp, sl, co): (r, sp, sl, co)
+            for r in flags for sp in flags for sl in flags for co in flags}
 
 
 def input_sets(input_channels) -> Tuple[Tuple[str, Tuple[int, ...]], ...]:
@@ -74,8 +78,9 @@ def input_sets(input_channels) -> Tuple[Tuple[str, Tuple[int, ...]], ...]:
 
     A spindle model's inputs (:func:`declared_inputs`) give one set per group, nested in the
     order the groups come: ``accel``; ``accel+rates``; ``accel+rates+spin``;
-    ``accel+rates+spin+split`` (only the groups present: ``accel+split`` for a model of the
-    accelerations and the split).  Any other channel list (a generic
+    ``accel+rates+spin+split``; ``accel+rates+spin+split+cornering`` (only the groups
+    present: ``accel+split`` for a model of the accelerations and the split).  Any other
+    channel list (a generic
     DAQ fit) is one set, ``all``, of every input.  ``columns`` index ``input_channels``.
     """
     names = tuple(input_channels)
@@ -85,7 +90,7 @@ def input_sets(input_channels) -> Tuple[Tuple[str, Tuple[int, ...]], ...]:
     sets = [('accel', tuple(range(n_acc)))]
     stop = n_acc
     for group, label in ((RATE_CHANNELS, 'rates'), (SPIN_ACCEL_CHANNELS, 'spin'),
-                         (SPLIT_CHANNELS, 'split')):
+                         (SPLIT_CHANNELS, 'split'), (CORNERING_CHANNELS, 'cornering')):
         if names[stop:stop + len(group)] == group:
             stop += len(group)
             sets.append((f'{sets[-1][0]}+{label}', tuple(range(stop))))
@@ -134,9 +139,10 @@ class SpindleLayout:
         Per corner, the rows of moment x, y, z; ``None`` when the model has no moments.
     rates, spin : bool
         The model's inputs include the spindle angular rates / the wheel spin rates.
-    split : bool
-        The model's inputs end with the traction/braking split, which the caller derives
-        from the accelerations (:mod:`.derived`); no topic or bag group carries it.
+    derived : tuple of str
+        The model's last inputs that the caller derives from the accelerations (the
+        traction/braking and cornering splits, :mod:`.derived`); no topic or bag group
+        carries them.
 
     """
 
@@ -144,7 +150,7 @@ class SpindleLayout:
     torque_rows: Optional[Tuple[Tuple[int, int, int], ...]]
     rates: bool = False
     spin: bool = False
-    split: bool = False
+    derived: Tuple[str, ...] = ()
 
     @property
     def extras(self) -> Tuple[str, ...]:
@@ -184,9 +190,9 @@ def spindle_layout(model, where: str) -> SpindleLayout:
             f'{INPUT_CHANNELS[0]} ... {INPUT_CHANNELS[-1]} (optionally followed by all of the '
             f'angular rates {RATE_CHANNELS[0]} ... {RATE_CHANNELS[-1]}, then the spin rates '
             f'{SPIN_ACCEL_CHANNELS[0]} ... {SPIN_ACCEL_CHANNELS[-1]}, then the split '
-            f'{SPLIT_CHANNELS[0]}, {SPLIT_CHANNELS[1]}) in that order; a model '
-            f'fitted on '
-            f'generic recordings is applied to them with --input, --output and --fs')
+            f'{SPLIT_CHANNELS[0]}, {SPLIT_CHANNELS[1]}, then the cornering split '
+            f'{CORNERING_CHANNELS[0]}, {CORNERING_CHANNELS[1]}) in that order; a model '
+            f'fitted on generic recordings is applied to them with --input, --output and --fs')
     if outputs not in (OUTPUT_CHANNELS, OUTPUT_CHANNELS + MOMENT_CHANNELS):
         raise ModelFileError(
             f'{where}: model outputs {list(outputs)} are not the wheel forces '
@@ -213,5 +219,6 @@ def spindle_layout(model, where: str) -> SpindleLayout:
     force_rows = tuple(tuple(range(3 * c, 3 * c + 3)) for c in range(len(CORNERS)))
     torque_rows = None if len(outputs) == n else tuple(
         tuple(range(n + 3 * c, n + 3 * c + 3)) for c in range(len(CORNERS)))
-    rates, spin, split = variants[inputs]
-    return SpindleLayout(force_rows, torque_rows, rates, spin, split)
+    rates, spin, split, cornering = variants[inputs]
+    derived = (SPLIT_CHANNELS if split else ()) + (CORNERING_CHANNELS if cornering else ())
+    return SpindleLayout(force_rows, torque_rows, rates, spin, derived)

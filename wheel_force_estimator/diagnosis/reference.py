@@ -16,7 +16,6 @@ from typing import Optional, Sequence
 import numpy as np
 
 from wheel_force_estimator import INPUT_CHANNELS
-from wheel_force_estimator import SPLIT_CHANNELS
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.errors import WheelForceError
 from wheel_force_estimator.diagnosis.features import FeatureConfig
@@ -31,29 +30,30 @@ def splittable(rec: MotionRecording) -> bool:
     return rec.input_channels == INPUT_CHANNELS and rec.input_quantity == 'acceleration'
 
 
-def with_split(rec: MotionRecording) -> np.ndarray:
+def with_split(rec: MotionRecording, derived: Sequence[str]) -> np.ndarray:
     """
-    Return the 12 accelerations of ``rec`` with the traction/braking split below them.
+    Return the 12 accelerations of ``rec`` with the inputs ``derived`` from them below.
 
-    Derived per record, as ``predict`` derives it per gap-free segment
-    (:func:`core.predict.model_inputs`), so a model fitted on these rows predicts the same
-    record from its 12 accelerations alone.
+    ``derived``: the traction/braking and cornering splits, by name.  Derived per record, as
+    ``predict`` derives them per gap-free segment (:func:`core.predict.model_inputs`), so a
+    model fitted on these rows predicts the same record from its 12 accelerations alone.
     """
-    from wheel_force_estimator.core.derived import traction_braking
+    from wheel_force_estimator.core.derived import specific_force_parts
     x = np.asarray(rec.inputs, dtype=np.float64)
-    return np.concatenate([x, traction_braking(x, rec.fs_hz)])
+    return np.concatenate([x, specific_force_parts(x, rec.fs_hz, derived)])
 
 
-def training_segments(recordings: Sequence[MotionRecording], split: bool) -> tuple:
+def training_segments(recordings: Sequence[MotionRecording], derived: Sequence[str]) -> tuple:
     """
     Return the fit's training segments of ``recordings`` and their input channel names.
 
-    ``split``: the traction/braking split (:func:`with_split`) below the accelerations.
+    ``derived``: the inputs derived from the accelerations (:func:`with_split`) below them.
     """
     from wheel_force_estimator.core.pipeline import TrainingSegment
-    segments = [TrainingSegment(with_split(r) if split else r.inputs, r.outputs, r.name)
-                for r in recordings]
-    return segments, recordings[0].input_channels + (SPLIT_CHANNELS if split else ())
+    derived = tuple(derived)
+    segments = [TrainingSegment(with_split(r, derived) if derived else r.inputs, r.outputs,
+                                r.name) for r in recordings]
+    return segments, recordings[0].input_channels + derived
 
 
 class FrfReference:
@@ -61,12 +61,12 @@ class FrfReference:
 
     kind = 'frf'
 
-    def __init__(self, model, name: str, design=None, fitted=None, split: bool = False):
+    def __init__(self, model, name: str, design=None, fitted=None, derived=()):
         self.model = model
         self.name = name
-        #: The model's inputs end with the traction/braking split, derived here from the
-        #: recordings' 12 spindle accelerations (:func:`with_split`) for every (re)fit.
-        self.split = split
+        #: The model's last inputs, derived here from the recordings' 12 spindle
+        #: accelerations (:func:`with_split`) for every (re)fit: the splits, by name.
+        self.derived = tuple(derived)
         #: The ``FitConfig`` the model was fitted with (segment chosen), when fitted here.
         self.design = design
         #: The :class:`core.design.DesignedFit` of the model, when fitted here.
@@ -76,7 +76,7 @@ class FrfReference:
     def fit(cls, recordings: Sequence[MotionRecording], name: str, fit_config=None,
             short_record_fallback: bool = False, segment_fallback: bool = False,
             choose_resolution: bool = False, long_window_fallback: Optional[bool] = None,
-            cross_validate: bool = False, progress: bool = False, split: bool = False):
+            cross_validate: bool = False, progress: bool = False, derived=()):
         """
         Fit the FRF on recordings with the product's design (``wheel-force fit``).
 
@@ -103,9 +103,10 @@ class FrfReference:
             design the concealed sizes were measured with (:mod:`sim.concealment`).
         progress : bool
             The search's progress bars on a terminal (the library prints nothing by default).
-        split : bool
-            Recordings of the 12 spindle accelerations also give the traction/braking split
-            (:func:`training_segments`), as ``wheel-force fit``; other recordings as they are.
+        derived : sequence of str
+            Recordings of the 12 spindle accelerations also give these inputs derived from
+            them (the splits, :func:`training_segments`), as ``wheel-force fit``; other
+            recordings are fitted as they are.
 
         Raises
         ------
@@ -117,8 +118,8 @@ class FrfReference:
         from wheel_force_estimator.core.design import product_fit_config
         config = fit_config or product_fit_config()
         rec0 = recordings[0]
-        split = split and splittable(rec0)
-        segments, inputs = training_segments(recordings, split)
+        derived = tuple(derived) if splittable(rec0) else ()
+        segments, inputs = training_segments(recordings, derived)
         try:
             fitted = fit_design(segments, rec0.fs_hz, config, inputs,
                                 rec0.output_channels, rec0.input_quantity,
@@ -128,7 +129,7 @@ class FrfReference:
         except WheelForceError as err:
             raise DiagnosisError(f'cannot fit the linear FRF on the {name} recordings: '
                                  f'{err}') from err
-        return cls(fitted.model, name, fitted.config, fitted, split)
+        return cls(fitted.model, name, fitted.config, fitted, derived)
 
     def refit(self, recordings: Sequence[MotionRecording]):
         """
@@ -147,7 +148,7 @@ class FrfReference:
         if self.fitted is None:
             raise DiagnosisError(f'the {self.name} model was not fitted here: no design to '
                                  f'refit')
-        segments = training_segments(recordings, self.split)[0]
+        segments = training_segments(recordings, self.derived)[0]
         try:
             return self.fitted.refit(segments, {'diagnosis': self.name})
         except WheelForceError as err:
@@ -158,8 +159,7 @@ class FrfReference:
         """Refuse a recording whose channels, rate or input quantity differ from the model's."""
         from wheel_force_estimator.daqio import quantity_of_unit
         m = self.model
-        inputs = tuple(m.input_channels)[:-len(SPLIT_CHANNELS)] if self.split else tuple(
-            m.input_channels)
+        inputs = tuple(m.input_channels)[:len(m.input_channels) - len(self.derived)]
         if rec.input_channels != inputs or rec.output_channels != m.output_channels:
             raise DiagnosisError(f'{rec.name}: channels {list(rec.input_channels)} -> '
                                  f'{list(rec.output_channels)} differ from those of the '

@@ -13,10 +13,11 @@ The stages themselves run in :func:`diagnosis.pipeline.diagnose_once`.
 """
 from dataclasses import dataclass
 from dataclasses import field
-from typing import Dict, Optional
+from typing import Dict, Optional, Tuple
 
 import numpy as np
 
+from wheel_force_estimator.core.derived import ACCEL_DERIVED_CHANNELS
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.metrics import highpass
@@ -74,14 +75,15 @@ class DiagnosisConfig:
         (:mod:`core.resolution`), as ``wheel-force fit`` does for generic recordings whose
         segment length was not chosen (the CLI passes True for those; off by default here,
         where a car's 12 x 12 records would pay for it on every refit).
-    split : bool
-        Real-data fits of the 12 spindle accelerations also offer every output row the
-        traction/braking split derived from them (:func:`reference.with_split`), as
-        ``wheel-force fit`` does (its params key ``inputs``: the CLI passes False for
-        ``inputs: []`` or a list without ``split``); the simulation's FRF, the features and
-        the finders keep the 12 accelerations.  Measured on a damper-asymmetry pair (seed 7,
-        issue 30): without it the model written without ``--holdout`` scored 19.3 % on a
-        held-out bag where a plain ``fit`` scored 13.9 %.
+    derived : tuple of str
+        Real-data fits of the 12 spindle accelerations also offer every output row these
+        inputs derived from them (:func:`reference.with_split`; default: the traction/braking
+        and the cornering splits), as ``wheel-force fit`` does (its params key ``inputs``: the
+        CLI passes none for ``inputs: []``, and only the listed splits for a list); the
+        simulation's FRF, the features and the finders keep the 12 accelerations.  Measured
+        on a damper-asymmetry pair (seed 7, issue 30): without the traction/braking split the
+        model written without ``--holdout`` scored 19.3 % on a held-out bag where a plain
+        ``fit`` scored 13.9 %.
     merge_ratio : float
         A physics found on several channels becomes one shared-parameter finding when the
         shared fit removes at least this fraction of what the per-channel fits remove.
@@ -111,7 +113,7 @@ class DiagnosisConfig:
     long_window_fallback: Optional[bool] = None
     segment_fallback: bool = True
     choose_resolution: bool = False
-    split: bool = True
+    derived: Tuple[str, ...] = ACCEL_DERIVED_CHANNELS
     merge_ratio: float = 0.85
     range_ratio: float = 10.0
     residual_highpass_hz: Optional[float] = None
@@ -149,7 +151,7 @@ def real_linear_fit(recordings, config, name='real'):
     return FrfReference.fit(recordings, name, config.fit, config.fit_fallback,
                             config.segment_fallback, config.choose_resolution,
                             config.long_window_fallback, cross_validate=True,
-                            progress=config.progress, split=config.split)
+                            progress=config.progress, derived=config.derived)
 
 
 def reference_of(real, sim_or_model, config):

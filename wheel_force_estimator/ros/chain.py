@@ -13,7 +13,6 @@ from typing import Tuple
 import numpy as np
 
 from wheel_force_estimator import CORNERS
-from wheel_force_estimator import SPLIT_CHANNELS
 from wheel_force_estimator.bagio.cdr import decode_imu
 from wheel_force_estimator.bagio.cdr import encode_imu
 from wheel_force_estimator.bagio.cdr import encode_wrench
@@ -49,15 +48,15 @@ def make_stream(model, layout, params) -> ForceStream:
     """Return the node's estimation stream: the one place its Predictor is made."""
     # The live (causal) estimator for this look-ahead (the model's, else the cut FIR).
     predictor = Predictor(model, causal_delay_samples=layout.causal_delay_samples)
-    # the rows fed: the model's inputs but the traction/braking split, which the stream
-    # derives from the accelerations
-    n_fed = predictor.n_inputs - (len(SPLIT_CHANNELS) if layout.split else 0)
+    # the rows fed: the model's inputs but the splits, which the stream derives from the
+    # accelerations
+    n_fed = predictor.n_inputs - len(layout.derived)
     # the model's spin inputs, last fed, arrive as spin rates: the stream differentiates them
     spin_rows = range(n_fed - len(CORNERS), n_fed) if layout.spin else ()
     return ForceStream(predictor, params.block_size, params.sn_slope,
                        damage_period_s=params.damage_publish_period_s,
                        sn_slope_moment=params.sn_slope_moment, spin_rows=spin_rows,
-                       split=layout.split)
+                       derived=layout.derived)
 
 
 def warm_up(model, layout, params):
@@ -71,7 +70,7 @@ def warm_up(model, layout, params):
     n = 2 * params.block_size + layout.causal_delay_samples
     period_ns = int(round(1e9 / model.fs_hz))
     stamps = np.arange(1, n + 1, dtype=np.int64) * period_ns
-    n_fed = len(model.input_channels) - (len(SPLIT_CHANNELS) if layout.split else 0)
+    n_fed = len(model.input_channels) - len(layout.derived)
     accel = np.repeat(np.asarray(model.static_accel_mps2, float)[:n_fed, None], n, axis=1)
     blobs = [raw for c in range(len(CORNERS))
              for raw in encode_imu(stamps, accel[3 * c:3 * c + 3], 'warm_up')]

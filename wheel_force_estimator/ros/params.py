@@ -303,9 +303,9 @@ class ModelLayout:
         The model's inputs include the spindle angular rates (Imu angular velocity) / the
         wheel spin accelerations (derived from the JointState ``{corner}_wheel`` velocities
         on ``travel_topic``).
-    split : bool
-        The model's inputs end with the traction/braking split, which the node's stream
-        derives from the accelerations (no topic).
+    derived : tuple of str
+        The model's last inputs that the node's stream derives from the accelerations (the
+        traction/braking and cornering splits; no topic).
 
     """
 
@@ -315,7 +315,7 @@ class ModelLayout:
     sync_tolerance_ns: int = 0
     rates: bool = False
     spin: bool = False
-    split: bool = False
+    derived: Tuple[str, ...] = ()
 
     @property
     def inputs(self) -> Tuple[bool, bool]:
@@ -359,7 +359,7 @@ def model_layout(model, params: NodeParams) -> ModelLayout:
                              f'at {fs:g} Hz): two samples of one corner could be taken for one')
     return ModelLayout(force_rows=layout.force_rows, torque_rows=layout.torque_rows,
                        causal_delay_samples=delay, sync_tolerance_ns=tolerance_ns,
-                       rates=layout.rates, spin=layout.spin, split=layout.split)
+                       rates=layout.rates, spin=layout.spin, derived=layout.derived)
 
 
 def unknown_parameters(given: Iterable[str],

@@ -23,9 +23,9 @@ each estimate still carries the stamp of the sample it estimates.  A stretch of 
 sample has no derivative and no estimate (``counts['single_samples']``; the offline reader
 keeps no segment under two samples either).
 
-**Split inputs** (``split``, issue 29): a model whose inputs end with the traction/braking
-split gets those two rows derived here from the 12 accelerations
-(:class:`~wheel_force_estimator.core.derived.TractionBrakingStream`), causally and with no
+**Split inputs** (``derived``, issue 29): a model whose inputs end with the traction/braking
+split and/or the cornering split gets those rows derived here from the 12 accelerations
+(:class:`~wheel_force_estimator.core.derived.SpecificForceParts`), causally and with no
 delay; they are not fed.  The filter restarts wherever the Predictor does (gap, stall, jump),
 so a gap-free stretch gets exactly what the offline reader derives for that segment.
 
@@ -58,8 +58,8 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from wheel_force_estimator.core.derived import SpecificForceParts
 from wheel_force_estimator.core.derived import SpinAccelerationStream
-from wheel_force_estimator.core.derived import TractionBrakingStream
 from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.errors import ShapeError
 from wheel_force_estimator.core.evaluation import channel_sn_slopes
@@ -174,9 +174,10 @@ class ForceStream:
     spin_rows : sequence of int, optional
         Input rows fed as wheel spin rates [rad/s], differentiated to the model's spin
         accelerations [rad/s²] (see the module notes); empty: none.
-    split : bool, optional
-        The model's last two inputs are the traction/braking split, derived here from the
-        accelerations: samples are fed without them (see the module notes).
+    derived : sequence of str, optional
+        The model's last inputs that are derived here from the accelerations (the
+        traction/braking and cornering splits, by name): samples are fed without them (see
+        the module notes).
 
     Raises
     ------
@@ -188,15 +189,16 @@ class ForceStream:
     def __init__(self, predictor: Predictor, block_size: int, sn_slope: float,
                  damage_period_s: Optional[float] = None,
                  sn_slope_moment: Optional[float] = None, spin_rows: Sequence[int] = (),
-                 split: bool = False):
+                 derived: Sequence[str] = ()):
         if isinstance(block_size, bool) or not isinstance(block_size, (int, np.integer)) \
                 or block_size < 1:
             raise ConfigError(f'block_size must be an integer >= 1, got {block_size!r}')
         self._predictor = predictor
         self._block = int(block_size)
-        self._split = TractionBrakingStream(predictor.model.fs_hz) if split else None
-        # rows fed: the model's inputs but the split, which is derived here
-        self._n_in = predictor.n_inputs - (2 if split else 0)
+        self._split = (SpecificForceParts(predictor.model.fs_hz, derived) if derived
+                       else None)
+        # rows fed: the model's inputs but the splits, which are derived here
+        self._n_in = predictor.n_inputs - len(derived)
         self._spin = None
         if len(spin_rows):
             try:
@@ -283,7 +285,7 @@ class ForceStream:
             Sample stamps [ns].
         accel_mps2 : array_like, shape (n_inputs, m)
             Finite accelerations [m/s²] (and rates, spin rates), the model's inputs without
-            the split, which the stream derives (``n_inputs`` = the model's, less 2 then).
+            the splits, which the stream derives (``n_inputs`` = the model's less those).
 
         Raises
         ------
@@ -428,7 +430,7 @@ class ForceStream:
             self._queue(stamps, self._with_split(x))
 
     def _with_split(self, x: np.ndarray) -> np.ndarray:
-        """Return the samples with the split rows appended (a model with the split)."""
+        """Return the samples with the derived rows appended (a model with a split)."""
         if self._split is None:
             return x
         return np.concatenate([x, self._split.push(x)])
