@@ -298,3 +298,20 @@ def test_the_long_window_guard_counts_the_smallest_searched_set():
     assert _guarded_inputs(declared_inputs(True, True, True), True) == N_ACC
     assert _guarded_inputs(declared_inputs(True, True, True), False) == 30
     assert _guarded_inputs(('a', 'b', 'c'), True) == 3
+
+
+@pytest.mark.parametrize('inputs, expected', [
+    (None, ('traction_ax', 'braking_ax', 'left_turn_ay', 'right_turn_ay')),   # auto
+    ('[]', ()), ('["split"]', ('traction_ax', 'braking_ax')),
+    ('["cornering", "rates"]', ('left_turn_ay', 'right_turn_ay'))])
+def test_the_params_file_chooses_the_derived_inputs(tmp_path, inputs, expected):
+    # One rule for `fit` (declared_inputs) and `diagnose` (its real-data fits): the groups
+    # `split` and `cornering` of `wheel_force_fit.inputs`, both when it is "auto".
+    from wheel_force_estimator.cli.common import fit_channels
+    path = tmp_path / 'p.yaml'
+    path.write_text('wheel_force_fit:\n  ros__parameters:\n'
+                    + (f'    inputs: {inputs}\n' if inputs else '    moments: auto\n'))
+    channels = fit_channels(path)
+    assert channels.derived == expected
+    assert declared_inputs(False, False, channels.split, channels.cornering) == (
+        INPUT_CHANNELS + expected)

@@ -16,6 +16,7 @@ from pathlib import Path
 import sys
 from typing import Iterable, Optional, Sequence, Tuple
 
+from wheel_force_estimator import INPUT_CHANNELS
 from wheel_force_estimator.bagio.topics import FIT_SECTION
 from wheel_force_estimator.core.errors import ConfigError
 import yaml
@@ -107,6 +108,13 @@ class FitChannels:
     def cornering(self) -> bool:
         """Say if the model declares the cornering inputs (unless a list omits them)."""
         return self.inputs is None or 'cornering' in self.inputs
+
+    @property
+    def derived(self) -> Tuple[str, ...]:
+        """Return the inputs derived from the accelerations that the model declares."""
+        from wheel_force_estimator.core.spindle import declared_inputs
+        return declared_inputs(False, False, self.split, self.cornering)[
+            len(INPUT_CHANNELS):]
 
 
 def fit_channels(path) -> FitChannels:

@@ -152,13 +152,8 @@ def command(args: argparse.Namespace) -> int:
     # offered to every row of bags unless the params file's `inputs` leaves them out (generic
     # recordings and the suspension travel are fitted on their own channels, as `fit` fits
     # them).
-    from wheel_force_estimator import CORNERING_CHANNELS
-    from wheel_force_estimator import SPLIT_CHANNELS
     from wheel_force_estimator.cli.common import fit_channels
-    wanted = fit_channels(args.config)
-    derived = () if request is not None else (
-        (SPLIT_CHANNELS if wanted.split else ()) + (CORNERING_CHANNELS if wanted.cornering
-                                                    else ()))
+    derived = () if request is not None else fit_channels(args.config).derived
     config = DiagnosisConfig(features=features, fit=load_fit_config(args.config),
                              linear=args.linear, derived=derived,
                              fit_fallback=request is not None

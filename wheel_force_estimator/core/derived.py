@@ -35,7 +35,7 @@ negative part (braking) [m/s²].  The fit offers them to every output row as one
 input set, and each row takes them only when the blocked cross-validation says so
 (docs/fit_design.md).  Per gap-free segment the filter starts in the steady state of the
 segment's first sample (nothing invented before the record, no start transient);
-:class:`TractionBrakingStream` carries its state across chunks, so chunked == batch, and is
+:class:`SpecificForceParts` carries its state across chunks, so chunked == batch, and is
 restarted where the stream breaks, as the offline reader starts a new segment.
 
 **Cornering split** (issue 29), the same for the lateral specific force ``f_y`` (the mean of
