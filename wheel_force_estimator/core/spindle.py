@@ -220,5 +220,5 @@ def spindle_layout(model, where: str) -> SpindleLayout:
     torque_rows = None if len(outputs) == n else tuple(
         tuple(range(n + 3 * c, n + 3 * c + 3)) for c in range(len(CORNERS)))
     rates, spin, split, cornering = variants[inputs]
-    derived = (SPLIT_CHANNELS if split else ()) + (CORNERING_CHANNELS if cornering else ())
+    derived = declared_inputs(False, False, split, cornering)[len(INPUT_CHANNELS):]
     return SpindleLayout(force_rows, torque_rows, rates, spin, derived)
