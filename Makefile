@@ -26,7 +26,10 @@ $(STAMP): setup.py setup.cfg package.xml requirements-dev.txt
 # deselected); `make test-all` runs everything.  Both print the 25 slowest tests.  One BLAS
 # thread per worker when the files share the cores: a worker per core each spinning two
 # OpenBLAS threads oversubscribed them (the three longest fast-tier files, 2 workers:
-# 205 s with the default threads, 149 s with one; docs/performance.md).
+# 205 s with the default threads, 149 s with one; docs/performance.md).  Files go to the
+# workers in collection order, the files marked `long_file` first (test/conftest.py): by
+# default pytest-xdist hands out the files with the most tests first, and the longest file,
+# with few tests, ran last and alone.
 PYTEST = AMENT_PREFIX_PATH=$(CURDIR)/$(VENV) $(BIN)/python -m pytest -q -p no:cacheprovider \
 	--durations=25
 PARALLEL = OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
@@ -34,7 +37,8 @@ TIER ?= -m 'not slow'
 
 test: venv
 	$(PYTEST) $(TIER) test/test_ros_*.py
-	$(PARALLEL) $(PYTEST) $(TIER) -n auto --dist loadfile --ignore-glob='*/test_ros_*.py' test
+	$(PARALLEL) $(PYTEST) $(TIER) -n auto --dist loadfile --no-loadscope-reorder \
+		--ignore-glob='*/test_ros_*.py' test
 
 test-all: venv
 	$(MAKE) test TIER=

@@ -305,9 +305,9 @@ def test_the_search_keeps_no_fold_factor_in_the_cache(monkeypatch):
     stored = []
     real = fresh.factor
 
-    def recording(key, eq, ridge):
+    def recording(key, eq, ridge, inner=None):
         stored.append(eq.info['n_training_samples'])
-        return real(key, eq, ridge)
+        return real(key, eq, ridge, inner)
     monkeypatch.setattr(fresh, 'factor', recording)
     x, y = _known_system(40000, 11)
     cfg = FitConfig(segment_length=512, long_segment_length=0,

@@ -77,3 +77,89 @@ def test_bordered_factor_needs_a_smaller_set_of_the_same_basis():
     full = _equations()
     with pytest.raises(ValueError, match='not a smaller set'):
         BorderedFactor(LagOrderedFactor(full), full, 1e-4)
+
+
+def _correlations(n_in=5, n_out=2, seed=3, max_lag=80):
+    rng = np.random.default_rng(seed)
+    b, a = signal.butter(2, 0.4)
+    x = signal.lfilter(b, a, rng.normal(size=(n_in, 6000)), axis=1)
+    x[1] += 0.6 * x[0]
+    y = rng.normal(size=(n_out, n_in)) @ np.roll(x, 2, axis=1) + 0.1 * rng.normal(
+        size=(n_out, 6000))
+    acc = CorrelationAccumulator(n_in, n_out, max_lag)
+    acc.add(x, y)
+    return acc.result(FS_HZ)
+
+
+@pytest.mark.parametrize('ridges', [
+    {0: {1e-3, 1e-4}, 1: {1e-3, 1e-4}, 2: {1e-4}},     # a refit's rows (search.py notes)
+    {0: {1e-3}, 2: {1e-3, 1e-4}},                      # the middle set carries 1e-3 across
+])
+def test_refit_factors_bordered_along_nested_sets_solve_as_their_own(ridges):
+    # Bug caught: a bordered chain that skips a set between two that use a ridge, or borders
+    # a ridge its inner set was not factorised at (KeyError or another ridge's taps).
+    from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
+    from wheel_force_estimator.core.live_estimator import look_ahead_samples
+    from wheel_force_estimator.core.search import _ls_solutions
+    corr = _correlations()
+    sets = (('a', (0, 1, 2)), ('a+b', (0, 1, 2, 3)), ('a+b+c', (0, 1, 2, 3, 4)))
+    got = _ls_solutions(corr, sets, ridges, DESIGN, bordered=True)
+    want = _ls_solutions(corr, sets, ridges, DESIGN)
+    d = look_ahead_samples(LS_LOOK_AHEAD_S, FS_HZ)
+    assert set(got[1].factors) >= {1e-3}                 # the middle set carries 1e-3
+    for i, rs in ridges.items():
+        for r in rs:
+            bordered = isinstance(got[i].factors[r], BorderedFactor)
+            assert bordered == any(r in ridges.get(j, ()) for j in range(i)), (i, r)
+            assert not isinstance(want[i].factors[r], BorderedFactor)
+            for look in (d, 3):
+                a, b = got[i].estimator(r, look), want[i].estimator(r, look)
+                scale = np.abs(b.fine_taps).max()
+                np.testing.assert_allclose(a.fine_taps, b.fine_taps, rtol=0,
+                                           atol=1e-9 * scale)
+                np.testing.assert_allclose(a.coarse_taps, b.coarse_taps, rtol=0,
+                                           atol=1e-9 * scale)
+    # sets that are not nested are factorised each from scratch
+    apart = (('a', (0, 1, 2)), ('b', (3, 4)))
+    alone = _ls_solutions(corr, apart, {0: {1e-3}, 1: {1e-3}}, DESIGN, bordered=True)
+    assert not any(isinstance(f, BorderedFactor) for s in alone.values()
+                   for f in s.factors.values())
+
+
+def test_cache_serves_bordered_parts_to_other_outputs_within_its_byte_budget(monkeypatch):
+    # Bugs caught: a refit on the same inputs with other outputs (the diagnosis's backfit)
+    # forming its bordered parts again, or served another set's or chain's factor; a cache
+    # bounded by entries, which evicted every factor before its reuse once a refit needed
+    # more than four.
+    from wheel_force_estimator.core import candidates as cand
+    from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
+    from wheel_force_estimator.core.live_estimator import look_ahead_samples
+    from wheel_force_estimator.core.search import _ls_solutions
+    cache = cand._RecentFactors()
+    monkeypatch.setattr(cand, '_FACTORS', cache)
+    sets = (('a', (0, 1, 2)), ('a+b', (0, 1, 2, 3)), ('a+b+c', (0, 1, 2, 3, 4)))
+    ridges = {0: {1e-3, 1e-4}, 1: {1e-3, 1e-4}, 2: {1e-4}}
+    d = look_ahead_samples(LS_LOOK_AHEAD_S, FS_HZ)
+    first = _ls_solutions(_correlations(seed=3), sets, ridges, DESIGN, bordered=True)
+    first[2].estimator(1e-4, d)
+    other = _correlations(seed=3, n_out=3)             # the same inputs, other outputs
+    other = type(other)(other.rxx, other.rxy * 2.0 + 1e-3, other.fs_hz, other.n_samples)
+    again = _ls_solutions(other, sets, ridges, DESIGN, bordered=True)
+    assert again[2].factors[1e-4].parts is first[2].factors[1e-4].parts
+    assert again[2].factors[1e-4].chain == (3, 4, 5)
+    want = _ls_solutions(other, sets, ridges, DESIGN)  # each set factorised: not cached alike
+    assert want[2].factors[1e-4].chain == (5,)
+    for i, rs in ridges.items():
+        for r in rs:
+            a, b = again[i].estimator(r, d), want[i].estimator(r, d)
+            scale = np.abs(b.fine_taps).max()
+            np.testing.assert_allclose(a.fine_taps, b.fine_taps, rtol=0, atol=1e-9 * scale)
+    # five factors of one refit (two factorised, three bordered) and the three of `want`
+    assert len(cache._items) == 8
+    # the budget: bytes, the oldest out first, the newest always kept
+    held = cache.nbytes()
+    small = cand._RecentFactors(max_bytes=held // 8)
+    monkeypatch.setattr(cand, '_FACTORS', small)
+    _ls_solutions(_correlations(seed=4), sets, {2: {1e-4}}, DESIGN)
+    _ls_solutions(_correlations(seed=5), sets, {2: {1e-4}}, DESIGN)
+    assert len(small._items) == 1 and 0 < small.nbytes() <= held

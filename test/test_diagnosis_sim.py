@@ -101,6 +101,8 @@ NOT_NAMEABLE = ('tire_lift_off', 'bump_stop', 'stiffness_error', 'damping_error'
 #: At the simulator's resolution rather than concealed (see the module docstring): the
 #: largest ratio to the noise floor allowed for them.
 AT_RESOLUTION = {'time_delay': 1.2}
+#: About half the slow tier's work on one worker: started first (test/conftest.py).
+pytestmark = pytest.mark.long_file
 
 
 @functools.lru_cache(maxsize=None)

@@ -331,43 +331,73 @@ def combine_correlations(items: Sequence[Correlations]) -> Correlations:
 
 class _RecentFactors:
     """
-    The Cholesky factors of the last few normal matrices, by what determines them.
+    The factors of the last few normal matrices, by what determines them, within a budget.
 
     The normal matrix of the least-squares FIR depends on the inputs' correlations, the
     look-ahead, the basis and the ridge, never on the outputs.  The diagnosis refits one
     design on the same input records with other outputs many times (the backfit's
-    alternation, the Frisch-Waugh-Lovell columns, one per term group), and each refit
-    factorised the same 4224-unknown matrix again (0.6 s each on a quiet 2-core machine, the
-    largest part of a refit).  Keyed on a digest of ``rxx`` and the rest of the matrix's
-    inputs, so another training set can never be served a stale factor; bounded (each
-    factor of the car's basis is ~140 MB).
+    alternation, the Frisch-Waugh-Lovell columns, one per term group, the held-out blocks'
+    models), and each refit factorised the same matrices again (the largest part of a
+    refit).  Keyed on a digest of ``rxx`` and the rest of the matrix's inputs, so another
+    training set can never be served a stale factor.  A factor bordered from a smaller
+    set's (:class:`.nested_factor.BorderedFactor`) is kept as its parts, under a key that
+    also names how it was made (``chain``: the input counts from the factorised set up), so
+    a fit gets the same rounding whatever the cache held.
+
+    Bounded by bytes, not entries: a refit whose rows take three input sets at two ridges
+    needs five factors, and a bound of four entries evicted each one before its next use
+    (the diagnosis of a 2-minute record: 520 s, of which ~340 s refactorising; 2026-12-06).
+    Two factorised accelerations sets (~220 MB each at the defaults) and their bordered
+    parts (~45 MB per added pair of inputs) stay well within the budget.
     """
 
-    def __init__(self, max_entries: int = 4):
-        self._items: 'collections.OrderedDict[tuple, np.ndarray]' = collections.OrderedDict()
-        self._max = int(max_entries)
+    def __init__(self, max_bytes: int = 1 << 30):
+        self._items: 'collections.OrderedDict[tuple, object]' = collections.OrderedDict()
+        self._max_bytes = int(max_bytes)
         self._lock = threading.Lock()       # fleet workers may fit in threads
 
     @staticmethod
-    def key(corr: Correlations, d_max: int, design: LiveDesign, ridge: float) -> tuple:
+    def key(corr: Correlations, d_max: int, design: LiveDesign, ridge: float,
+            chain: Tuple[int, ...]) -> tuple:
         digest = hashlib.blake2b(np.ascontiguousarray(corr.rxx).tobytes(),
                                  digest_size=20).hexdigest()
-        return (digest, corr.rxx.shape, float(corr.fs_hz), int(d_max), design, float(ridge))
+        return (digest, corr.rxx.shape, float(corr.fs_hz), int(d_max), design, float(ridge),
+                tuple(chain))
 
-    def factor(self, key: tuple, eq: NormalEquations, ridge: float) -> LagOrderedFactor:
-        """Return ``eq``'s factorisation at ``ridge``, reusing the factor stored at ``key``."""
+    def factor(self, key: tuple, eq: NormalEquations, ridge: float, inner=None):
+        """
+        Return ``eq``'s factorisation at ``ridge``, reusing what is stored at ``key``.
+
+        ``inner``: the factor to border from (a :class:`.nested_factor.BorderedFactor`),
+        None to factorise (a :class:`.LagOrderedFactor`).
+        """
         with self._lock:
             known = self._items.get(key)
             if known is not None:
                 self._items.move_to_end(key)
-        if known is not None:
-            return LagOrderedFactor(eq, ridge, cholesky=known)
-        out = LagOrderedFactor(eq, ridge)
-        with self._lock:
-            self._items[key] = out.cholesky
-            while len(self._items) > self._max:
-                self._items.popitem(last=False)
+        if inner is None:
+            out = LagOrderedFactor(eq, ridge, cholesky=known)
+            state = out.cholesky
+        else:
+            # the parts are formed per look-ahead on first use, into the stored dict
+            out = BorderedFactor(inner, eq, ridge, parts=known)
+            state = out.parts
+        if known is None:
+            with self._lock:
+                self._items[key] = state
+                while len(self._items) > 1 and self.nbytes() > self._max_bytes:
+                    self._items.popitem(last=False)
         return out
+
+    def nbytes(self) -> int:
+        """Return the bytes of the arrays held (bordered parts as formed so far)."""
+        total = 0
+        for state in self._items.values():
+            if isinstance(state, np.ndarray):
+                total += state.nbytes
+            else:
+                total += sum(a.nbytes for part in list(state.values()) for a in part)
+        return total
 
 
 _FACTORS = _RecentFactors()
@@ -379,13 +409,14 @@ class LsSolutions:
 
     ``equations``: the normal equations of ``corr`` already at hand (a subset's, taken from
     the full set's by :meth:`.NormalEquations.subset`), else built here.  ``inner``: the
-    solutions of the previous nested input set (its inputs the first of ``corr``'s, the
-    same ridges and ``equations`` given): each factor is bordered from its factor
-    (:class:`.nested_factor.BorderedFactor`) instead of factorised from scratch.
+    solutions of the previous nested input set (its inputs the first of ``corr``'s, and
+    ``equations`` given): the factor of each ridge ``inner`` has is bordered from its
+    factor (:class:`.nested_factor.BorderedFactor`) instead of factorised from scratch; a
+    ridge it does not have is factorised.
     ``cache``: keep the factors in the bounded cache of recent ones (:class:`_RecentFactors`)
     for a later fit on the same inputs; False for a training set fitted once (a fold of the
     search), whose factors would only push out ones that are reused and keep ~220 MB each
-    alive (4 of them through the final fit of a 20-minute bag).
+    alive (through the final fit of a 20-minute bag).
     """
 
     def __init__(self, corr: Correlations, design: LiveDesign, ridges: Sequence[float],
@@ -398,13 +429,17 @@ class LsSolutions:
         design = dataclasses.replace(design, look_aheads_s=(LS_LOOK_AHEAD_S,),
                                      regularisation=base)
         eq = NormalEquations(corr, self.d_max, design) if equations is None else equations
-        if inner is not None and equations is not None:
-            self.factors = {r: BorderedFactor(inner.factors[r], eq, r) for r in ridges}
-        elif not cache:
-            self.factors = {r: LagOrderedFactor(eq, r) for r in ridges}
-        else:
-            self.factors = {r: _FACTORS.factor(_FACTORS.key(corr, self.d_max, design, r), eq,
-                                               r) for r in ridges}
+        inner_factors = inner.factors if inner is not None and equations is not None else {}
+        self.factors = {}
+        for r in ridges:
+            below = inner_factors.get(r)
+            if not cache:
+                self.factors[r] = (LagOrderedFactor(eq, r) if below is None
+                                   else BorderedFactor(below, eq, r))
+                continue
+            chain = (eq.n_in,) if below is None else below.chain + (eq.n_in,)
+            self.factors[r] = _FACTORS.factor(
+                _FACTORS.key(corr, self.d_max, design, r, chain), eq, r, below)
         self._estimators: Dict[Tuple[float, int], CausalEstimator] = {}
 
     def estimator(self, ridge: float, look_ahead: int) -> CausalEstimator:

@@ -54,6 +54,10 @@ class BorderedFactor(TriangularFactor):
         Equations of the larger set.
     regularisation : float
         Ridge of the factorisation [-] (``inner``'s).
+    parts : dict, optional
+        :attr:`parts` of a factor bordered the same way from the same matrix (the same
+        inputs' correlations, basis, ridge and ``inner`` chain) with another right-hand
+        side: used, and filled, instead of new parts.
 
     Raises
     ------
@@ -62,7 +66,7 @@ class BorderedFactor(TriangularFactor):
 
     """
 
-    def __init__(self, inner, eq: NormalEquations, regularisation: float):
+    def __init__(self, inner, eq: NormalEquations, regularisation: float, parts=None):
         n_b = eq.edges.size - 1
         d_max = -int(eq.edges[0])
         inner_eq = inner.equations
@@ -75,8 +79,16 @@ class BorderedFactor(TriangularFactor):
         # the added inputs' unknowns lag by lag, as the lag-ordered factor numbers its own,
         # so a look-ahead is a leading part
         self._added = lag_order(np.arange(inner_eq.n_in, eq.n_in), n_b, d_max)
-        self._parts: Dict[int, Tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._parts: Dict[int, Tuple[np.ndarray, np.ndarray, np.ndarray]] = (
+            {} if parts is None else parts)
         self._info = dict(eq.info, regularisation=self._ridge)
+        #: Input counts from the factorised set up to this one (how the factor was made).
+        self.chain = tuple(inner.chain) + (eq.n_in,)
+
+    @property
+    def parts(self) -> Dict[int, Tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Return ``{look_ahead: (order, W, L22)}`` formed so far (shared; see ``parts=``)."""
+        return self._parts
 
     def _part(self, look_ahead: int) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return ``(order, W, L22)`` of look-ahead ``look_ahead`` (formed on first use)."""

@@ -337,6 +337,8 @@ class LagOrderedFactor(TriangularFactor):
                     f'live estimator (look-ahead {d_max} samples): the normal equations are '
                     f'not positive definite (inputs without power?)') from err
         self._eq, self._d_max, self._n_b = eq, d_max, n_b
+        #: Input counts from the factorised set up (:class:`.nested_factor.BorderedFactor`).
+        self.chain = (eq.n_in,)
         reg = eq.info['regularisation'] if regularisation is None else regularisation
         self._info = dict(eq.info, regularisation=float(reg))
 

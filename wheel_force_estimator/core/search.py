@@ -464,7 +464,8 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
     ls = {}
     n_model = max(ref_fir.n_taps, config.long_segment_length)
     if lags:
-        ls = _ls_solutions(whole.corr, sets, ridges, live)
+        ls = _ls_solutions(whole.corr, sets, ridges, live,
+                           bordered=not (live_estimators and config.live is not None))
         span = (look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
                 + int(round(live.history_s * fs_hz)) + 1)
         n_model = max(n_model, 2 * int(2 ** np.ceil(np.log2(span))))
@@ -516,13 +517,45 @@ def chosen_live(corr, choice: Choice, live: LiveDesign, n_in: int) -> tuple:
     return _live_rows(_ls_solutions(corr, sets, ridges, live), choice, live, corr.fs_hz, n_in)
 
 
-def _ls_solutions(corr, sets, ridges: Dict[int, set], live: LiveDesign) -> Dict[int, LsSolutions]:
-    """Return the LS factorisations of each input set (index into ``sets``) at its ridges."""
-    used = {i: sorted(r) for i, r in ridges.items() if r}
+def _ls_solutions(corr, sets, ridges: Dict[int, set], live: LiveDesign,
+                  bordered: bool = False) -> Dict[int, LsSolutions]:
+    """
+    Return the LS factorisations of each input set (index into ``sets``) at its ridges.
+
+    ``bordered``: when the sets are nested (each one's columns begin with the previous
+    one's), a ridge's factor of a larger set is bordered from the next smaller set's
+    (:class:`.nested_factor.BorderedFactor`), as the search's folds do, and the sets between
+    two that use a ridge factorise it too, to pass it on.  A refit's rows take up to three
+    sets at two ridges (the diagnosis's held-out refits of a 2-minute record: accelerations
+    at 1e-3 and 1e-4, the split at both, the cornering split at 1e-4), so five
+    factorisations from scratch become two and three borderings, about half the arithmetic
+    (each bordering's triangular solve with the added inputs' columns costs ~0.3-0.4 of a
+    factorisation; ``bench/bench_nested_factor.py``).  For offline rows only: a bordered
+    factor forms its added part per look-ahead, and a chain of two borderings solves with
+    the inner factor per look-ahead too, so the live estimators' five look-aheads would cost
+    more than the factorisations saved.
+    """
+    used = {i: set(r) for i, r in ridges.items() if r}
+    order = sorted(used)
+    nested = bordered and all(
+        tuple(sets[b][1][:len(sets[a][1])]) == tuple(sets[a][1])
+        for a, b in zip(range(order[0], order[-1]), range(order[0] + 1, order[-1] + 1))
+    ) if order else False
+    if nested:
+        # a ridge used by two sets is carried by every set between them
+        for r in set().union(*used.values()):
+            have = [i for i in order if r in used[i]]
+            for i in range(have[0] + 1, have[-1]):
+                used.setdefault(i, set()).add(r)
+    used = {i: sorted(used[i]) for i in sorted(used)}
     eqs = set_equations(corr, live, [sets[i][1] for i in used],
                         min((r for rs in used.values() for r in rs), default=0.0))
-    return {i: LsSolutions(subset_correlations(corr, sets[i][1]), live, r, eqs[sets[i][1]])
-            for i, r in used.items()}
+    out: Dict[int, LsSolutions] = {}
+    for i, r in used.items():
+        inner = out.get(i - 1) if nested else None
+        out[i] = LsSolutions(subset_correlations(corr, sets[i][1]), live, r, eqs[sets[i][1]],
+                             inner=inner)
+    return out
 
 
 def _live_rows(ls, choice: Choice, live: LiveDesign, fs_hz: float, n_in: int) -> tuple:
