@@ -525,7 +525,7 @@ def _ls_solutions(corr, sets, ridges: Dict[int, set], live: LiveDesign,
     ``bordered``: when the sets are nested (each one's columns begin with the previous
     one's), a ridge's factor of a larger set is bordered from the next smaller set's
     (:class:`.nested_factor.BorderedFactor`), as the search's folds do, and the sets between
-    two that use a ridge factorise it too, to pass it on.  A refit's rows take up to three
+    two that use a ridge carry it too (bordered), to pass it on.  A refit's rows take up to three
     sets at two ridges (the diagnosis's held-out refits of a 2-minute record: accelerations
     at 1e-3 and 1e-4, the split at both, the cornering split at 1e-4), so five
     factorisations from scratch become two and three borderings, about half the arithmetic
