@@ -37,9 +37,11 @@ def pytest_collection_modifyitems(config, items):
 
     ``make test`` hands whole files to the pytest-xdist workers in collection order
     (``--dist loadfile --no-loadscope-reorder``).  By default pytest-xdist hands out the files
-    with the most tests first, and the blind-seed diagnosis file, 16 tests that run for about
+    with the most tests first, and the blind-seed diagnosis file, 16 tests that ran for about
     half the slow tier on one worker, came last: the other worker idled while it ran alone
-    (docs/performance.md).  Started first, it runs beside all the other files.
+    (docs/performance.md).  Its two halves (``test_diagnosis_sim.py`` and
+    ``test_diagnosis_sim_silent.py``) now start first, one on each worker, and the other
+    files fill in beside them.
     """
     items.sort(key=lambda item: item.get_closest_marker('long_file') is None)
 

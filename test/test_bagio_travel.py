@@ -155,8 +155,8 @@ def test_simulate_travel_writes_the_simulated_compression(tmp_path):
 
 @pytest.mark.slow
 def test_concealed_bump_stop_is_named_from_bags_with_travel(tmp_path, capsys):
-    # The pair of test_diagnosis_sim's travel case, as bags a user would hand over: the stop
-    # (concealed: the spindle accelerations alone do not show it) is named from the travel
+    # The pair of test_diagnosis_sim_silent's travel case, as bags a user would hand over: the
+    # stop (concealed: the spindle accelerations alone do not show it) is named from the travel
     # topic through `wheel-force diagnose`, on the vertical channels, with a gap near the
     # simulated 33 mm; a matched pair without a stop names nothing.
     from wheel_force_estimator.sim.api import simulate
