@@ -18,7 +18,7 @@ DESIGN = LiveDesign(look_aheads_s=(0.1,), history_s=0.3, fine_s=0.05, blocks_per
 D_MAX = 12
 
 
-def _equations(n_in=5, n_out=2, seed=3):
+def _correlations(n_in=5, n_out=2, seed=3, max_lag=80):
     """Correlated, low-passed inputs and outputs that depend on every input."""
     rng = np.random.default_rng(seed)
     b, a = signal.butter(2, 0.4)
@@ -26,9 +26,15 @@ def _equations(n_in=5, n_out=2, seed=3):
     x[1] += 0.6 * x[0]
     y = rng.normal(size=(n_out, n_in)) @ np.roll(x, 2, axis=1) + 0.1 * rng.normal(
         size=(n_out, 6000))
-    acc = CorrelationAccumulator(n_in, n_out, DESIGN.max_lag(FS_HZ) + D_MAX)
+    acc = CorrelationAccumulator(n_in, n_out, max_lag)
     acc.add(x, y)
-    return NormalEquations(acc.result(FS_HZ), D_MAX, DESIGN)
+    return acc.result(FS_HZ)
+
+
+def _equations(n_in=5, n_out=2, seed=3):
+    """Return the normal equations of :func:`_correlations` at the design's look-ahead."""
+    corr = _correlations(n_in, n_out, seed, DESIGN.max_lag(FS_HZ) + D_MAX)
+    return NormalEquations(corr, D_MAX, DESIGN)
 
 
 @pytest.mark.parametrize('ridge', [1e-4, 1e-3])
@@ -77,18 +83,6 @@ def test_bordered_factor_needs_a_smaller_set_of_the_same_basis():
     full = _equations()
     with pytest.raises(ValueError, match='not a smaller set'):
         BorderedFactor(LagOrderedFactor(full), full, 1e-4)
-
-
-def _correlations(n_in=5, n_out=2, seed=3, max_lag=80):
-    rng = np.random.default_rng(seed)
-    b, a = signal.butter(2, 0.4)
-    x = signal.lfilter(b, a, rng.normal(size=(n_in, 6000)), axis=1)
-    x[1] += 0.6 * x[0]
-    y = rng.normal(size=(n_out, n_in)) @ np.roll(x, 2, axis=1) + 0.1 * rng.normal(
-        size=(n_out, 6000))
-    acc = CorrelationAccumulator(n_in, n_out, max_lag)
-    acc.add(x, y)
-    return acc.result(FS_HZ)
 
 
 @pytest.mark.parametrize('ridges', [

@@ -348,7 +348,7 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
                                           input_channels, cols).items()}
             ls_resp, live_resp = {}, {}
             if lags:
-                nested = prev and tuple(cols[:len(prev)]) == tuple(prev)
+                nested = bool(prev) and _nests(prev, cols)
                 ls = LsSolutions(subset_correlations(corr, cols), live, sp.ridges,
                                  eqs.pop(cols), inner=ls if nested else None, cache=False)
                 prev = cols
@@ -525,8 +525,8 @@ def _ls_solutions(corr, sets, ridges: Dict[int, set], live: LiveDesign,
     ``bordered``: when the sets are nested (each one's columns begin with the previous
     one's), a ridge's factor of a larger set is bordered from the next smaller set's
     (:class:`.nested_factor.BorderedFactor`), as the search's folds do, and the sets between
-    two that use a ridge carry it too (bordered), to pass it on.  A refit's rows take up to three
-    sets at two ridges (the diagnosis's held-out refits of a 2-minute record: accelerations
+    two that use a ridge carry it too (bordered), to pass it on.  A refit's rows take up to
+    three sets at two ridges (the diagnosis's held-out refits of a 2-minute record: accelerations
     at 1e-3 and 1e-4, the split at both, the cornering split at 1e-4), so five
     factorisations from scratch become two and three borderings, about half the arithmetic
     (each bordering's triangular solve with the added inputs' columns costs ~0.3-0.4 of a
@@ -537,10 +537,8 @@ def _ls_solutions(corr, sets, ridges: Dict[int, set], live: LiveDesign,
     """
     used = {i: set(r) for i, r in ridges.items() if r}
     order = sorted(used)
-    nested = bordered and all(
-        tuple(sets[b][1][:len(sets[a][1])]) == tuple(sets[a][1])
-        for a, b in zip(range(order[0], order[-1]), range(order[0] + 1, order[-1] + 1))
-    ) if order else False
+    nested = bordered and bool(order) and all(
+        _nests(sets[i][1], sets[i + 1][1]) for i in range(order[0], order[-1]))
     if nested:
         # a ridge used by two sets is carried by every set between them
         for r in set().union(*used.values()):
@@ -556,6 +554,11 @@ def _ls_solutions(corr, sets, ridges: Dict[int, set], live: LiveDesign,
         out[i] = LsSolutions(subset_correlations(corr, sets[i][1]), live, r, eqs[sets[i][1]],
                              inner=inner)
     return out
+
+
+def _nests(inner: Sequence[int], outer: Sequence[int]) -> bool:
+    """Return True when the columns ``outer`` begin with ``inner`` (a nested input set)."""
+    return tuple(outer[:len(inner)]) == tuple(inner)
 
 
 def _live_rows(ls, choice: Choice, live: LiveDesign, fs_hz: float, n_in: int) -> tuple:
