@@ -315,3 +315,34 @@ def test_the_params_file_chooses_the_derived_inputs(tmp_path, inputs, expected):
     assert channels.derived == expected
     assert declared_inputs(False, False, channels.split, channels.cornering) == (
         INPUT_CHANNELS + expected)
+
+
+def test_the_offline_row_stays_in_its_live_estimators_input_set():
+    # Bug caught (issue 29): every (set, candidate) pair competing, a pair of a smaller set
+    # that the folds score a hair below the live estimator took the row off the set the
+    # row's estimators share (the compact car trained on 2 minutes: offline y 16.3 % against
+    # live 13.3 % held out; 12.8 % kept in the set).  Known answer from hand-made scores.
+    import types
+    from wheel_force_estimator.core.candidates import Candidate
+    from wheel_force_estimator.core.crossval import HeldOutPower
+    from wheel_force_estimator.core.search import _offline_rows
+    live_ls = Candidate(512, 1e-2, 1e-3, float('inf'), 0.05)      # the live estimator
+    two_sided = Candidate(512, 1e-2, 1e-3, float('inf'))
+    h1 = Candidate(512, 1e-2, 1e-3, 0.0)
+    sp = types.SimpleNamespace(offline=[live_ls, two_sided, h1])
+
+    def power(unfiltered, high_passed):
+        return HeldOutPower(np.array([[unfiltered], [high_passed]]), np.ones((2, 1)))
+    scores = [[power(0.30, 0.30), power(0.20, 0.20), power(0.10, 0.10)],   # set 0: accel
+              [power(0.25, 0.25), power(0.22, 0.24), power(0.40, 0.40)]]   # set 1: +split
+    # set 1's live estimator: set 0's H1 beats it on the folds, set 1's two-sided LS too
+    def chosen(live):
+        sets, cands = _offline_rows(scores, sp, 0.05, live)
+        return int(sets[0]), int(cands[0])
+    assert chosen([(1, 1e-3)]) == (1, 1)
+    # in set 0 the best candidate wins; without a live estimator every pair competes
+    assert chosen([(0, 1e-3)]) == (0, 2)
+    assert chosen(None) == (0, 2)
+    # never worse than live in either figure: a better sum bought with one figure loses
+    scores[1][1] = power(0.26, 0.10)
+    assert chosen([(1, 1e-3)]) == (1, 0)

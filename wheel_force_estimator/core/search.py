@@ -393,14 +393,21 @@ def _offline_rows(scores: Sequence[Sequence[HeldOutPower]], sp: Space,
     """
     Return the input set and offline candidate per output, never worse than live held out.
 
-    Every (input set, candidate) pair competes: the lowest criterion among the pairs no
-    worse than that output's live estimator (its input set and ridge, ``live``) in either
-    figure.
+    With a live estimator (``live``: its input set and ridge per output), the row keeps its
+    input set, and the lowest criterion among that set's candidates no worse than the live
+    estimator in either figure wins.  Which inputs carry a row's force is one question for
+    all its estimators (docs/fit_design.md, §5): a pair from another set that beats the
+    live estimator on the folds by a hair is not evidence that the row needs other inputs.
+    Measured (2026-12-06, ``bench/bench_design.py --cars compact --train-scale 0.2``): with
+    every pair competing, two Fy rows took a pair of ``accel`` or ``accel+split`` that the
+    folds scored below the live estimator of ``accel+split+cornering``, and on the held-out
+    course offline y was 16.3 % against live 13.3 %; kept in the live set, 12.8 %.
 
-    The live estimator is itself a candidate in its input set, so the pairs kept are never
-    empty: offline can never score worse than live, unfiltered or high-passed (a lower sum
-    alone could trade one figure for the other: measured on the van, z 11.6 % offline
-    against 10.6 % live unfiltered, bought with the high-passed figure).
+    The live estimator is itself a candidate in its input set, so the candidates kept are
+    never empty: offline can never score worse than live, unfiltered or high-passed (a lower
+    sum alone could trade one figure for the other: measured on the van, z 11.6 % offline
+    against 10.6 % live unfiltered, bought with the high-passed figure).  Without a live
+    estimator every (input set, candidate) pair competes.
     """
     n_cand = len(sp.offline)
     flat = [p for per in scores for p in per]                       # set-major
@@ -415,6 +422,7 @@ def _offline_rows(scores: Sequence[Sequence[HeldOutPower]], sp: Space,
                 continue
             ref = i_set * n_cand + same[0]
             ok = np.all(rel[:, :, o] <= rel[ref, :, o] * (1 + 1e-12), axis=1)
+            ok &= np.arange(ok.size) // n_cand == i_set
             best[o] = int(np.flatnonzero(ok)[np.argmin(criterion[ok, o])])
     return best // n_cand, best % n_cand
 
