@@ -333,9 +333,11 @@ def test_the_offline_row_stays_in_its_live_estimators_input_set():
 
     def power(unfiltered, high_passed):
         return HeldOutPower(np.array([[unfiltered], [high_passed]]), np.ones((2, 1)))
+
     scores = [[power(0.30, 0.30), power(0.20, 0.20), power(0.10, 0.10)],   # set 0: accel
               [power(0.25, 0.25), power(0.22, 0.24), power(0.40, 0.40)]]   # set 1: +split
     # set 1's live estimator: set 0's H1 beats it on the folds, set 1's two-sided LS too
+
     def chosen(live):
         sets, cands = _offline_rows(scores, sp, 0.05, live)
         return int(sets[0]), int(cands[0])
