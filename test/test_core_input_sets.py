@@ -348,3 +348,46 @@ def test_the_offline_row_stays_in_its_live_estimators_input_set():
     # never worse than live in either figure: a better sum bought with one figure loses
     scores[1][1] = power(0.26, 0.10)
     assert chosen([(1, 1e-3)]) == (1, 0)
+
+
+def test_short_records_choose_input_sets_on_blocks_that_sample_the_whole_record():
+    # Bug caught (issue 29): on records under ~6.4 min the finest scoring grid left a few
+    # long chunks, most blocks one contiguous stretch, so a fold held out a road event its
+    # training side never saw; the sets are now chosen on 4 x 4 shorter chunks.
+    from wheel_force_estimator.cli.common import load_fit_config
+    from wheel_force_estimator.core.search import scoring_blocks
+    from wheel_force_estimator.core.search import set_blocks
+    config = load_fit_config()                      # the shipped grid: 1024 / 8192 samples
+    two_minutes = [120 * 512]
+    n_score, blocks = scoring_blocks(two_minutes, config)
+    n_set, chunks = set_blocks(two_minutes, config)
+    assert (n_score, [len(b) for b in blocks]) == (8192, [2, 1, 1, 1])
+    assert (n_set, [len(b) for b in chunks]) == (2048, [4, 4, 4, 4])
+    pieces = sorted((p.start, p.stop) for b in chunks for p in b)
+    assert pieces[0][0] == 0 and pieces[-1][1] == two_minutes[0]     # nothing dropped
+    assert all(a[1] == b[0] for a, b in zip(pieces, pieces[1:]))      # contiguous chunks
+    # ten minutes already give 16 chunks at the finest grid: the same folds
+    assert set_blocks([600 * 512], config) == scoring_blocks([600 * 512], config)
+    # too short for 16 chunks at any grid: the scoring folds
+    assert set_blocks([20 * 512], config) == scoring_blocks([20 * 512], config)
+
+
+def test_the_search_records_the_folds_that_chose_the_input_sets():
+    # 220 s at 128 Hz with a 2048-sample long segment: the scoring grid keeps 9 chunks of
+    # 24 s, the input sets are chosen on 16 chunks of ~13.7 s at 1024 samples (one
+    # resolution there: the long segment's windows do not fit the chunks).  The known
+    # system's sets are still found: f on the accelerations, g with the rates.
+    x, y = _system(28000, 1)
+    config = FitConfig(segment_length=512, long_segment_length=2048, live=CONFIG.live)
+    fitted = fit_design([TrainingSegment(x, y, 'train')], FS_HZ, config, INPUTS, ('f', 'g'))
+    design = fitted.model.fit['design']
+    assert design['scoring_segment_length'] == 2048
+    folds = design['input_set_folds']
+    assert folds['n_blocks'] == 4 and folds['scoring_segment_length'] == 1024
+    assert sum(folds['blocks_s']) == pytest.approx(28000 / FS_HZ, abs=1.0)
+    rows = design['rows']
+    assert rows['f']['inputs'] == rows['f']['live_inputs'] == 'accel'
+    assert rows['g']['inputs'] == rows['g']['live_inputs'] == 'accel+rates'
+    # the per-set figures are the input-set folds' (the evidence for the choice)
+    per_set = rows['g']['input_sets']
+    assert per_set['accel+rates']['cv_rmse_pct'] < per_set['accel']['cv_rmse_pct']

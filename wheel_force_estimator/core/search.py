@@ -27,10 +27,12 @@ fallbacks for records too short to search and builds the model):
    lag-ordered factor interleaves the inputs, so a subset needs its own; its normal matrix
    is a sub-block of the full set's, built once per fold).
 5. **the chosen design**: per output row, the input set whose best offline candidate has
-   the lowest held-out error (relative MSE, unfiltered plus 1 Hz high-passed), and in it
+   the lowest held-out error (relative MSE, unfiltered plus 1 Hz high-passed) on folds
+   whose every block samples the whole record (:func:`set_blocks`: on records under ~6.4
+   min a second cross-validation on shorter chunks and a coarser grid), and in that set
    the live estimator's ridge with the lowest held-out error of the live estimator; then
-   the (input set, candidate) pair with the lowest held-out error among those no worse
-   than that live estimator in either figure.
+   the set's candidate with the lowest held-out error among those no worse than that live
+   estimator in either figure.
 6. **the estimate** (:func:`fit_chosen`): the chosen H1 variants and LS factorisations on
    all the data, per input set (one factorisation per set and ridge serves the offline FIR
    and every live look-ahead).
@@ -68,6 +70,7 @@ from wheel_force_estimator.core.candidates import subset_spectra
 from wheel_force_estimator.core.crossval import best_rows
 from wheel_force_estimator.core.crossval import blend_weight
 from wheel_force_estimator.core.crossval import block_pieces
+from wheel_force_estimator.core.crossval import CHUNKS_PER_BLOCK
 from wheel_force_estimator.core.crossval import HeldOutPower
 from wheel_force_estimator.core.crossval import N_BLOCKS
 from wheel_force_estimator.core.crossval import Piece
@@ -147,6 +150,13 @@ class Choice:
         Scoring resolution [samples].
     blocks_s : tuple of float
         Duration of each block [s].
+    set_scores : tuple of tuple of HeldOutPower
+        Per input set, the held-out power per offline candidate of the folds that chose
+        the input sets (:func:`set_blocks`; ``scores`` when they are the same folds).
+    set_n_score : int
+        Their scoring resolution [samples].
+    set_blocks_s : tuple of float
+        Duration of each of their blocks [s].
 
     """
 
@@ -159,6 +169,9 @@ class Choice:
     space: Space
     n_score: int
     blocks_s: Tuple[float, ...]
+    set_scores: Tuple[Tuple[HeldOutPower, ...], ...]
+    set_n_score: int
+    set_blocks_s: Tuple[float, ...]
 
     def record(self, output_channels: Sequence[str], input_channels: Sequence[str]) -> dict:
         """
@@ -166,7 +179,8 @@ class Choice:
 
         Per row: the chosen candidate and input set (``inputs``) with its held-out RMSE, the
         live ridge and input set, and under ``input_sets`` the held-out RMSE of the best
-        candidate (lowest criterion) of every input set tried.
+        candidate (lowest criterion) of every input set tried, on the folds that chose the
+        input sets (``input_set_folds``).
         """
         def figures(score: HeldOutPower) -> dict:
             pct = score.rmse_pct()
@@ -175,13 +189,13 @@ class Choice:
 
         sets = self.space.input_sets
         index = {c: k for k, c in enumerate(self.space.offline)}
-        best = np.argmin(_criteria(self.scores), axis=1)                        # (set, o)
+        best = np.argmin(_criteria(self.set_scores), axis=1)                    # (set, o)
         rows = {}
         for o, (name, cand) in enumerate(zip(output_channels, self.rows)):
             pct = self.scores[self.row_sets[o]][index[cand]].rmse_pct()
             per_set = {}
             for s, (set_name, _) in enumerate(sets):
-                p = self.scores[s][best[s, o]].rmse_pct()
+                p = self.set_scores[s][best[s, o]].rmse_pct()
                 per_set[set_name] = {'cv_rmse_pct': round(float(p[0, o]), 3),
                                      'cv_rmse_hp1_pct': round(float(p[1, o]), 3)}
             rows[name] = dict(cand.as_dict(), inputs=sets[self.row_sets[o]][0],
@@ -192,6 +206,9 @@ class Choice:
         return {'method': 'blocked_cross_validation', 'n_blocks': len(self.blocks_s),
                 'blocks_s': [round(b, 3) for b in self.blocks_s],
                 'scoring_segment_length': self.n_score, 'imposed': list(self.space.imposed),
+                'input_set_folds': {'n_blocks': len(self.set_blocks_s),
+                                    'blocks_s': [round(b, 3) for b in self.set_blocks_s],
+                                    'scoring_segment_length': self.set_n_score},
                 'input_sets': [{'name': n, 'channels': [input_channels[i] for i in cols]}
                                for n, cols in sets],
                 'rows': rows,
@@ -214,6 +231,30 @@ def scoring_blocks(lengths: Sequence[int], config: FitConfig
             return length, blocks
         length //= 2
     return None, None
+
+
+def set_blocks(lengths: Sequence[int], config: FitConfig
+               ) -> Tuple[Optional[int], Optional[List[List[Piece]]]]:
+    """
+    Return the scoring segment and blocks of the input-set choice: every block's chunks.
+
+    The longest scoring segment whose chunks still number
+    ``N_BLOCKS * CHUNKS_PER_BLOCK`` (each block samples the whole recording, as
+    :func:`.crossval.block_pieces` promises); on a record too short for that at the
+    shortest segment, :func:`scoring_blocks`'s.  :func:`scoring_blocks` prefers the finer
+    grid, so on short records (under ~6.4 min at 512 Hz) it deals a few long chunks, most
+    blocks one contiguous stretch: a fold then holds out a road event its training side
+    never saw, and a slope per turn side (the cornering split) learnt without it scores
+    worse than the accelerations' one slope although the whole record carries both turns
+    (docs/fit_design.md, "Input sets").
+    """
+    length = max(config.long_segment_length, 2 * config.segment_length)
+    while length >= max(MIN_SCORING_SEGMENT, config.segment_length):
+        blocks = block_pieces(lengths, N_BLOCKS, (3 * length) // 2)
+        if blocks is not None and sum(map(len, blocks)) >= N_BLOCKS * CHUNKS_PER_BLOCK:
+            return length, blocks
+        length //= 2
+    return scoring_blocks(lengths, config)
 
 
 def space(config: FitConfig, imposed: frozenset, n_score: int,
@@ -320,54 +361,31 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
     if n_score is None:
         return None
     sp = space(config, imposed, n_score, live.look_aheads_s[0], input_channels)
-    # the scorer's window: the longest power of two every chunk holds (the finest grid)
-    n_score = 1 << int(np.log2(min(p.stop - p.start for b in blocks for p in b)))
     lags = max_lag(live, fs_hz) if (sp.needs_ls or config.live is not None) else 0
-    welch = welch_configs(config, fs_hz, sp, n_score)
     means = segment_means(used)         # removed from every piece, as the final fit does
-    stats = [block_stats(used, b, welch, fs_hz, lags, means)
-             for b in progress(blocks, 'fit: blocks')]
-    # the pairs across chunk edges, so each fold's correlations are its chunks' as one signal
-    straddling = straddling_sums(used, blocks, lags, means) if lags else None
-    d_ls = look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
-    d_live = look_ahead_samples(live.look_aheads_s[0], fs_hz)
-    scores = [None] * len(sp.input_sets)
-    live_scores = [None] * len(sp.input_sets)
-    for k in progress(range(len(stats)), 'fit: cross-validation'):
-        train = [s for j, s in enumerate(stats) if j != k]
-        corr = (fold_correlations([s.corr for s in train], straddling.for_fold(k))
-                if lags else None)
-        # every input set from the same block statistics: its columns of the spectra and
-        # correlations; a set's LS factors bordered from the previous (nested) set's
-        eqs = (set_equations(corr, live, [c for _, c in sp.input_sets], min(sp.ridges))
-               if lags else {})
-        ls, prev = None, ()
-        for i, (_, cols) in enumerate(sp.input_sets):
-            h1 = {key: response_on_grid(fit[2].taps, fit[2].delay_samples, n_score)
-                  for key, fit in h1_fits(train, config, sp.h1, fs_hz, order,
-                                          input_channels, cols).items()}
-            ls_resp, live_resp = {}, {}
-            if lags:
-                nested = bool(prev) and _nests(prev, cols)
-                ls = LsSolutions(subset_correlations(corr, cols), live, sp.ridges,
-                                 eqs.pop(cols), inner=ls if nested else None, cache=False)
-                prev = cols
-                live_resp = {r: ls.response(r, d_live, n_score) for r in sp.ridges}
-                ls_resp = {(r, LS_LOOK_AHEAD_S): ls.response(r, d_ls, n_score)
-                           for r in sp.ridges}
-                ls_resp.update({(r, live.look_aheads_s[0]): live_resp[r] for r in sp.ridges})
-            off, lv = score_fold(h1, ls_resp, live_resp, sp.offline,
-                                 subset_spectra(stats[k].spectra[SCORING], cols))
-            scores[i] = off if scores[i] is None else [a + b for a, b in zip(scores[i], off)]
-            live_scores[i] = (lv if live_scores[i] is None
-                              else [a + b for a, b in zip(live_scores[i], lv)])
-        del ls
-    n_out = stats[0].sum_y.size
+    folds = _Folds(used, fs_hz, config, order, input_channels, live, lags, means, progress)
+    # the scorer's window: the longest power of two every chunk holds (the finest grid)
+    n_score = _grid(blocks)
+    welch = welch_configs(config, fs_hz, sp, n_score)
+    scores, live_scores, blocks_s = folds.scores(blocks, sp, welch, n_score, 'fit')
+    n_out = scores[0][0].error.shape[-1]
+    set_scores, set_grid, set_blocks_s = scores, n_score, blocks_s
     if lags:
         # the input set per row: the offline candidates' best (which inputs carry a row's
         # force is one question; the offline candidates' scores separate the sets where
-        # the live ones near-tie: docs/fit_design.md §5); the live ridge within it
-        live_sets = np.argmin(_criteria(scores).min(axis=1), axis=0)
+        # the live ones near-tie: docs/fit_design.md §5), on folds whose every block
+        # samples the whole record (:func:`set_blocks`); the live ridge within it
+        n_set, s_blocks = set_blocks(lengths, config)
+        if len(sp.input_sets) > 1 and s_blocks != blocks:
+            set_grid = _grid(s_blocks)
+            # the long segment only where the set's chunks hold its windows
+            cfg = (config if n_set >= config.long_segment_length
+                   else dataclasses.replace(config, long_segment_length=0))
+            s_sp = space(cfg, imposed, n_set, live.look_aheads_s[0], input_channels)
+            set_scores, _, set_blocks_s = folds.scores(
+                s_blocks, s_sp, welch_configs(cfg, fs_hz, s_sp, set_grid), set_grid,
+                'fit: input sets')
+        live_sets = np.argmin(_criteria(set_scores).min(axis=1), axis=0)
         live_rows = np.argmin(_criteria(live_scores)[live_sets, :, np.arange(n_out)], axis=1)
     else:
         live_sets = live_rows = np.zeros(n_out, dtype=int)
@@ -378,8 +396,82 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
                     tuple(float(sp.ridges[i]) for i in live_rows),
                     tuple(int(i) for i in live_sets),
                     tuple(tuple(per) for per in scores), tuple(tuple(per) for per in live_scores),
-                    sp, n_score, tuple(s.n / fs_hz for s in stats))
+                    sp, n_score, blocks_s, tuple(tuple(per) for per in set_scores), set_grid,
+                    set_blocks_s)
     return choice, welch, lags
+
+
+def _grid(blocks: Sequence[Sequence[Piece]]) -> int:
+    """Return the scorer's window [samples]: the longest power of two every chunk holds."""
+    return 1 << int(np.log2(min(p.stop - p.start for b in blocks for p in b)))
+
+
+@dataclasses.dataclass(frozen=True)
+class _Folds:
+    """What every cross-validation of one search shares: the data and the live design."""
+
+    used: Sequence
+    fs_hz: float
+    config: FitConfig
+    order: int
+    input_channels: Sequence[str]
+    live: LiveDesign
+    lags: int
+    means: Sequence
+    progress: object
+
+    def scores(self, blocks, sp: Space, welch: dict, n_score: int, desc: str):
+        """
+        Return the held-out powers of ``blocks``' folds, per input set.
+
+        Returns
+        -------
+        (list, list, tuple)
+            Per input set, the pooled held-out power per offline candidate (``sp.offline``
+            order) and per live ridge (``sp.ridges`` order); each block's duration [s].
+
+        """
+        used, fs_hz, lags, live = self.used, self.fs_hz, self.lags, self.live
+        stats = [block_stats(used, b, welch, fs_hz, lags, self.means)
+                 for b in self.progress(blocks, f'{desc}: blocks')]
+        # the pairs across chunk edges, so each fold's correlations are its chunks' as one
+        # signal
+        straddling = straddling_sums(used, blocks, lags, self.means) if lags else None
+        d_ls = look_ahead_samples(LS_LOOK_AHEAD_S, fs_hz)
+        d_live = look_ahead_samples(live.look_aheads_s[0], fs_hz)
+        scores = [None] * len(sp.input_sets)
+        live_scores = [None] * len(sp.input_sets)
+        for k in self.progress(range(len(stats)), f'{desc}: cross-validation'):
+            train = [s for j, s in enumerate(stats) if j != k]
+            corr = (fold_correlations([s.corr for s in train], straddling.for_fold(k))
+                    if lags else None)
+            # every input set from the same block statistics: its columns of the spectra and
+            # correlations; a set's LS factors bordered from the previous (nested) set's
+            eqs = (set_equations(corr, live, [c for _, c in sp.input_sets], min(sp.ridges))
+                   if lags else {})
+            ls, prev = None, ()
+            for i, (_, cols) in enumerate(sp.input_sets):
+                h1 = {key: response_on_grid(fit[2].taps, fit[2].delay_samples, n_score)
+                      for key, fit in h1_fits(train, self.config, sp.h1, fs_hz, self.order,
+                                              self.input_channels, cols).items()}
+                ls_resp, live_resp = {}, {}
+                if lags:
+                    nested = bool(prev) and _nests(prev, cols)
+                    ls = LsSolutions(subset_correlations(corr, cols), live, sp.ridges,
+                                     eqs.pop(cols), inner=ls if nested else None, cache=False)
+                    prev = cols
+                    live_resp = {r: ls.response(r, d_live, n_score) for r in sp.ridges}
+                    ls_resp = {(r, LS_LOOK_AHEAD_S): ls.response(r, d_ls, n_score)
+                               for r in sp.ridges}
+                    ls_resp.update({(r, live.look_aheads_s[0]): live_resp[r]
+                                    for r in sp.ridges})
+                off, lv = score_fold(h1, ls_resp, live_resp, sp.offline,
+                                     subset_spectra(stats[k].spectra[SCORING], cols))
+                scores[i] = off if scores[i] is None else [a + b for a, b in zip(scores[i], off)]
+                live_scores[i] = (lv if live_scores[i] is None
+                                  else [a + b for a, b in zip(live_scores[i], lv)])
+            del ls
+        return scores, live_scores, tuple(s.n / fs_hz for s in stats)
 
 
 def _criteria(per_set: Sequence[Sequence[HeldOutPower]]) -> np.ndarray:
