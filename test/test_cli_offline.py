@@ -69,6 +69,13 @@ def test_fit_report_and_summary(model_path, bags, capsys):
                 for c in design['candidates']]
         chosen = (row['cv_rmse_pct'] / 100) ** 2 + (row['cv_rmse_hp1_pct'] / 100) ** 2
         assert chosen == pytest.approx(min(crit), rel=1e-3)
+    # 2 x 60 s fall back to one resolution (12 long windows for 12 inputs): the 2048-sample
+    # scoring grid already deals 16 chunks, so the same folds chose the input sets, and the
+    # report has no paragraph about other folds
+    assert design['scoring_segment_length'] == 2048
+    assert design['input_set_folds'] == {'n_blocks': 4, 'blocks_s': design['blocks_s'],
+                                         'scoring_segment_length': 2048}
+    assert 'chosen on folds of shorter chunks' not in report
     for png in ('coherence.png', 'frf_diagonal.png', 'condition_number.png',
                 'design_scores.png'):
         assert png in report

@@ -1,6 +1,8 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """The input set of every output row, chosen by the search's blocked cross-validation."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy import signal
@@ -147,6 +149,7 @@ def test_fit_prints_and_the_report_shows_each_rows_input_set(fitted, capsys):
     _print_design(fitted.model)
     out = capsys.readouterr().out
     assert 'held-out RMSE % per input set' in out
+    assert 'input-set folds' not in out          # 218 s: the scoring folds chose the sets
     line = next(s for s in out.splitlines() if s.strip().startswith('f ') and 'inputs' in s)
     assert 'inputs accel,' in line and 'live_inputs accel' in line
     choice, table = design_tables(fitted.model.fit['design'], ('f', 'g'))
@@ -372,7 +375,7 @@ def test_short_records_choose_input_sets_on_blocks_that_sample_the_whole_record(
     assert set_blocks([20 * 512], config) == scoring_blocks([20 * 512], config)
 
 
-def test_the_search_records_the_folds_that_chose_the_input_sets():
+def test_the_search_records_the_folds_that_chose_the_input_sets(capsys, tmp_path):
     # 220 s at 128 Hz with a 2048-sample long segment: the scoring grid keeps 9 chunks of
     # 24 s, the input sets are chosen on 16 chunks of ~13.7 s at 1024 samples (one
     # resolution there: the long segment's windows do not fit the chunks).  The known
@@ -391,3 +394,14 @@ def test_the_search_records_the_folds_that_chose_the_input_sets():
     # the per-set figures are the input-set folds' (the evidence for the choice)
     per_set = rows['g']['input_sets']
     assert per_set['accel+rates']['cv_rmse_pct'] < per_set['accel']['cv_rmse_pct']
+    # and `fit` says on which folds
+    from wheel_force_estimator.cli.fit import _print_design
+    _print_design(fitted.model)
+    assert 'on the input-set folds: 4 blocks, 1024-sample segments' in capsys.readouterr().out
+    # and the fit report
+    from wheel_force_estimator.report.builders import _design_section
+    from wheel_force_estimator.report.markdown import ReportWriter
+    out = ReportWriter(tmp_path)
+    _design_section(out, tmp_path, fitted.model)
+    text = Path(out.write()).read_text()
+    assert 'chosen on folds of shorter chunks' in text and '1024-sample segments' in text

@@ -189,6 +189,14 @@ def _design_section(out: ReportWriter, d: Path, model) -> None:
         f'held out in turn and scored on its Welch spectra '
         f'({design["scoring_segment_length"]}-sample segments). Settings imposed by the '
         f'params file or the command line (kept, not searched): {imposed}.')
+    folds = design.get('input_set_folds') or {}
+    if folds and folds['blocks_s'] != design['blocks_s']:
+        out.paragraph(
+            f'The input set of each output was chosen on folds of shorter chunks, so that '
+            f'every block samples the whole record: {folds["n_blocks"]} blocks '
+            f'({", ".join(f"{b:.0f}" for b in folds["blocks_s"])} s) scored on '
+            f'{folds["scoring_segment_length"]}-sample segments; the per-set figures are '
+            f'theirs (docs/fit_design.md, "Input sets").')
     choice, table = design_tables(design, model.output_channels)
     out.table(choice)
     out.image(plot_design_scores(d / 'design_scores.png', design, model.output_channels),
