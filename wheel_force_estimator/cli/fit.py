@@ -264,10 +264,10 @@ def _print_design(model) -> None:
               f'{row["cv_rmse_hp1_pct"]:6.1f}   {detail}')
     sets = [s['name'] for s in design.get('input_sets') or ()]
     if len(sets) > 1:
-        folds = design.get('input_set_folds') or {}
+        from wheel_force_estimator.core.search import other_set_folds
+        folds = other_set_folds(design)
         where = (f'; on the input-set folds: {folds["n_blocks"]} blocks, '
-                 f'{folds["scoring_segment_length"]}-sample segments'
-                 if folds and folds['blocks_s'] != design['blocks_s'] else '')
+                 f'{folds["scoring_segment_length"]}-sample segments' if folds else '')
         print(f'held-out RMSE % per input set (best candidate of each set{where}; '
               'unfiltered / 1 Hz high-passed):')
         print(f'  {"":6s} ' + '  '.join(f'{n:>17s}' for n in sets))

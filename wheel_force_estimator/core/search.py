@@ -220,6 +220,19 @@ class Choice:
                                     for r, sc in zip(self.space.ridges, per)]}
 
 
+def other_set_folds(design: dict) -> dict:
+    """
+    Return ``design['input_set_folds']`` when they are not the scoring folds, else ``{}``.
+
+    ``design``: a model's ``meta.fit.design`` (:meth:`Choice.record`); a model written
+    before the input-set folds has none.
+    """
+    folds = design.get('input_set_folds') or {}
+    same = (folds.get('blocks_s') == design.get('blocks_s')
+            and folds.get('scoring_segment_length') == design.get('scoring_segment_length'))
+    return {} if not folds or same else folds
+
+
 def scoring_blocks(lengths: Sequence[int], config: FitConfig
                    ) -> Tuple[Optional[int], Optional[List[List[Piece]]]]:
     """Return the scoring segment (longest that every block holds twice) and the blocks."""

@@ -175,6 +175,7 @@ def write_fit_report(directory, model, summary, extra=None) -> Path:
 
 def _design_section(out: ReportWriter, d: Path, model) -> None:
     """Write how the design was chosen: each output's choice, every candidate, a plot."""
+    from wheel_force_estimator.core.search import other_set_folds
     from wheel_force_estimator.report.design_plots import design_tables
     from wheel_force_estimator.report.design_plots import plot_design_scores
     design = model.fit.get('design') or {}
@@ -189,8 +190,8 @@ def _design_section(out: ReportWriter, d: Path, model) -> None:
         f'held out in turn and scored on its Welch spectra '
         f'({design["scoring_segment_length"]}-sample segments). Settings imposed by the '
         f'params file or the command line (kept, not searched): {imposed}.')
-    folds = design.get('input_set_folds') or {}
-    if folds and folds['blocks_s'] != design['blocks_s']:
+    folds = other_set_folds(design)
+    if folds:
         out.paragraph(
             f'The input set of each output was chosen on folds of shorter chunks, so that '
             f'every block samples the whole record: {folds["n_blocks"]} blocks '
