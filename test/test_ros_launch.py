@@ -188,15 +188,14 @@ def test_two_cars_from_the_shipped_launch_file(launch_path, prefix, ros_env, tmp
     from support.ros_testing import SpinningParticipant
     from support.ros_testing import synthetic_model
     from support.ros_testing import wait_until
-    from support.ros_testing import without_shared_memory
+    from support.ros_testing import remove_dead_shared_memory
 
     from wheel_force_estimator.core.model import save_model
     from wheel_force_estimator.ros.diagnostics import status_values
     model = save_model(synthetic_model(delay_samples=48), tmp_path / 'car.npz')
     car2 = tmp_path / 'car2.yaml'
     car2.write_text(CONFIG.read_text().replace('model_path: ""', f'model_path: "{model}"'))
-    # car1's node is killed with SIGKILL below: no shared-memory port may outlive it.
-    env = dict(without_shared_memory(ros_env), AMENT_PREFIX_PATH=os.environ['AMENT_PREFIX_PATH'])
+    env = dict(ros_env, AMENT_PREFIX_PATH=os.environ['AMENT_PREFIX_PATH'])
     env['PYTHONPATH'] = os.pathsep.join(launch_path + [env.get('PYTHONPATH', '')])
     runs = {
         '/car1': ['namespace:=/car1', f'model:={model}', 'respawn:=true'],
@@ -254,6 +253,8 @@ def test_two_cars_from_the_shipped_launch_file(launch_path, prefix, ros_env, tmp
             if proc.poll() is None:
                 proc.kill()
                 proc.wait()
+        # car1's first node was killed with SIGKILL: its shared-memory ports stay behind.
+        remove_dead_shared_memory()
     assert codes == [0, 0], {ns: log.read_text()[-2000:] for ns, log in logs.items()}
     assert elapsed < 5.0, {ns: log.read_text()[-3000:] for ns, log in logs.items()}
     for log in logs.values():

@@ -15,13 +15,13 @@ import pytest
 from rclpy.qos import ReliabilityPolicy
 from support.loggers import Loggers
 from support.loggers import stop_and_collect
+from support.ros_testing import remove_dead_shared_memory
 from support.ros_testing import sample_stamps
 from support.ros_testing import start_node
 from support.ros_testing import stop_node
 from support.ros_testing import synthetic_accel
 from support.ros_testing import synthetic_model
 from support.ros_testing import wait_until
-from support.ros_testing import without_shared_memory
 
 from wheel_force_estimator.core.model import save_model
 from wheel_force_estimator.core.predict import predict_forces
@@ -219,15 +219,12 @@ def test_shutdown_under_a_stalled_subscriber_within_5_s_and_twice_at_once(
     stamps = sample_stamps(n)
     accel = synthetic_accel(n, FS_HZ, seed=57)
     elapsed = {}
-    # The node exits at once on the second Ctrl-C and the frozen reader is killed: neither
-    # may leave a shared-memory port behind for a later test (without_shared_memory).
-    killed_env = without_shared_memory(ros_env)
     for run in ('once', 'twice'):
         log = tmp_path / f'{run}.log'
-        proc = start_node(path, killed_env, NODE_PARAMS, log_path=log)
+        proc = start_node(path, ros_env, NODE_PARAMS, log_path=log)
         reader = subprocess.Popen(
             [sys.executable, str(counter), 'reliable', '5', str(10 * n), '60', *topics[:4]],
-            env=killed_env, stdout=subprocess.PIPE, text=True)
+            env=ros_env, stdout=subprocess.PIPE, text=True)
         peer = Loggers(f'stalled_{run}')
         try:
             assert reader.stdout.readline().strip() == 'ready'
@@ -246,9 +243,18 @@ def test_shutdown_under_a_stalled_subscriber_within_5_s_and_twice_at_once(
         finally:
             peer.close()
             stop_node(proc)
+            # The reader thawed and stopped like Ctrl-C: killed, it left its shared-memory
+            # ports, and the next run's reader, same domain and participant id, was never
+            # discovered (remove_dead_shared_memory).
             reader.send_signal(signal.SIGCONT)
-            reader.kill()
-            reader.wait()
+            reader.send_signal(signal.SIGINT)
+            try:
+                reader.wait(10)
+            except subprocess.TimeoutExpired:
+                reader.kill()
+                reader.wait()
+            # The second Ctrl-C exits at once (os._exit): its ports stay behind too.
+            remove_dead_shared_memory()
         text = log.read_text()
         if run == 'once':
             assert code == 0

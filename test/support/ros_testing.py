@@ -112,20 +112,47 @@ def isolated_ros_env(base: Optional[Mapping[str, str]] = None) -> Dict[str, str]
     return env
 
 
-def without_shared_memory(env: Mapping[str, str]) -> Dict[str, str]:
+def remove_dead_shared_memory(shm_dir: Path = Path('/dev/shm')) -> int:
     """
-    Return ``env`` with Fast DDS on UDP alone, for a process a test stops or kills on purpose.
+    Remove the Fast DDS shared-memory ports and segments no live process holds; return how many.
 
-    A Fast DDS participant killed hard (SIGKILL, ``os._exit``, killed while SIGSTOPped) can
-    leave its shared-memory port in ``/dev/shm`` with its interprocess mutex held
-    (eProsima/Fast-DDS#1144, #5053, open on Fast DDS 2.14, Jazzy's).  A later participant
-    that gets the same domain and participant id blocks forever creating that port: its
-    node never comes up and ignores Ctrl-C.  Test domains are drawn at random, so the victim
-    was a random later test (seen once in CI: "node did not come up", then SIGKILL).  Only
-    the processes a test kills use UDP; every other participant keeps the default transports
-    (shared memory on one host), as on a vehicle's logger.
+    Jazzy's rmw_fastrtps (8.4.3) with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` always uses
+    shared memory: neither ``FASTDDS_BUILTIN_TRANSPORTS=UDPv4`` nor an XML profile without
+    builtin transports removes it (measured: ``/proc/PID/maps`` lists
+    ``/dev/shm/fastrtps_portN``; with the default range, SUBNET, the variable does).  A
+    participant killed hard (SIGKILL, ``os._exit``, a SIGSTOPped process killed) leaves its
+    ports behind (eProsima/Fast-DDS#1144, #5053).  A later participant of the same domain
+    that gets the same participant id opens the dead port and was never discovered: the
+    stalled-subscriber test's second message counter waited forever for the node's publishers
+    (CI twice, here 1 run in 4).  So a test that kills a participant hard calls this once the
+    process is gone, before it starts the next one.
+
+    Each live port or segment holds an ``flock`` on its ``_el`` (or ``_sl``) file; one that
+    can be locked has no live owner.  This is what Fast DDS's ``fastdds shm clean`` does
+    (not in the Jazzy wheels), written here because nothing installed does it.
     """
-    return dict(env, FASTDDS_BUILTIN_TRANSPORTS='UDPv4')
+    import fcntl
+    import re
+
+    lock_name = re.compile(r'^(fastrtps_(?:port\d{1,5}|[0-9a-z]{16}))_(?:el|sl)$')
+    removed = 0
+    for lock in sorted(shm_dir.glob('fastrtps_*')):
+        match = lock_name.match(lock.name)
+        if match is None:
+            continue
+        try:
+            with open(lock, 'ab') as handle:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            continue                      # held: its owner is alive
+        base = match.group(1)
+        for name in (base, lock.name, f'sem.{base}_mutex'):
+            try:
+                (shm_dir / name).unlink()
+            except FileNotFoundError:
+                pass
+        removed += 1
+    return removed
 
 
 def node_command(model_path, params: Mapping[str, object] = (),
@@ -176,6 +203,7 @@ def stop_node(proc: subprocess.Popen, timeout_s: float = 10.0) -> int:
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
+            remove_dead_shared_memory()
             log_path = getattr(proc, 'log_path', None)
             if log_path is not None and Path(log_path).exists():
                 print(f'node did not stop within {timeout_s} s; end of {log_path}:\n'
