@@ -276,29 +276,17 @@ def backfitted_models(findings, real: Sequence, linear_model,
     whose physics has no strength parameter keep their strength; a group whose factor comes
     out 0 leaves the model.
 
-    Parameters
-    ----------
-    findings : sequence of Finding
-        Findings (those without terms are ignored).
-    real : sequence of MotionRecording
-        The real training recordings.
-    linear_model : FrfModel
-        ``refit(real)``: the best linear model on the real recordings as recorded.
-    refit : callable
-        ``refit(recordings) -> FrfModel`` with the design of ``wheel-force fit``.
-    hp : float
-        High-pass of the second figure the strengths are fitted on [Hz] (0 = the
-        unfiltered figure alone; :func:`_figure_views`).
-    skip : int
-        Samples left out at the start of each record (feature filter settling).
-    iterations : int
-        FRF refits.
-    starts : sequence of bool
-        The starts to fit from: False, the strengths fitted on the first residual; True
-        (``joint``), the joint least-squares strengths of the motion-state groups
-        (:func:`_partialled_fit`) when they fit the real data better than the first
-        residual fit, the alternation's shrunken strengths otherwise.  Both starts share the
-        residual fit, and one alternation when the joint start is the residual one.
+    ``findings`` (those without terms are ignored) were found on ``real`` (MotionRecording);
+    ``linear_model`` is ``refit(real)``, where ``refit(recordings) -> FrfModel`` has the
+    design of ``wheel-force fit``.  ``hp`` is the high-pass of the second figure the
+    strengths are fitted on [Hz] (0 = the unfiltered figure alone; :func:`_figure_views`),
+    ``skip`` the samples left out at the start of each record (feature filter settling),
+    ``iterations`` the FRF refits.  ``starts`` are the starts to fit from: False, the
+    strengths fitted on the first residual; True (``joint``), the joint least-squares
+    strengths of the motion-state groups (:func:`_partialled_fit`) when they fit the real
+    data better than the first residual fit, the alternation's shrunken strengths otherwise.
+    Both starts share the residual fit, and one alternation when the joint start is the
+    residual one.
 
     Returns
     -------
