@@ -267,14 +267,20 @@ class SpinningParticipant:
         self._rclpy.try_shutdown(context=self.context)
 
 
+#: How long the message counter waits for a publisher on every topic [s] (then it says which
+#: topics have none and exits 2, so a test fails with that line, not at pytest's timeout).
+COUNTER_DISCOVERY_S = 60.0
+
+
 def count_messages_main(argv: Sequence[str]) -> int:
     """
     Count raw messages on topics in a process of its own, like ``ros2 topic echo``.
 
     ``python test/support/ros_testing.py [--type imu|wrench] [--source-stamps]
     RELIABILITY DEPTH EXPECTED TIMEOUT_S TOPIC...`` subscribes every TOPIC (KEEP_LAST
-    ``DEPTH``), prints ``ready`` once each has a publisher, then one JSON line when every topic
-    reached ``EXPECTED`` messages or ``TIMEOUT_S`` passed after the first message:
+    ``DEPTH``), prints ``ready`` once each has a publisher (else, after
+    :data:`COUNTER_DISCOVERY_S`, ``not ready: ...`` and exits 2), then one JSON line when every
+    topic reached ``EXPECTED`` messages or ``TIMEOUT_S`` passed after the first message:
     ``{"counts": [...]}``, with ``--source-stamps`` also ``"source_ns"``: per topic, the
     writer's source timestamp of every message [ns] (when the publisher *wrote* it: how it
     paced its output, whatever this reader's own scheduling).
@@ -342,7 +348,13 @@ def count_messages_main(argv: Sequence[str]) -> int:
         executor = EventsExecutor()
     executor.add_node(node)
     try:
+        deadline = time.monotonic() + COUNTER_DISCOVERY_S
         while not all(node.count_publishers(t) for t in topics):
+            if time.monotonic() > deadline:
+                missing = [t for t in topics if not node.count_publishers(t)]
+                print(f'not ready: no publisher on {", ".join(missing)} after '
+                      f'{COUNTER_DISCOVERY_S:g} s', flush=True)
+                return 2
             executor.spin_once(timeout_sec=0.01)
         print('ready', flush=True)
         while not done.done() and not (first and time.monotonic() - first[0] > args.timeout_s):
