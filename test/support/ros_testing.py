@@ -121,8 +121,9 @@ def remove_dead_shared_memory(shm_dir: Path = Path('/dev/shm')) -> int:
     builtin transports removes it (measured: ``/proc/PID/maps`` lists
     ``/dev/shm/fastrtps_portN``; with the default range, SUBNET, the variable does).  A
     participant killed hard (SIGKILL, ``os._exit``, a SIGSTOPped process killed) leaves its
-    ports behind (eProsima/Fast-DDS#1144, #5053).  A later participant of the same domain
-    that gets the same participant id opens the dead port and was never discovered: the
+    ports behind (eProsima/Fast-DDS#1144, #5053).  A later participant with the same
+    participant id opens the dead port (of its domain, or port 7000 + id, which every domain
+    shares in LOCALHOST mode, measured) and was never discovered: the
     stalled-subscriber test's second message counter waited forever for the node's publishers
     (CI twice, here 1 run in 4).  So a test that kills a participant hard calls this once the
     process is gone, before it starts the next one.
