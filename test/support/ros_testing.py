@@ -129,8 +129,10 @@ def remove_dead_shared_memory(shm_dir: Path = Path('/dev/shm')) -> int:
     process is gone, before it starts the next one.
 
     Each live port or segment holds an ``flock`` on its ``_el`` (or ``_sl``) file; one that
-    can be locked has no live owner.  This is what Fast DDS's ``fastdds shm clean`` does
-    (not in the Jazzy wheels), written here because nothing installed does it.
+    can be locked has no live owner.  A port being created is not locked yet: call this only
+    while no participant on the machine is starting (the ROS tests run one at a time).  This
+    is what Fast DDS's ``fastdds shm clean`` does (not in the Jazzy wheels), written here
+    because nothing installed does it.
     """
     import fcntl
     import re
