@@ -247,12 +247,7 @@ def test_shutdown_under_a_stalled_subscriber_within_5_s_and_twice_at_once(
             # ports, and the next run's reader, same domain and participant id, was never
             # discovered (remove_dead_shared_memory).
             reader.send_signal(signal.SIGCONT)
-            reader.send_signal(signal.SIGINT)
-            try:
-                reader.wait(10)
-            except subprocess.TimeoutExpired:
-                reader.kill()
-                reader.wait()
+            stop_node(reader)
             # The second Ctrl-C exits at once (os._exit): its ports stay behind too.
             remove_dead_shared_memory()
         text = log.read_text()

@@ -194,9 +194,9 @@ def start_node(model_path, env: Mapping[str, str], params: Mapping[str, object] 
 
 def stop_node(proc: subprocess.Popen, timeout_s: float = 10.0) -> int:
     """
-    Stop the node with SIGINT (like Ctrl-C) and return its exit code.
+    Stop the node (or another ROS process of a test) with SIGINT, like Ctrl-C; return its code.
 
-    A node that does not stop within ``timeout_s`` is killed (-9), and the end of its log is
+    A process that does not stop within ``timeout_s`` is killed (-9), and the end of its log is
     printed: pytest shows it under the failing test.
     """
     if proc.poll() is None:
