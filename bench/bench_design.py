@@ -5,7 +5,8 @@ Accuracy of ``wheel-force fit``'s cross-validated design against the paper and t
 
 Per simulated vehicle (the compact car, the SUV and the van of ``config/vehicles/``, and four
 check cars in ``bench/cars/``: a sports coupe and a pickup, added on 2026-11-29, a light
-hatchback and an AWD people carrier, added on 2026-11-30), in one run:
+hatchback and an AWD people carrier, added on 2026-11-30, and a rear-drive sedan, added on
+2026-12-07), in one run:
 training = the proving-ground course at seed 1 (``--minutes`` of it), held-out = the course
 at seed 2 (half length).  Printed per direction (mean over the four corners), RMSE %
 unfiltered and 1 Hz high-passed, as ``evaluate`` computes them:
@@ -42,7 +43,7 @@ held-out course's (0.5 by default: events 5x longer than a 0.1 training course's
 no default was tuned on, judged the same way.
 
 Run: ``python bench/bench_design.py [--minutes 10]
-[--cars compact,suv,van,coupe,pickup,hatch,mpv|PATH.yaml]
+[--cars compact,suv,van,coupe,pickup,hatch,mpv,sedan|PATH.yaml]
 [--inputs accel+split+cornering|accel+split|accel|...] [--train-scale 1] [--val-scale 0.5]``
 """
 import argparse
@@ -87,7 +88,9 @@ CARS = {'compact': None, 'suv': ROOT / 'config/vehicles/suv_awd_2180kg.yaml',
         'pickup': ROOT / 'bench/cars/pickup_4wd_2950kg.yaml',
         # check cars, added 2026-11-30 (first run at 442e74c, nothing tuned on them since)
         'hatch': ROOT / 'bench/cars/hatch_fwd_1250kg.yaml',
-        'mpv': ROOT / 'bench/cars/mpv_awd_2040kg.yaml'}
+        'mpv': ROOT / 'bench/cars/mpv_awd_2040kg.yaml',
+        # check car, added 2026-12-07 (first run at f969101, nothing tuned on it)
+        'sedan': ROOT / 'bench/cars/sedan_rwd_1650kg.yaml'}
 MR_DAMPER = ROOT.parent / 'shared' / 'data' / 'mr_damper'
 LIVE_S = 0.05
 BASELINE_HISTORY_S = 2.0
