@@ -192,7 +192,10 @@ def test_mr_damper_short_records_get_a_shorter_segment_and_shorter_blocks():
     result = diagnose(real, None, hold)
     assert result.baseline.model.fit['segment_length'] == 512
     assert result.fit.real_linear == result.fit.before
-    assert result.fit.model in ('real_linear', 'real_frf+physics')
+    # as measured (the comment above): nothing named, so the plain fit is the written model
+    assert result.findings == (), result.summary
+    assert result.fit.model == 'real_linear'
+    assert result.fit.after == result.fit.real_linear
     for config in (SHORT, DiagnosisConfig(choose_resolution=True)):
         result = diagnose(real, None, hold, config)
         assert result.baseline.model.fit['segment_length'] == 256
