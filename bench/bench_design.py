@@ -3,7 +3,7 @@
 """
 Accuracy of ``wheel-force fit``'s cross-validated design against the paper and the live node.
 
-Per simulated vehicle (the compact car, the SUV and the van of ``config/vehicles/``, and four
+Per simulated vehicle (the compact car, the SUV and the van of ``config/vehicles/``, and five
 check cars in ``bench/cars/``: a sports coupe and a pickup, added on 2026-11-29, a light
 hatchback and an AWD people carrier, added on 2026-11-30, and a rear-drive sedan, added on
 2026-12-07), in one run:
