@@ -133,17 +133,27 @@ def input_signals(result, inputs: str, n=None):
     return np.vstack(rows)[:, :n]
 
 
-def car_rows(name, minutes, inputs='accel', train_scale=1.0, val_scale=0.5):
-    """Fit and judge one vehicle; return {estimator: (unfiltered, hp) per direction}."""
+def simulated_pair(name, train_scale=1.0, val_scale=0.5):
+    """Return the training course (seed 1) and the held-out one (seed 2) of car ``name``."""
     path = CARS[name] if name in CARS else Path(name)
     vehicle = load_vehicle(path) if path else None
-    train = simulate(seed=1, vehicle=vehicle, duration_scale=train_scale)
-    val = simulate(seed=2, vehicle=vehicle, duration_scale=val_scale)
+    return (simulate(seed=1, vehicle=vehicle, duration_scale=train_scale),
+            simulate(seed=2, vehicle=vehicle, duration_scale=val_scale))
+
+
+def input_channels(inputs: str):
+    """Return the model's input channel names for ``inputs`` (``accel+split``, ...)."""
+    return declared_inputs('rates' in inputs, 'spin' in inputs, 'split' in inputs,
+                           'cornering' in inputs)
+
+
+def car_rows(name, minutes, inputs='accel', train_scale=1.0, val_scale=0.5):
+    """Fit and judge one vehicle; return {estimator: (unfiltered, hp) per direction}."""
+    train, val = simulated_pair(name, train_scale, val_scale)
     fs = train.fs_hz
     n = min(train.accel_mps2.shape[1], int(minutes * 60 * fs))
     x, y = input_signals(train, inputs, n), train.force_n[:, :n]
-    channels = declared_inputs('rates' in inputs, 'spin' in inputs, 'split' in inputs,
-                               'cornering' in inputs)
+    channels = input_channels(inputs)
     paper = fit_model([TrainingSegment(x[:12], y, f'{name}_seed1')], fs, FitConfig(),
                       INPUT_CHANNELS, OUTPUT_CHANNELS)
     t0 = time.perf_counter()

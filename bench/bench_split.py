@@ -38,13 +38,11 @@ from wheel_force_estimator.core.pipeline import fit_model
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.predict import predict_forces
-from wheel_force_estimator.sim import simulate
-from wheel_force_estimator.sim.vehicle import load_vehicle
 
 from bench_design import by_direction  # noqa: I100
-from bench_design import CARS
 from bench_design import LIVE_S
 from bench_design import product_config
+from bench_design import simulated_pair
 
 REGIMES = {'10min': (1.0, 10.0, 0.5), '2min': (0.2, None, 0.2), '2min_long': (0.2, None, 0.5)}
 
@@ -63,9 +61,7 @@ def scores(target, prediction, fs_hz):
 def regime_rows(name, regime):
     """Fit and judge one vehicle in one regime; return {estimator: figures}, fit times."""
     train_scale, minutes, val_scale = REGIMES[regime]
-    vehicle = load_vehicle(CARS[name]) if CARS[name] else None
-    train = simulate(seed=1, vehicle=vehicle, duration_scale=train_scale)
-    val = simulate(seed=2, vehicle=vehicle, duration_scale=val_scale)
+    train, val = simulated_pair(name, train_scale, val_scale)
     fs = train.fs_hz
     n = train.accel_mps2.shape[1] if minutes is None else int(minutes * 60 * fs)
     x, y = train.accel_mps2[:, :n], train.force_n[:, :n]

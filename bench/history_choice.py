@@ -23,26 +23,24 @@ Run: ``python bench/history_choice.py [--cars compact,suv] [--train-scales 0.1,1
 """
 import argparse
 import dataclasses
-from pathlib import Path
 import sys
 
 from bench_design import baseline
 from bench_design import by_direction
-from bench_design import CARS
+from bench_design import input_channels
 from bench_design import input_signals
 from bench_design import LIVE_S
 from bench_design import product_config
+from bench_design import simulated_pair
 import numpy as np
 
 from wheel_force_estimator import OUTPUT_CHANNELS
+from wheel_force_estimator.core.crossval import HeldOutPower
 from wheel_force_estimator.core.design import fit_design
 from wheel_force_estimator.core.metrics import rmse_hp_pct
 from wheel_force_estimator.core.metrics import rmse_pct
 from wheel_force_estimator.core.pipeline import TrainingSegment
 from wheel_force_estimator.core.predict import predict_forces
-from wheel_force_estimator.core.spindle import declared_inputs
-from wheel_force_estimator.sim import simulate
-from wheel_force_estimator.sim.vehicle import load_vehicle
 
 INPUTS = 'accel+split+cornering'
 DIRECTIONS = 'xyz'
@@ -68,8 +66,14 @@ def fold_figures(design: dict, estimator: str) -> np.ndarray:
 
 
 def criterion(figures: np.ndarray) -> np.ndarray:
-    """Return the folds' criterion per row: the two relative mean-square errors summed."""
-    return np.sum((figures / 100.0) ** 2, axis=1)
+    """Return ``fit``'s criterion per row (:meth:`.HeldOutPower.criterion`) of RMSE % figures."""
+    return HeldOutPower(error=(figures.T / 100.0) ** 2, target=np.ones(figures.T.shape)
+                        ).criterion()
+
+
+def held_figures(target, prediction, fs_hz) -> np.ndarray:
+    """Return the held-out RMSE % per output, shape (2, n_out): unfiltered, high-passed."""
+    return np.stack([rmse_pct(target, prediction), rmse_hp_pct(target, prediction, fs_hz)])
 
 
 def one_history(x, y, xv, yv, fs, history_s):
@@ -77,8 +81,7 @@ def one_history(x, y, xv, yv, fs, history_s):
     config = product_config()
     config = dataclasses.replace(config, live=dataclasses.replace(config.live,
                                                                   history_s=history_s))
-    channels = declared_inputs(False, False, True, True)
-    model = fit_design([TrainingSegment(x, y, 'train')], fs, config, channels,
+    model = fit_design([TrainingSegment(x, y, 'train')], fs, config, input_channels(INPUTS),
                        OUTPUT_CHANNELS, long_window_fallback=True).model
     design = model.fit['design']
     d = int(round(LIVE_S * fs))
@@ -86,7 +89,7 @@ def one_history(x, y, xv, yv, fs, history_s):
     for estimator, pred in (('offline', predict_forces(model, xv)),
                             ('live', predict_forces(model, xv, d))):
         out[estimator] = {'folds': criterion(fold_figures(design, estimator)),
-                          'held': np.stack([rmse_pct(yv, pred), rmse_hp_pct(yv, pred, fs)])}
+                          'held': held_figures(yv, pred, fs)}
     return out
 
 
@@ -99,10 +102,7 @@ def line(tag, held):
 
 def run_car(name, train_scale, short_s, fir):
     """Fit both histories on one car and print the held-out figures of every choice."""
-    path = CARS[name] if name in CARS else Path(name)
-    vehicle = load_vehicle(path) if path else None
-    train = simulate(seed=1, vehicle=vehicle, duration_scale=train_scale)
-    held = simulate(seed=2, vehicle=vehicle, duration_scale=0.5)
+    train, held = simulated_pair(name, train_scale)
     fs = train.fs_hz
     x, y = input_signals(train, INPUTS), train.force_n
     xv, yv = input_signals(held, INPUTS), held.force_n
@@ -113,7 +113,7 @@ def run_car(name, train_scale, short_s, fir):
     if fir:
         model = fits[long_s]['model']
         pred = baseline(x, y, xv, model.static_accel_mps2, model.static_force_n, fs)
-        print(line('plain LS FIR', np.stack([rmse_pct(yv, pred), rmse_hp_pct(yv, pred, fs)])))
+        print(line('plain LS FIR', held_figures(yv, pred, fs)))
     for estimator in ('offline', 'live'):
         a, b = fits[long_s][estimator], fits[short_s][estimator]
         short = np.zeros(len(OUTPUT_CHANNELS), dtype=bool)
