@@ -63,12 +63,17 @@ def test_fit_report_and_summary(model_path, bags, capsys):
     assert 'Chosen per output by blocked cross-validation' in report
     for name, row in design['rows'].items():
         assert f'| {name} |' in report
-        # the chosen candidate has the lowest held-out criterion of all candidates
+        # the four corners of a component choose their input set together
+        assert row['inputs'] == design['rows'][f'lf_{name[3:]}']['inputs'], name
+        # the chosen candidate has the lowest held-out criterion of its input set's
         o = model.output_channels.index(name)
         crit = [(c['cv_rmse_pct'][o] / 100) ** 2 + (c['cv_rmse_hp1_pct'][o] / 100) ** 2
-                for c in design['candidates']]
+                for c in design['candidates'] if c['inputs'] == row['inputs']]
         chosen = (row['cv_rmse_pct'] / 100) ** 2 + (row['cv_rmse_hp1_pct'] / 100) ** 2
         assert chosen == pytest.approx(min(crit), rel=1e-3)
+    assert design['input_set_groups'] == [[f'{c}_{k}' for c in ('lf', 'rf', 'lr', 'rr')]
+                                          for k in ('fx', 'fy', 'fz')]
+    assert 'The four corners of a component chose their input set together' in report
     # 2 x 60 s fall back to one resolution (12 long windows for 12 inputs): the 2048-sample
     # scoring grid already deals 16 chunks, so the same folds chose the input sets, and the
     # report has no paragraph about other folds

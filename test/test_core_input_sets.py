@@ -405,3 +405,38 @@ def test_the_search_records_the_folds_that_chose_the_input_sets(capsys, tmp_path
     _design_section(out, tmp_path, fitted.model)
     text = Path(out.write()).read_text()
     assert 'chosen on folds of shorter chunks' in text and '1024-sample segments' in text
+
+
+def test_the_four_corners_of_a_component_are_one_group_and_other_outputs_their_own():
+    from wheel_force_estimator import MOMENT_CHANNELS
+    from wheel_force_estimator import OUTPUT_CHANNELS
+    from wheel_force_estimator.core.spindle import component_groups
+    assert component_groups(OUTPUT_CHANNELS) == ((0, 3, 6, 9), (1, 4, 7, 10), (2, 5, 8, 11))
+    six = component_groups(OUTPUT_CHANNELS + MOMENT_CHANNELS)
+    assert len(six) == 6 and all(len(g) == 4 for g in six)
+    assert sorted(o for g in six for o in g) == list(range(24))
+    assert six[3] == (12, 15, 18, 21)                             # lf_mx rf_mx lr_mx rr_mx
+    # a generic recording's channels, and names that only look like a corner's
+    assert component_groups(('f', 'g', 'lf', 'xx_fy')) == ((0,), (1,), (2,), (3,))
+    assert component_groups(('lf_fy', 'gauge', 'rr_fy')) == ((0, 2), (1,))
+
+
+def test_a_rows_near_tie_goes_the_way_its_components_four_rows_point():
+    # Known answer, the 2-minute SUV's Fy rows on the input-set folds (relative MSEs summed,
+    # per set: accelerations, + split, + cornering split): `rf_fy` alone near-ties to the
+    # accelerations (0.2951 against 0.2963) and erred 25.7 % on the held-out course where
+    # the other Fy rows, with the cornering split, erred 9-10 %.  Summed over the four
+    # corners the cornering split wins; a row of its own keeps its own choice.
+    from wheel_force_estimator.core.search import _pooled
+    fy = np.array([[0.3328, 0.2951, 0.3247, 0.3450],
+                   [0.3841, 0.3080, 0.3668, 0.3621],
+                   [0.3188, 0.2963, 0.2817, 0.3281]])
+    assert list(np.argmin(fy, axis=0)) == [2, 0, 2, 2]
+    pooled = _pooled(fy, [(0, 1, 2, 3)])
+    assert list(np.argmin(pooled, axis=0)) == [2, 2, 2, 2]
+    np.testing.assert_allclose(pooled[:, 0], fy.sum(axis=1))
+    np.testing.assert_array_equal(_pooled(fy, [(0,), (1,), (2,), (3,)]), fy)
+    # two groups: each takes its own members' sum, not the other's
+    two = _pooled(fy, [(0, 1), (2, 3)])
+    np.testing.assert_allclose(two[:, 1], fy[:, :2].sum(axis=1))
+    np.testing.assert_allclose(two[:, 2], fy[:, 2:].sum(axis=1))

@@ -268,8 +268,10 @@ def _print_design(model) -> None:
         folds = other_set_folds(design)
         where = (f'; on the input-set folds: {folds["n_blocks"]} blocks, '
                  f'{folds["scoring_segment_length"]}-sample segments' if folds else '')
+        together = ('; the four corners of a component choose together'
+                    if design.get('input_set_groups') else '')
         print(f'held-out RMSE % per input set (best candidate of each set{where}; '
-              'unfiltered / 1 Hz high-passed):')
+              f'unfiltered / 1 Hz high-passed{together}):')
         print(f'  {"":6s} ' + '  '.join(f'{n:>17s}' for n in sets))
         for name, row in design['rows'].items():
             per = row['input_sets']

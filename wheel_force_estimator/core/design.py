@@ -469,7 +469,7 @@ def _cross_validated_model(used, fs_hz, config, input_channels, output_channels,
         as_signals(seg.force_n, f'forces of {seg.source}', output_channels)
     order = QUANTITIES.index(input_quantity)
     searched = search(used, fs_hz, config, input_channels, order, imposed,
-                      progress if show_progress else _silent)
+                      progress if show_progress else _silent, output_channels)
     if searched is None:
         return None, None
     chosen = ChosenDesign(*searched, order)

@@ -29,7 +29,8 @@ fallbacks for records too short to search and builds the model):
 5. **the chosen design**: per output row, the input set whose best offline candidate has
    the lowest held-out error (relative MSE, unfiltered plus 1 Hz high-passed) on folds
    whose every block samples the whole record (:func:`set_blocks`: on records under ~6.4
-   min a second cross-validation on shorter chunks and a coarser grid), and in that set
+   min a second cross-validation on shorter chunks and a coarser grid), summed over the
+   four corners' rows of the row's component (:func:`.spindle.component_groups`), and in that set
    the live estimator's ridge with the lowest held-out error of the live estimator; then
    the set's candidate with the lowest held-out error among those no worse than that live
    estimator in either figure.
@@ -83,6 +84,7 @@ from wheel_force_estimator.core.live_estimator import look_ahead_samples
 from wheel_force_estimator.core.pipeline import estimate_h1
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.spectra import combine_spectra
+from wheel_force_estimator.core.spindle import component_groups
 from wheel_force_estimator.core.spindle import input_sets
 
 #: Shortest scoring resolution tried [samples]; each block must hold two of its windows.
@@ -180,7 +182,8 @@ class Choice:
         Per row: the chosen candidate and input set (``inputs``) with its held-out RMSE, the
         live ridge and input set, and under ``input_sets`` the held-out RMSE of the best
         candidate (lowest criterion) of every input set tried, on the folds that chose the
-        input sets (``input_set_folds``).
+        input sets (``input_set_folds``); ``input_set_groups``: the rows that chose their
+        input set together (:func:`.spindle.component_groups`, groups of two or more).
         """
         def figures(score: HeldOutPower) -> dict:
             pct = score.rmse_pct()
@@ -211,6 +214,8 @@ class Choice:
                                     'scoring_segment_length': self.set_n_score},
                 'input_sets': [{'name': n, 'channels': [input_channels[i] for i in cols]}
                                for n, cols in sets],
+                'input_set_groups': [[output_channels[o] for o in g]
+                                     for g in component_groups(output_channels) if len(g) > 1],
                 'rows': rows,
                 'candidates': [dict(c.as_dict(), inputs=n, **figures(sc))
                                for (n, _), per in zip(sets, self.scores)
@@ -350,10 +355,13 @@ def live_design(config: FitConfig, input_channels, fs_hz: float) -> LiveDesign:
 
 
 def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
-           imposed: frozenset = frozenset(), progress=lambda it, desc: it
-           ) -> Optional[Tuple[Choice, dict, int]]:
+           imposed: frozenset = frozenset(), progress=lambda it, desc: it,
+           output_channels: Sequence[str] = ()) -> Optional[Tuple[Choice, dict, int]]:
     """
     Choose each output's design by blocked cross-validation (see the module notes).
+
+    ``output_channels`` name the rows (:func:`.spindle.component_groups`: the four corners'
+    rows of one component choose their input set together); none: each row alone.
 
     Returns
     -------
@@ -398,7 +406,8 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
             set_scores, _, set_blocks_s = folds.scores(
                 s_blocks, s_sp, welch_configs(cfg, fs_hz, s_sp, set_grid), set_grid,
                 'fit: input sets')
-        live_sets = np.argmin(_criteria(set_scores).min(axis=1), axis=0)
+        live_sets = np.argmin(_pooled(_criteria(set_scores).min(axis=1),
+                                      component_groups(output_channels)), axis=0)
         live_rows = np.argmin(_criteria(live_scores)[live_sets, :, np.arange(n_out)], axis=1)
     else:
         live_sets = live_rows = np.zeros(n_out, dtype=int)
@@ -485,6 +494,14 @@ class _Folds:
                                   else [a + b for a, b in zip(live_scores[i], lv)])
             del ls
         return scores, live_scores, tuple(s.n / fs_hz for s in stats)
+
+
+def _pooled(criteria: np.ndarray, groups: Sequence[Sequence[int]]) -> np.ndarray:
+    """Return ``criteria`` (set, o) with every row of a group given the group's sum."""
+    out = criteria.copy()
+    for members in groups:
+        out[:, list(members)] = criteria[:, list(members)].sum(axis=1, keepdims=True)
+    return out
 
 
 def _criteria(per_set: Sequence[Sequence[HeldOutPower]]) -> np.ndarray:

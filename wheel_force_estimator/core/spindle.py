@@ -97,6 +97,26 @@ def input_sets(input_channels) -> Tuple[Tuple[str, Tuple[int, ...]], ...]:
     return tuple(sets)
 
 
+def component_groups(output_channels) -> Tuple[Tuple[int, ...], ...]:
+    """
+    Return the output rows that choose their input set together: one group per component.
+
+    A spindle model's outputs ``{corner}_{component}`` of the four corners (``lf_fy``,
+    ``rf_fy``, ``lr_fy``, ``rr_fy``) are one group per component; any other output is a group
+    of its own (a generic recording's channels, which search one input set anyway).  The
+    derived inputs are vehicle-level signals (the four corners' mean ``ax`` and ``ay``, split
+    by sign: :mod:`.derived`), so whether they carry a force component is one question for the
+    four wheels, and the four rows' held-out criteria summed answer it with four rows of
+    evidence instead of one (docs/fit_design.md, "Input sets").  Indices in output order.
+    """
+    groups = {}
+    for o, name in enumerate(output_channels):
+        corner, _, component = str(name).partition('_')
+        key = ('component', component) if corner in CORNERS and component else ('row', o)
+        groups.setdefault(key, []).append(o)
+    return tuple(tuple(g) for g in groups.values())
+
+
 def declared_outputs(moments: bool) -> Tuple[str, ...]:
     """Return the output channels of a spindle model with or without the moments."""
     return OUTPUT_CHANNELS + (MOMENT_CHANNELS if moments else ())

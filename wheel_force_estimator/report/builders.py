@@ -198,6 +198,11 @@ def _design_section(out: ReportWriter, d: Path, model) -> None:
             f'({", ".join(f"{b:.0f}" for b in folds["blocks_s"])} s) scored on '
             f'{folds["scoring_segment_length"]}-sample segments; the per-set figures are '
             f'theirs (docs/fit_design.md, "Input sets").')
+    groups = design.get('input_set_groups') or []
+    if groups and len(design.get('input_sets') or ()) > 1:
+        names = '; '.join(', '.join(f'`{n}`' for n in g) for g in groups)
+        out.paragraph('The four corners of a component chose their input set together, on '
+                      f'their held-out criteria summed ({names}).')
     choice, table = design_tables(design, model.output_channels)
     out.table(choice)
     out.image(plot_design_scores(d / 'design_scores.png', design, model.output_channels),
