@@ -10,10 +10,12 @@ from wheel_force_estimator.core.errors import ConfigError
 from wheel_force_estimator.core.model_rows import compatible
 from wheel_force_estimator.core.model_rows import compose_rows
 from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.diagnosis.choice import choice_groups
 from wheel_force_estimator.diagnosis.choice import combine
 from wheel_force_estimator.diagnosis.choice import linked_channels
 from wheel_force_estimator.diagnosis.choice import plain_names
 from wheel_force_estimator.diagnosis.choice import touched_channels
+from wheel_force_estimator.diagnosis.crossval import FIGURES
 from wheel_force_estimator.diagnosis.crossval import pick_rows
 
 from test_core_model import small_model  # noqa: I100  (the tests' own helper)
@@ -152,6 +154,48 @@ def test_channels_a_term_spans_or_couples_are_chosen_together():
     # unanimous: nothing to combine, that candidate is written whole
     model, name, _ = combine(three, dict.fromkeys(a.output_channels, 'b'), a.output_channels)
     assert model is b and name == 'b'
+
+
+def test_the_corners_of_a_wheel_force_component_without_a_term_choose_together():
+    # Bug caught: one row's blocks of a 1-minute record choosing alone.  Simulator, damper
+    # asymmetry, seed 7: every block of lf_fy preferred the simulation's row, which a new
+    # recording found 4 points worse; the four fy rows' mean preferred the plain fit's.
+    from types import SimpleNamespace
+
+    from wheel_force_estimator import OUTPUT_CHANNELS
+
+    def model(*terms):
+        return SimpleNamespace(physics_terms=tuple(
+            SimpleNamespace(channels=tuple(t), partners=()) for t in terms))
+    candidates = {'sim_frf+physics': model(['rr_fz']), 'sim_frf': model(),
+                  'real_linear': model()}
+    groups = choice_groups(candidates, OUTPUT_CHANNELS, fixed=['lf_fx'])
+    assert sorted(map(sorted, groups)) == [
+        ['lf_fx'], ['lf_fy', 'lr_fy', 'rf_fy', 'rr_fy'], ['lf_fz', 'lr_fz', 'rf_fz'],
+        ['lr_fx', 'rf_fx', 'rr_fx'], ['rr_fz']]
+    # channels that are no spindle corner's component stand alone
+    assert sorted(choice_groups({'m': model()}, ('out0', 'out1', 'lf'))) == [
+        ['lf'], ['out0'], ['out1']]
+    # a term spanning two components' corners keeps its channels together, the rest group
+    spanning = {'a': model(['lf_fy', 'lf_fz']), 'b': model()}
+    groups = choice_groups(spanning, OUTPUT_CHANNELS)
+    assert ['lf_fy', 'lf_fz'] in groups and ['rf_fy', 'lr_fy', 'rr_fy'] in groups
+    # the choice: lf_fy alone prefers the simulation's row in every block, the mean of the
+    # four does not in the second block, so all four keep the plain fit's rows
+    fy = ['lf_fy', 'rf_fy', 'lr_fy', 'rr_fy']
+
+    def both(per_row):
+        return {figure: dict(zip(fy, per_row)) for figure in FIGURES}
+    blocks = {'sim_frf': [both([50.0, 60.0, 60.0, 60.0]), both([50.0, 90.0, 90.0, 90.0])],
+              'real_linear': [both([55.0, 60.0, 60.0, 60.0]),
+                              both([55.0, 50.0, 50.0, 50.0])]}
+    pooled = {'sim_frf': both([50.0, 75.0, 75.0, 75.0]),
+              'real_linear': both([55.0, 55.0, 55.0, 55.0])}
+    plain = {'sim_frf': model(), 'real_linear': model()}
+    args = (set(), 'real_linear', 'rmse_hp1_pct', ['sim_frf', 'real_linear'])
+    assert pick_rows(pooled, [[c] for c in fy], *args, blocks=blocks)['lf_fy'] == 'sim_frf'
+    assert pick_rows(pooled, choice_groups(plain, fy), *args,
+                     blocks=blocks) == dict.fromkeys(fy, 'real_linear')
 
 
 def test_a_candidate_worse_than_the_plain_fit_in_either_figure_is_not_written():

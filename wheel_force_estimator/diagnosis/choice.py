@@ -30,6 +30,7 @@ from wheel_force_estimator.core.errors import DiagnosisError
 from wheel_force_estimator.core.model_rows import compatible
 from wheel_force_estimator.core.model_rows import compose_rows
 from wheel_force_estimator.core.predict import predict_forces
+from wheel_force_estimator.core.spindle import component_groups
 from wheel_force_estimator.diagnosis.crossval import cut
 from wheel_force_estimator.diagnosis.crossval import FIGURES
 from wheel_force_estimator.diagnosis.crossval import fixed_figures
@@ -82,6 +83,41 @@ def linked_channels(candidates: Mapping[str, object], channels: Sequence[str]) -
     for c in channels:
         groups.setdefault(root(c), []).append(c)
     return list(groups.values())
+
+
+def choice_groups(candidates: Mapping[str, object], channels: Sequence[str],
+                  fixed: Sequence[str] = ()) -> List[List[str]]:
+    """
+    Return the groups of channels that take their row from one candidate.
+
+    The channels a term links (:func:`linked_channels`), and the channels no term touches
+    grouped per wheel force component (:func:`core.spindle.component_groups`: the four
+    corners' ``fy`` rows choose together, as ``fit`` chooses their input set together); a
+    channel of ``fixed`` (it takes the plain fit without a vote) and any channel that is not
+    ``{corner}_{component}`` stand alone.
+
+    Why the plain rows of a component choose together: the real-data rows were designed for
+    the four corners together, and one row's blocks of a minute-long record are a learning
+    curve more than a verdict.  Simulator, damper asymmetry, seed 7, 1-minute course: every
+    block of ``lf_fy`` alone preferred the simulation's row (by 2 to 95 points, the block of
+    the only figure-8 most), the row a new recording of the course found 4 points worse
+    unfiltered (17 against 13 %) and 5 high-passed; the four ``fy`` rows' mean preferred the
+    plain fit's rows in a block, and the new recording found those better on all four.
+    """
+    touched = touched_channels(candidates)
+    component = {channels[o]: k for k, rows in enumerate(component_groups(channels))
+                 for o in rows}
+    groups, merged = [], {}
+    for group in linked_channels(candidates, channels):
+        if len(group) > 1 or group[0] in touched or group[0] in fixed:
+            groups.append(group)
+            continue
+        key = component[group[0]]
+        if key not in merged:
+            merged[key] = []
+            groups.append(merged[key])
+        merged[key].extend(group)
+    return groups
 
 
 def combine(candidates: Mapping[str, object], pick: Mapping[str, str],
@@ -305,7 +341,7 @@ def _cross_validated(findings, real, reference, ref_model, mode, channels, real_
         return findings, _comparison(None, None, None, 'too_short', metric,
                                      model='real_linear', notes=tuple(notes)), lin_model
     final = build(real, lin_model)
-    pick = pick_rows(scores, linked_channels(final, channels), touched_channels(final),
+    pick = pick_rows(scores, choice_groups(final, channels), touched_channels(final),
                      'real_linear', metric, plain_names(final), bases=_bases(final),
                      blocks=blocks)
     model, choice, note = combine(final, pick, channels)
@@ -412,7 +448,7 @@ def _held_out(findings, real, reference, ref_model, mode, holdout, channels, sou
         scores = {n: figures_of(gate_pieces[n], gate.records[0]) for n in candidates}
         gate_scores = {n: float(np.mean([s[metric][c] for c in named or channels]))
                        for n, s in scores.items()}
-        pick = pick_rows(scores, linked_channels(candidates, channels),
+        pick = pick_rows(scores, choice_groups(candidates, channels, motion_channels),
                          touched_channels(candidates), 'real_linear', metric,
                          plain_names(candidates), fixed=motion_channels,
                          bases=_bases(candidates))

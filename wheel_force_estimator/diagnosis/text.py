@@ -64,8 +64,13 @@ def summary(findings, fit, rejected: Sequence[str]) -> List[str]:
             by_source: dict = {}
             for c, n in fit.rows_from.items():
                 by_source.setdefault(n, []).append(c)
-            lines.append('Rows of the written model, each chosen on the gate half: ' + '; '.join(
-                f'{n} for {channel_list(cs)}' for n, cs in by_source.items()) + '.')
+            on = ('the gate half of the holdout' if fit.data == 'holdout'
+                  else 'held-out blocks of the training recordings')
+            lines.append(f'Rows of the written model, chosen per group of channels on {on} '
+                         "(a term's channels together; a wheel force component's corners "
+                         'without a term together): ' + '; '.join(
+                             f'{n} for {channel_list(cs)}' for n, cs in by_source.items())
+                         + '.')
     if fit.real_linear is not None and findings:
         affected = sorted({c for f in findings if f.terms for c in f.channels})
         beaten = [c for c in affected if fit.after[c] < fit.real_linear[c]]
