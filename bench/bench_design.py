@@ -236,8 +236,10 @@ def main():
                              'YAML files (a car never used to tune anything: a blind check)')
     parser.add_argument('--no-mr-damper', action='store_true')
     parser.add_argument('--inputs', default='accel+split+cornering',
-                        choices=('accel+split', 'accel', 'accel+spin', 'accel+spin+split',
-                                 'accel+rates+spin', 'accel+rates+spin+split'),
+                        choices=('accel+split+cornering', 'accel+split', 'accel', 'accel+spin',
+                                 'accel+spin+split', 'accel+spin+split+cornering',
+                                 'accel+rates+spin', 'accel+rates+spin+split',
+                                 'accel+rates+spin+split+cornering'),
                         help='inputs of offline / live50 / ls2s (paper: the accelerations)')
     args = parser.parse_args()
     for name in args.cars.split(','):

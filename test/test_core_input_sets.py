@@ -205,7 +205,7 @@ def test_the_moment_lines_name_each_moments_chosen_set():
 
 # --- the traction/braking split (issue 29) ---------------------------------------------------
 
-def test_the_split_is_the_last_nested_group_and_a_spindle_layout():
+def test_the_split_is_declared_last_nests_first_and_is_a_spindle_layout():
     from wheel_force_estimator import CORNERING_CHANNELS
     from wheel_force_estimator import SPLIT_CHANNELS
     from wheel_force_estimator.core.spindle import spindle_layout
@@ -213,11 +213,29 @@ def test_the_split_is_the_last_nested_group_and_a_spindle_layout():
     assert declared_inputs(False, False, True) == INPUT_CHANNELS + SPLIT_CHANNELS
     assert input_sets(declared_inputs(False, False, True)) == (
         ('accel', tuple(range(N_ACC))), ('accel+split', tuple(range(N_ACC + 2))))
+    # the groups nest in declared order, and the derived ones (functions of the
+    # accelerations) are offered on the accelerations alone too: a row can take the
+    # splits without the 12 rates and the 4 spin accelerations
+    from wheel_force_estimator.core.spindle import parents
     assert [n for n, _ in input_sets(declared_inputs(True, True, True))] == [
-        'accel', 'accel+rates', 'accel+rates+spin', 'accel+rates+spin+split']
-    assert [n for n, _ in input_sets(declared_inputs(True, True, True, True))] == [
-        'accel', 'accel+rates', 'accel+rates+spin', 'accel+rates+spin+split',
-        'accel+rates+spin+split+cornering']
+        'accel', 'accel+split', 'accel+rates', 'accel+rates+spin', 'accel+rates+spin+split']
+    six = declared_inputs(True, True, True, True)
+    sets = input_sets(six)
+    assert [n for n, _ in sets] == [
+        'accel', 'accel+split', 'accel+split+cornering', 'accel+rates', 'accel+rates+spin',
+        'accel+rates+spin+split', 'accel+rates+spin+split+cornering']
+    assert parents(sets) == (None, 0, 1, 0, 3, 4, 5)
+    for i, p in enumerate(parents(sets)):
+        if p is not None:                       # nested: the parent's columns lead
+            inner, (name, outer) = sets[p][1], sets[i]
+            assert outer[:len(inner)] == inner and len(outer) > len(inner)
+            assert [six[c] for c in outer[len(inner):]] == list(
+                {'split': SPLIT_CHANNELS, 'cornering': CORNERING_CHANNELS,
+                 'spin': SPIN_ACCEL_CHANNELS, 'rates': RATE_CHANNELS}[name.rpartition('+')[2]])
+    assert sets[-1][1] == tuple(range(len(six)))              # the last: every input
+    # without a measured group the derived chain is the declared one: no set twice
+    assert [n for n, _ in input_sets(declared_inputs(False, False, True, True))] == [
+        'accel', 'accel+split', 'accel+split+cornering']
     assert declared_inputs(False, False, True, True)[-4:] == SPLIT_CHANNELS + CORNERING_CHANNELS
     assert [n for n, _ in input_sets(declared_inputs(False, False, False, True))] == [
         'accel', 'accel+cornering']
@@ -290,6 +308,49 @@ def test_a_kinked_row_chooses_the_split_and_a_linear_row_does_not():
     for row in (1, 2):
         assert with_split[row] < 0.5 * without[row], (with_split, without)
         assert with_split[row] < 10.0, with_split
+
+
+def test_the_splits_are_reachable_without_the_rates_and_change_nothing_when_rates_are_idle():
+    # Known answer: the kinked system above with 12 angular rates declared that carry nothing
+    # (noise).  The splits are offered on the accelerations alone too, so the cornering row
+    # takes accel+split+cornering without the rates (declared before the splits, the rates
+    # came first in the only chain until 2026-12-07, and that row had to take all 12 to
+    # reach the split).  Every row chosen without the rates must give the model of the same
+    # record fitted without them, to round-off (bugs caught: a set's taps put back in the
+    # wrong columns, a factor bordered from a set that is not its leading block, the
+    # rates' columns not exactly zero).
+    from wheel_force_estimator.core.predict import predict_forces
+    inputs = declared_inputs(True, False, True, True)
+    x, y = _kinked_system(28000, 3)
+    xv, _ = _kinked_system(14000, 4)
+    rng = np.random.default_rng(5)
+    rates, rates_v = rng.normal(size=(12, x.shape[1])), rng.normal(size=(12, xv.shape[1]))
+    with_rates = np.concatenate([x[:N_ACC], rates, x[N_ACC:]])
+    fitted = fit_design([TrainingSegment(with_rates, y, 'train')], FS_HZ, CONFIG, inputs,
+                        ('f', 'g', 'h'))
+    design = fitted.model.fit['design']
+    assert [s['name'] for s in design['input_sets']][-1] == 'accel+rates+split+cornering'
+    rows = design['rows']
+    assert [rows[r]['inputs'] for r in 'fgh'] == ['accel', 'accel+split',
+                                                  'accel+split+cornering']
+    assert [rows[r]['live_inputs'] for r in 'fgh'] == [rows[r]['inputs'] for r in 'fgh']
+    rate_cols = [inputs.index(c) for c in RATE_CHANNELS]
+    model = fitted.model
+    assert not model.fir_taps[:, rate_cols].any() and not model.h[:, :, rate_cols].any()
+    assert not any(e.fine_taps[:, rate_cols].any() or e.coarse_taps[:, rate_cols].any()
+                   for e in model.live)
+    assert model.fir_taps[2, inputs.index('left_turn_ay')].any()
+    plain = fit_design([TrainingSegment(x, y, 'train')], FS_HZ, CONFIG,
+                       declared_inputs(False, False, True, True), ('f', 'g', 'h'))
+    got = predict_forces(fitted.model, np.concatenate([xv[:N_ACC], rates_v, xv[N_ACC:]]))
+    want = predict_forces(plain.model, xv)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9 * np.abs(want).max())
+    for d in [e.look_ahead_samples for e in plain.model.live]:
+        got_live = predict_forces(fitted.model, np.concatenate(
+            [xv[:N_ACC], rates_v, xv[N_ACC:]]), d)
+        want_live = predict_forces(plain.model, xv, d)
+        np.testing.assert_allclose(got_live, want_live, rtol=0,
+                                   atol=1e-9 * np.abs(want_live).max())
 
 
 def test_the_long_window_guard_counts_the_smallest_searched_set():

@@ -120,6 +120,43 @@ def test_refit_factors_bordered_along_nested_sets_solve_as_their_own(ridges):
                    for f in s.factors.values())
 
 
+@pytest.mark.parametrize('ridges', [
+    {0: {1e-3}, 1: {1e-3}, 3: {1e-3, 1e-4}},   # 3 borders 1e-3 through 2 (carried), not 1
+    {1: {1e-3}, 3: {1e-3}, 0: {1e-4}},         # no ancestor has 1e-3: each from scratch
+])
+def test_refit_factors_bordered_along_a_tree_of_sets_solve_as_their_own(ridges):
+    # The sets of a model with a measured group before the derived ones (spindle.input_sets):
+    # two branches from the first set.  A set borders from its parent (the earlier set its
+    # columns begin with), never from the set listed before it on another branch.  Bugs
+    # caught: a factor bordered from a set that is not its leading block (wrong taps), a
+    # ridge carried down the wrong branch (KeyError or a needless factorisation).
+    from wheel_force_estimator.core.candidates import LS_LOOK_AHEAD_S
+    from wheel_force_estimator.core.live_estimator import look_ahead_samples
+    from wheel_force_estimator.core.search import _ls_solutions
+    from wheel_force_estimator.core.spindle import parents
+    corr = _correlations()
+    sets = (('a', (0, 1, 2)), ('a+d', (0, 1, 2, 4)), ('a+b', (0, 1, 2, 3)),
+            ('a+b+d', (0, 1, 2, 3, 4)))
+    assert parents(sets) == (None, 0, 0, 2)
+    got = _ls_solutions(corr, sets, ridges, DESIGN, bordered=True)
+    want = _ls_solutions(corr, sets, ridges, DESIGN)
+    ancestors = {0: (), 1: (0,), 2: (0,), 3: (2, 0)}
+    d = look_ahead_samples(LS_LOOK_AHEAD_S, FS_HZ)
+    for i, rs in ridges.items():
+        for r in rs:
+            bordered = isinstance(got[i].factors[r], BorderedFactor)
+            assert bordered == any(r in ridges.get(j, ()) for j in ancestors[i]), (i, r)
+            for look in (d, 3):
+                a, b = got[i].estimator(r, look), want[i].estimator(r, look)
+                scale = np.abs(b.fine_taps).max()
+                np.testing.assert_allclose(a.fine_taps, b.fine_taps, rtol=0,
+                                           atol=1e-9 * scale)
+                np.testing.assert_allclose(a.coarse_taps, b.coarse_taps, rtol=0,
+                                           atol=1e-9 * scale)
+    if 3 in ridges and 1e-3 in ridges.get(0, ()):
+        assert isinstance(got[2].factors[1e-3], BorderedFactor)     # carried through 2
+
+
 def test_cache_serves_bordered_parts_to_other_outputs_within_its_byte_budget(monkeypatch):
     # Bugs caught: a refit on the same inputs with other outputs (the diagnosis's backfit)
     # forming its bordered parts again, or served another set's or chain's factor; a cache

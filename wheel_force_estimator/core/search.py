@@ -17,9 +17,9 @@ fallbacks for records too short to search and builds the model):
    training correlations are those of its chunks as one signal.
 3. **candidates** (:func:`space`): input sets x H1 variants x LS ridges x splice
    crossovers; a setting the user imposed keeps its value.  The input sets are nested by
-   group (:func:`.spindle.input_sets`: accelerations; + angular rates; + spin, those the
-   recordings carry; one set of every input for a generic recording or when the user
-   imposed ``inputs``).
+   group (:func:`.spindle.input_sets`: accelerations; + angular rates; + spin; + the
+   splits, those the model has, and the splits on the accelerations alone; one set of
+   every input for a generic recording or when the user imposed ``inputs``).
 4. **held-out scores**, fold by fold and input set by input set: each candidate is fitted
    from the sums of the other blocks' statistics (the set's columns of them) and scored on
    the held-out block (:mod:`.crossval`), both figures.  The live estimator's ridge is
@@ -86,6 +86,7 @@ from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spindle import component_groups
 from wheel_force_estimator.core.spindle import input_sets
+from wheel_force_estimator.core.spindle import parents
 
 #: Shortest scoring resolution tried [samples]; each block must hold two of its windows.
 MIN_SCORING_SEGMENT = 1024
@@ -463,25 +464,29 @@ class _Folds:
         d_live = look_ahead_samples(live.look_aheads_s[0], fs_hz)
         scores = [None] * len(sp.input_sets)
         live_scores = [None] * len(sp.input_sets)
+        parent = parents(sp.input_sets)
         for k in self.progress(range(len(stats)), f'{desc}: cross-validation'):
             train = [s for j, s in enumerate(stats) if j != k]
             corr = (fold_correlations([s.corr for s in train], straddling.for_fold(k))
                     if lags else None)
             # every input set from the same block statistics: its columns of the spectra and
-            # correlations; a set's LS factors bordered from the previous (nested) set's
+            # correlations; a set's LS factors bordered from its parent's (the earlier set
+            # its columns begin with), kept until no later set borders from them
             eqs = (set_equations(corr, live, [c for _, c in sp.input_sets], min(sp.ridges))
                    if lags else {})
-            ls, prev = None, ()
+            solved: Dict[int, LsSolutions] = {}
+            ls = None
             for i, (_, cols) in enumerate(sp.input_sets):
                 h1 = {key: response_on_grid(fit[2].taps, fit[2].delay_samples, n_score)
                       for key, fit in h1_fits(train, self.config, sp.h1, fs_hz, self.order,
                                               self.input_channels, cols).items()}
                 ls_resp, live_resp = {}, {}
                 if lags:
-                    nested = bool(prev) and _nests(prev, cols)
                     ls = LsSolutions(subset_correlations(corr, cols), live, sp.ridges,
-                                     eqs.pop(cols), inner=ls if nested else None, cache=False)
-                    prev = cols
+                                     eqs.pop(cols), inner=solved.get(parent[i]), cache=False)
+                    solved = {j: v for j, v in solved.items() if j in parent[i + 1:]}
+                    if i in parent[i + 1:]:
+                        solved[i] = ls
                     live_resp = {r: ls.response(r, d_live, n_score) for r in sp.ridges}
                     ls_resp = {(r, LS_LOOK_AHEAD_S): ls.response(r, d_ls, n_score)
                                for r in sp.ridges}
@@ -492,7 +497,7 @@ class _Folds:
                 scores[i] = off if scores[i] is None else [a + b for a, b in zip(scores[i], off)]
                 live_scores[i] = (lv if live_scores[i] is None
                                   else [a + b for a, b in zip(live_scores[i], lv)])
-            del ls
+            del ls, solved
         return scores, live_scores, tuple(s.n / fs_hz for s in stats)
 
 
@@ -652,10 +657,10 @@ def _ls_solutions(corr, sets, ridges: Dict[int, set], live: LiveDesign,
     """
     Return the LS factorisations of each input set (index into ``sets``) at its ridges.
 
-    ``bordered``: when the sets are nested (each one's columns begin with the previous
-    one's), a ridge's factor of a larger set is bordered from the next smaller set's
-    (:class:`.nested_factor.BorderedFactor`), as the search's folds do, and the sets between
-    two that use a ridge carry it too (bordered), to pass it on.  A refit's rows take up to
+    ``bordered``: a ridge's factor of a set is bordered from its parent's (the earlier set
+    its columns begin with, :func:`.spindle.parents`; :class:`.nested_factor.BorderedFactor`),
+    as the search's folds do, and the sets between two on one branch that use a ridge carry
+    it too (bordered), to pass it on.  A refit's rows take up to
     three sets at two ridges (the diagnosis's held-out refits of a 2-minute record: accelerations
     at 1e-3 and 1e-4, the split at both, the cornering split at 1e-4), so five
     factorisations from scratch become two and three borderings, about half the arithmetic
@@ -666,29 +671,26 @@ def _ls_solutions(corr, sets, ridges: Dict[int, set], live: LiveDesign,
     more than the factorisations saved.
     """
     used = {i: set(r) for i, r in ridges.items() if r}
-    order = sorted(used)
-    nested = bordered and bool(order) and all(
-        _nests(sets[i][1], sets[i + 1][1]) for i in range(order[0], order[-1]))
-    if nested:
-        # a ridge used by two sets is carried by every set between them
-        for r in set().union(*used.values()):
-            have = [i for i in order if r in used[i]]
-            for i in range(have[0] + 1, have[-1]):
-                used.setdefault(i, set()).add(r)
+    parent = parents(sets)
+    if bordered:
+        # a ridge used by a set and by one of its ancestors is carried by every set between
+        for i in sorted(used, reverse=True):
+            for r in sorted(used[i]):
+                between, a = [], parent[i]
+                while a is not None and r not in used.get(a, ()):
+                    between.append(a)
+                    a = parent[a]
+                for b in between if a is not None else ():
+                    used.setdefault(b, set()).add(r)
     used = {i: sorted(used[i]) for i in sorted(used)}
     eqs = set_equations(corr, live, [sets[i][1] for i in used],
                         min((r for rs in used.values() for r in rs), default=0.0))
     out: Dict[int, LsSolutions] = {}
-    for i, r in used.items():
-        inner = out.get(i - 1) if nested else None
+    for i, r in used.items():          # a parent comes before its children (lower index)
+        inner = out.get(parent[i]) if bordered and parent[i] is not None else None
         out[i] = LsSolutions(subset_correlations(corr, sets[i][1]), live, r, eqs[sets[i][1]],
                              inner=inner)
     return out
-
-
-def _nests(inner: Sequence[int], outer: Sequence[int]) -> bool:
-    """Return True when the columns ``outer`` begin with ``inner`` (a nested input set)."""
-    return tuple(outer[:len(inner)]) == tuple(inner)
 
 
 def _live_rows(ls, choice: Choice, live: LiveDesign, fs_hz: float, n_in: int) -> tuple:

@@ -40,7 +40,7 @@ from wheel_force_estimator import SPLIT_CHANNELS
 from wheel_force_estimator.core.errors import ModelFileError
 
 __all__ = ['CHANNEL_UNITS', 'MOMENT_CHANNELS', 'SPINDLE_UNITS', 'SpindleLayout',
-           'channel_units', 'declared_inputs', 'declared_outputs', 'input_sets',
+           'channel_units', 'declared_inputs', 'declared_outputs', 'input_sets', 'parents',
            'spindle_layout']
 #: Units a spindle model must carry (the first channel group of each side).
 SPINDLE_UNITS = {'input': 'm/s^2', 'output': 'N'}
@@ -77,24 +77,53 @@ def input_sets(input_channels) -> Tuple[Tuple[str, Tuple[int, ...]], ...]:
     Return the nested input sets the fit's search tries: ``((name, columns), ...)``.
 
     A spindle model's inputs (:func:`declared_inputs`) give one set per group, nested in the
-    order the groups come: ``accel``; ``accel+rates``; ``accel+rates+spin``;
+    order the groups are declared: ``accel``; ``accel+rates``; ``accel+rates+spin``;
     ``accel+rates+spin+split``; ``accel+rates+spin+split+cornering`` (only the groups
-    present: ``accel+split`` for a model of the accelerations and the split).  Any other
-    channel list (a generic
-    DAQ fit) is one set, ``all``, of every input.  ``columns`` index ``input_channels``.
+    present: ``accel+split`` for a model of the accelerations and the split).  When the
+    model has a measured group (rates, spin) before the derived ones (the splits, functions
+    of the accelerations), the derived ones are also offered on the accelerations alone:
+    ``accel+split``, ``accel+split+cornering``, listed after ``accel`` (until 2026-12-07 a
+    six-component row could have the cornering split only with all 12 rates and the spin;
+    docs/fit_design.md, "Input sets").  Every set but ``accel`` begins with the columns of an
+    earlier one (:func:`parents`), which the bordered factorisations need; the last set holds
+    every input.  Any other channel list (a generic DAQ fit) is one set, ``all``, of every
+    input.  ``columns`` index ``input_channels``, ascending.
     """
     names = tuple(input_channels)
     n_acc = len(INPUT_CHANNELS)
     if names[:n_acc] != INPUT_CHANNELS or names not in _variants():
         return (('all', tuple(range(len(names)))),)
-    sets = [('accel', tuple(range(n_acc)))]
+    groups = []
     stop = n_acc
     for group, label in ((RATE_CHANNELS, 'rates'), (SPIN_ACCEL_CHANNELS, 'spin'),
                          (SPLIT_CHANNELS, 'split'), (CORNERING_CHANNELS, 'cornering')):
         if names[stop:stop + len(group)] == group:
+            groups.append((label, tuple(range(stop, stop + len(group)))))
             stop += len(group)
-            sets.append((f'{sets[-1][0]}+{label}', tuple(range(stop))))
-    return tuple(sets)
+    derived = [g for g in groups if g[0] in ('split', 'cornering')]
+    chains = ([derived] if derived and len(derived) < len(groups) else []) + [groups]
+    sets = {'accel': tuple(range(n_acc))}
+    for chain in chains:
+        name = 'accel'
+        for label, cols in chain:
+            sets[f'{name}+{label}'] = sets[name] + cols
+            name = f'{name}+{label}'
+    return tuple(sets.items())
+
+
+def parents(sets) -> Tuple[Optional[int], ...]:
+    """
+    Return, per input set of :func:`input_sets`, the earlier set its columns begin with.
+
+    The longest such set (index into ``sets``), or None (the first set): a set's
+    least-squares factor is bordered from its parent's (:mod:`.nested_factor`).
+    """
+    out = []
+    for i, (_, cols) in enumerate(sets):
+        inner = [j for j in range(i) if tuple(cols[:len(sets[j][1])]) == tuple(sets[j][1])
+                 and len(sets[j][1]) < len(cols)]
+        out.append(max(inner, key=lambda j: len(sets[j][1])) if inner else None)
+    return tuple(out)
 
 
 def component_groups(output_channels) -> Tuple[Tuple[int, ...], ...]:
