@@ -687,7 +687,7 @@ def _ls_solutions(corr, sets, ridges: Dict[int, set], live: LiveDesign,
                         min((r for rs in used.values() for r in rs), default=0.0))
     out: Dict[int, LsSolutions] = {}
     for i, r in used.items():          # a parent comes before its children (lower index)
-        inner = out.get(parent[i]) if bordered and parent[i] is not None else None
+        inner = out.get(parent[i]) if bordered else None
         out[i] = LsSolutions(subset_correlations(corr, sets[i][1]), live, r, eqs[sets[i][1]],
                              inner=inner)
     return out

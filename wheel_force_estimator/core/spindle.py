@@ -101,9 +101,8 @@ def input_sets(input_channels) -> Tuple[Tuple[str, Tuple[int, ...]], ...]:
             groups.append((label, tuple(range(stop, stop + len(group)))))
             stop += len(group)
     derived = [g for g in groups if g[0] in ('split', 'cornering')]
-    chains = ([derived] if derived and len(derived) < len(groups) else []) + [groups]
     sets = {'accel': tuple(range(n_acc))}
-    for chain in chains:
+    for chain in (derived, groups):     # the same chain twice (no measured group): one set each
         name = 'accel'
         for label, cols in chain:
             sets[f'{name}+{label}'] = sets[name] + cols
