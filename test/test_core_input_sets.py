@@ -1,6 +1,7 @@
 # Copyright 2026 wheel_force_estimator contributors
 # SPDX-License-Identifier: Apache-2.0
 """The input set of every output row, chosen by the search's blocked cross-validation."""
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -310,7 +311,9 @@ def test_a_kinked_row_chooses_the_split_and_a_linear_row_does_not():
         assert with_split[row] < 10.0, with_split
 
 
-def test_the_splits_are_reachable_without_the_rates_and_change_nothing_when_rates_are_idle():
+@pytest.mark.parametrize('per_set_basis', [False, True])
+def test_the_splits_are_reachable_without_the_rates_and_change_nothing_when_rates_are_idle(
+        per_set_basis, monkeypatch):
     # Known answer: the kinked system above with 12 angular rates declared that carry nothing
     # (noise).  The splits are offered on the accelerations alone too, so the cornering row
     # takes accel+split+cornering without the rates (declared before the splits, the rates
@@ -319,14 +322,26 @@ def test_the_splits_are_reachable_without_the_rates_and_change_nothing_when_rate
     # record fitted without them, to round-off (bugs caught: a set's taps put back in the
     # wrong columns, a factor bordered from a set that is not its leading block, the
     # rates' columns not exactly zero).
+    # per_set_basis: the live basis left to the default, with a cost bound that gives the
+    # 16 inputs without the rates 4 blocks per octave and the 28 with them 2.  Each set
+    # takes the basis of its own inputs, so the rows still equal the model without the
+    # rates (until 2026-12-07 every set took the 28 inputs' coarser basis).
+    from wheel_force_estimator.core import live_estimator
     from wheel_force_estimator.core.predict import predict_forces
+    config = CONFIG
+    if per_set_basis:
+        monkeypatch.setattr(live_estimator, 'BLOCKS_PER_OCTAVE_CHOICES', (4, 2))
+        monkeypatch.setattr(live_estimator, 'MAX_PAST_UNKNOWNS', 300)
+        config = dataclasses.replace(CONFIG, live=dataclasses.replace(
+            CONFIG.live, blocks_per_octave=None))
+        assert [config.live.for_inputs(n, FS_HZ).blocks_per_octave for n in (16, 28)] == [4, 2]
     inputs = declared_inputs(True, False, True, True)
     x, y = _kinked_system(28000, 3)
     xv, _ = _kinked_system(14000, 4)
     rng = np.random.default_rng(5)
     rates, rates_v = rng.normal(size=(12, x.shape[1])), rng.normal(size=(12, xv.shape[1]))
     with_rates = np.concatenate([x[:N_ACC], rates, x[N_ACC:]])
-    fitted = fit_design([TrainingSegment(with_rates, y, 'train')], FS_HZ, CONFIG, inputs,
+    fitted = fit_design([TrainingSegment(with_rates, y, 'train')], FS_HZ, config, inputs,
                         ('f', 'g', 'h'))
     design = fitted.model.fit['design']
     assert [s['name'] for s in design['input_sets']][-1] == 'accel+rates+split+cornering'
@@ -340,7 +355,9 @@ def test_the_splits_are_reachable_without_the_rates_and_change_nothing_when_rate
     assert not any(e.fine_taps[:, rate_cols].any() or e.coarse_taps[:, rate_cols].any()
                    for e in model.live)
     assert model.fir_taps[2, inputs.index('left_turn_ay')].any()
-    plain = fit_design([TrainingSegment(x, y, 'train')], FS_HZ, CONFIG,
+    if per_set_basis:
+        assert {e.info['blocks_per_octave'] for e in model.live} == {4}
+    plain = fit_design([TrainingSegment(x, y, 'train')], FS_HZ, config,
                        declared_inputs(False, False, True, True), ('f', 'g', 'h'))
     got = predict_forces(fitted.model, np.concatenate([xv[:N_ACC], rates_v, xv[N_ACC:]]))
     want = predict_forces(plain.model, xv)

@@ -331,3 +331,39 @@ def test_the_default_basis_is_the_finest_the_cost_bound_allows_for_the_inputs():
     assert LiveDesign(blocks_per_octave=8).for_inputs(30, fs).blocks_per_octave == 8
     with pytest.raises(ConfigError, match='blocks_per_octave'):
         LiveDesign(blocks_per_octave=0)
+
+
+def _estimator_on(blocks_per_octave, rng, d=3, fine=64, history=2048, n_out=2, n_in=3):
+    """Return a random estimator on the multi-rate basis of ``blocks_per_octave``."""
+    from wheel_force_estimator.core.normal_equations import _fine_count
+    edges = lag_edges(d, fine, history, blocks_per_octave)
+    n_fine = _fine_count(edges)           # the one-sample blocks are full-rate taps
+    return CausalEstimator(d, rng.normal(size=(n_out, n_in, n_fine)), edges[n_fine:],
+                           rng.normal(size=(n_out, n_in, edges.size - 1 - n_fine)),
+                           {'regularisation': 1e-4, 'blocks_per_octave': blocks_per_octave})
+
+
+def test_estimators_on_common_edges_are_the_same_filters():
+    # Rows of input sets on different bases (48 and 32 blocks per octave) are composed into
+    # one model estimator on the union of their edges: each must stay the same filter, exactly.
+    from wheel_force_estimator.core.live_estimator import on_common_edges
+    from wheel_force_estimator.core.search import _rows_of
+    rng = np.random.default_rng(0)
+    fine48, fine32 = _estimator_on(48, rng), _estimator_on(32, rng)
+    # the finer basis begins its coarse part with more one-sample blocks: a longer fine part
+    assert fine48.fine_taps.shape[2] > fine32.fine_taps.shape[2]
+    assert not np.array_equal(fine48.coarse_edges, fine32.coarse_edges)
+    union = np.union1d(fine48.coarse_edges, fine32.coarse_edges)
+    for before, after in zip((fine48, fine32), on_common_edges([fine48, fine32])):
+        np.testing.assert_array_equal(after.coarse_edges, fine48.coarse_edges[:1].tolist()
+                                      + union[union > fine48.coarse_edges[0]].tolist())
+        assert after.fine_taps.shape == fine48.fine_taps.shape
+        np.testing.assert_array_equal(after.fir(FS_HZ).taps, before.fir(FS_HZ).taps)
+    composed = _rows_of([fine48, fine32])
+    for o, est in enumerate((fine48, fine32)):
+        np.testing.assert_array_equal(composed.fir(FS_HZ).taps[o], est.fir(FS_HZ).taps[o])
+    assert composed.info['blocks_per_octave'] == [48, 32]
+    # on one basis nothing changes
+    assert on_common_edges([fine48, fine48])[1] is fine48
+    with pytest.raises(ValueError, match='no common basis'):
+        on_common_edges([fine48, _estimator_on(32, rng, history=1000)])

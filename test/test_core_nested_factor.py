@@ -150,6 +150,47 @@ def test_refit_factors_bordered_along_a_tree_of_sets_solve_as_their_own(ridges):
         assert isinstance(got[2].factors[1e-3], BorderedFactor)     # carried through 2
 
 
+@pytest.mark.parametrize('ridges', [{0: {1e-3}, 1: {1e-3}, 2: {1e-3}}, {0: {1e-4}, 2: {1e-4}}])
+def test_a_set_on_a_coarser_basis_is_factorised_afresh_on_its_own_basis(ridges, monkeypatch):
+    # The live basis left to the default is each set's own (candidates.set_design): with a
+    # cost bound that gives 3 and 4 inputs 4 blocks per octave and 5 inputs 2, the largest
+    # set cannot border from the others.  Bug caught: a set given the basis of all the
+    # model's inputs (the coarser one for the 12 accelerations of a model with the spin).
+    from wheel_force_estimator.core import live_estimator
+    from wheel_force_estimator.core.candidates import LsSolutions
+    from wheel_force_estimator.core.candidates import set_parents
+    from wheel_force_estimator.core.candidates import subset_correlations
+    from wheel_force_estimator.core.search import _ls_solutions
+    monkeypatch.setattr(live_estimator, 'BLOCKS_PER_OCTAVE_CHOICES', (4, 2))
+    monkeypatch.setattr(live_estimator, 'MAX_PAST_UNKNOWNS', 70)
+    design = LiveDesign(look_aheads_s=(0.1,), history_s=0.3, fine_s=0.05, regularisation=1e-4)
+    corr = _correlations()
+    sets = (('a', (0, 1, 2)), ('a+b', (0, 1, 2, 3)), ('a+b+c', (0, 1, 2, 3, 4)))
+    assert set_parents(sets, design, FS_HZ) == (None, 0, None)
+    got = _ls_solutions(corr, sets, ridges, design, bordered=True)
+    want = _ls_solutions(corr, sets, ridges, design)
+    _assert_bordered_where_an_inner_set_has_the_ridge(got, want, ridges,
+                                                      {0: (), 1: (0,), 2: ()})
+    for i, rs in ridges.items():
+        own = LsSolutions(subset_correlations(corr, sets[i][1]), design, sorted(rs),
+                          cache=False)
+        for r in rs:
+            a, b = got[i].estimator(r, 3), own.estimator(r, 3)
+            np.testing.assert_array_equal(a.coarse_edges, b.coarse_edges)
+            assert a.info['blocks_per_octave'] == (2 if i == 2 else 4)
+            np.testing.assert_allclose(a.coarse_taps, b.coarse_taps, rtol=0,
+                                       atol=1e-9 * np.abs(b.fine_taps).max())
+    # a model whose rows take sets of both bases: one estimator, each row the same filter
+    from wheel_force_estimator.core.candidates import embedded_estimator
+    from wheel_force_estimator.core.search import _rows_of
+    rows = [embedded_estimator(got[i].estimator(min(ridges[i]), 3), sets[i][1], 5)
+            for i in (0, 2)]
+    assert rows[0].fine_taps.shape[2] != rows[1].fine_taps.shape[2]
+    composed = _rows_of(rows)
+    for o, row in enumerate(rows):
+        np.testing.assert_array_equal(composed.fir(FS_HZ).taps[o], row.fir(FS_HZ).taps[o])
+
+
 def test_cache_serves_bordered_parts_to_other_outputs_within_its_byte_budget(monkeypatch):
     # Bugs caught: a refit on the same inputs with other outputs (the diagnosis's backfit)
     # forming its bordered parts again, or served another set's or chain's factor; a cache

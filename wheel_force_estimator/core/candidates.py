@@ -48,6 +48,7 @@ from wheel_force_estimator.core.normal_equations import LagOrderedFactor
 from wheel_force_estimator.core.normal_equations import NormalEquations
 from wheel_force_estimator.core.spectra import CrossSpectra
 from wheel_force_estimator.core.spectra import pooled_cross_spectra
+from wheel_force_estimator.core.spindle import parents
 
 #: Short Welch segments tried, as multiples of the configured one.
 SEGMENT_FACTORS = (1, 2)
@@ -456,24 +457,63 @@ class LsSolutions:
         return response_on_grid(fir.taps, fir.delay_samples, n_fft)
 
 
+def set_design(design: LiveDesign, n_in: int, fs_hz: float) -> LiveDesign:
+    """
+    Return ``design`` with the basis of an input set of ``n_in`` inputs.
+
+    Each set takes the finest basis the cost bound allows for the inputs it holds
+    (:meth:`.LiveDesign.for_inputs`), not the model's: a row that uses the 12 accelerations
+    keeps their basis when the logger also records the wheel spin.  Measured (2026-12-07,
+    ``bench/bench_design.py --cars compact --inputs accel+spin+split+cornering
+    --train-scale 0.2``): the model's 20 inputs set 32 blocks per octave for every set, and
+    the live ``Fz`` rows, which take the accelerations alone, scored 15.0 % held out against
+    9.7 % for the same rows of a model without the spin (48 blocks per octave).
+    """
+    return design.for_inputs(n_in, fs_hz)
+
+
+def set_parents(sets, design: LiveDesign, fs_hz: float) -> Tuple[Optional[int], ...]:
+    """
+    Return :func:`.spindle.parents` of ``sets``, None where a parent's basis differs.
+
+    A factor is bordered from its parent's only on one basis (:mod:`.nested_factor`); a set
+    whose basis is coarser than its parent's (:func:`set_design`) is factorised afresh.
+    """
+    bpo = [set_design(design, len(cols), fs_hz).blocks_per_octave for _, cols in sets]
+    return tuple(p if p is not None and bpo[p] == bpo[i] else None
+                 for i, p in enumerate(parents(sets)))
+
+
 def set_equations(corr: Correlations, design: LiveDesign, columns: Sequence[Sequence[int]],
                   base_ridge: float) -> Dict[Tuple[int, ...], Optional[NormalEquations]]:
     """
     Return the LS normal equations of every input set (``columns``) for :class:`LsSolutions`.
 
-    One build serves every set: a subset's matrix is a sub-block of the full one
-    (:meth:`.NormalEquations.subset`, its blocks taken from the full one); a larger nested
-    set's factor is bordered from the smaller set's (``LsSolutions(..., inner=)``).  One set
-    alone: ``None`` (:class:`LsSolutions` builds its own, of that set only).
+    One build per basis (:func:`set_design`) serves every set on it: a subset's matrix is a
+    sub-block of the one built on the inputs of all the basis's sets
+    (:meth:`.NormalEquations.subset`, its blocks taken from that one); a larger nested set's
+    factor is bordered from the smaller set's (``LsSolutions(..., inner=)``).  A set alone on
+    its basis: ``None`` (:class:`LsSolutions` builds its own, of that set only).
     """
-    sets = [tuple(c) for c in columns]
-    if len(sets) <= 1:
-        return dict.fromkeys(sets)
-    n_in = corr.rxx.shape[0]
-    full = NormalEquations(corr, look_ahead_samples(LS_LOOK_AHEAD_S, corr.fs_hz),
-                           dataclasses.replace(design, look_aheads_s=(LS_LOOK_AHEAD_S,),
-                                               regularisation=float(base_ridge)))
-    return {c: full if len(c) == n_in else full.subset(c) for c in sets}
+    fs = corr.fs_hz
+    on_basis: Dict[Optional[int], List[Tuple[int, ...]]] = {}
+    for c in (tuple(c) for c in columns):
+        on_basis.setdefault(set_design(design, len(c), fs).blocks_per_octave, []).append(c)
+    out: Dict[Tuple[int, ...], Optional[NormalEquations]] = {}
+    for bpo, sets in on_basis.items():
+        if len(sets) <= 1:
+            out.update(dict.fromkeys(sets))
+            continue
+        inputs = sorted(set().union(*sets))
+        full = NormalEquations(
+            corr if len(inputs) == corr.rxx.shape[0] else subset_correlations(corr, inputs),
+            look_ahead_samples(LS_LOOK_AHEAD_S, fs),
+            dataclasses.replace(design, look_aheads_s=(LS_LOOK_AHEAD_S,), blocks_per_octave=bpo,
+                                regularisation=float(base_ridge)))
+        at = {j: k for k, j in enumerate(inputs)}
+        out.update({c: full if c == tuple(inputs) else full.subset([at[j] for j in c])
+                    for c in sets})
+    return out
 
 
 def score_fold(h1: Dict[Tuple[int, float], np.ndarray],

@@ -53,7 +53,8 @@ resolution); ridge 1e-3 instead of 1e-4 (the FRF's own default) 29.6 / 13.8 / 10
 2 s 30.6 / 14.4 / 9.5, 8 s 28.6 / 13.5 / 8.0 (30 % dearer fit), so 4 s.
 """
 import dataclasses
-from typing import Any, Dict, Mapping, Optional, Sequence, Tuple
+import functools
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -75,7 +76,8 @@ BLOCKS_PER_OCTAVE_CHOICES = (48, 32)
 #: accuracy figure: the Cholesky factor of ``n`` unknowns is ``8 n²`` bytes and ``n³ / 3``
 #: flops, and ``fit`` factorises a few per fold.  With the 0.25 s offline look-ahead a car's
 #: 12-18 inputs at 512 Hz reach 5300-7900 unknowns (0.2-0.5 GB per factor) at 48 blocks per
-#: octave; the 28-30 of six components get 32.
+#: octave; 20 inputs and more get 32.  Counted per input set of the search
+#: (:func:`.candidates.set_design`), not over the model's inputs.
 MAX_PAST_UNKNOWNS = 6144
 
 
@@ -145,8 +147,10 @@ class LiveDesign:
 
         A resolution already set is kept.  Otherwise the finest of
         :data:`BLOCKS_PER_OCTAVE_CHOICES` whose past lags over all ``n_in`` inputs stay within
-        :data:`MAX_PAST_UNKNOWNS`, else the coarsest.  Callers resolve with the model's input
-        count, so the nested input sets of one fit share one basis.
+        :data:`MAX_PAST_UNKNOWNS`, else the coarsest.  ``fit`` resolves it per input set, with
+        the set's input count (:func:`.candidates.set_design`): the sets of one fit may have
+        two bases, and the model's estimator takes the union of their edges
+        (:func:`on_common_edges`).
         """
         if self.blocks_per_octave is not None:
             return self
@@ -281,6 +285,40 @@ def lag_edges(look_ahead: int, fine: int, history: int, blocks_per_octave: int) 
     while edges[-1] < history + 1:
         edges.append(min(history + 1, max(edges[-1] + 1, int(round(edges[-1] * ratio)))))
     return np.asarray(edges, dtype=np.int64)
+
+
+def on_common_edges(estimators: Sequence[CausalEstimator]) -> List[CausalEstimator]:
+    """
+    Return ``estimators`` on one basis: the longest fine part, then the union of coarse edges.
+
+    The one-sample blocks a basis begins its coarse part with are full-rate taps (a finer
+    basis has more of them), so a shorter fine part is extended with its blocks' taps up to
+    the longest one, and every block of the union lies inside one block of each estimator,
+    whose tap it takes: every estimator stays the same filter (:meth:`CausalEstimator.fir`
+    unchanged).  The estimators share their look-ahead and history (ValueError otherwise).
+    """
+    first = estimators[0]
+    d = first.look_ahead_samples
+    if any(e.look_ahead_samples != d or e.coarse_edges[-1] != first.coarse_edges[-1]
+           for e in estimators):
+        raise ValueError('live estimators of different look-aheads or histories have no '
+                         'common basis')
+    n_fine = max(e.fine_taps.shape[2] for e in estimators)
+    edges = functools.reduce(np.union1d, [e.coarse_edges for e in estimators])
+    edges = edges[edges >= n_fine - d]            # the longest fine part's first edge is in
+    out = []
+    for e in estimators:
+        if e.fine_taps.shape[2] == n_fine and e.coarse_edges.size == edges.size:
+            out.append(e)
+            continue
+        # the lags that become full-rate taps, and each union block, in the estimator's blocks
+        moved = np.arange(e.fine_taps.shape[2] - d, n_fine - d)
+        into = np.searchsorted(e.coarse_edges, moved, side='right') - 1
+        inside = np.searchsorted(e.coarse_edges, edges[:-1], side='right') - 1
+        out.append(dataclasses.replace(
+            e, fine_taps=np.concatenate([e.fine_taps, e.coarse_taps[:, :, into]], axis=2),
+            coarse_edges=edges, coarse_taps=e.coarse_taps[:, :, inside]))
+    return out
 
 
 # -- model file section -----------------------------------------------------------------------

@@ -64,6 +64,7 @@ from wheel_force_estimator.core.candidates import SCORING
 from wheel_force_estimator.core.candidates import SEGMENT_FACTORS
 from wheel_force_estimator.core.candidates import segment_means
 from wheel_force_estimator.core.candidates import set_equations
+from wheel_force_estimator.core.candidates import set_parents
 from wheel_force_estimator.core.candidates import SPLICE_CROSSOVERS_HZ
 from wheel_force_estimator.core.candidates import straddling_sums
 from wheel_force_estimator.core.candidates import subset_correlations
@@ -81,12 +82,12 @@ from wheel_force_estimator.core.filtering import FirFilter
 from wheel_force_estimator.core.filtering import response_on_grid
 from wheel_force_estimator.core.live_estimator import LiveDesign
 from wheel_force_estimator.core.live_estimator import look_ahead_samples
+from wheel_force_estimator.core.live_estimator import on_common_edges
 from wheel_force_estimator.core.pipeline import estimate_h1
 from wheel_force_estimator.core.pipeline import FitConfig
 from wheel_force_estimator.core.spectra import combine_spectra
 from wheel_force_estimator.core.spindle import component_groups
 from wheel_force_estimator.core.spindle import input_sets
-from wheel_force_estimator.core.spindle import parents
 
 #: Shortest scoring resolution tried [samples]; each block must hold two of its windows.
 MIN_SCORING_SEGMENT = 1024
@@ -350,9 +351,14 @@ def max_lag(live: LiveDesign, fs_hz: float) -> int:
         LS_LOOK_AHEAD_S,)).max_lag(fs_hz)
 
 
-def live_design(config: FitConfig, input_channels, fs_hz: float) -> LiveDesign:
-    """Return the live design of ``config`` (default if unset), its basis fixed for the inputs."""
-    return (config.live or LiveDesign()).for_inputs(len(input_channels), fs_hz)
+def live_design(config: FitConfig) -> LiveDesign:
+    """
+    Return the live design of ``config`` (default if unset).
+
+    A basis left to the default is resolved per input set, for the inputs the set holds
+    (:func:`.candidates.set_design`).
+    """
+    return config.live or LiveDesign()
 
 
 def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
@@ -372,7 +378,7 @@ def search(used, fs_hz: float, config: FitConfig, input_channels, order: int,
         blocks.
 
     """
-    live = live_design(config, input_channels, fs_hz)
+    live = live_design(config)
     too_long = [v for v in live.look_aheads_s if v > LS_LOOK_AHEAD_S]
     if too_long:
         raise ConfigError(f'live_look_ahead_s {too_long[0]:g} s is outside 0 .. '
@@ -464,7 +470,7 @@ class _Folds:
         d_live = look_ahead_samples(live.look_aheads_s[0], fs_hz)
         scores = [None] * len(sp.input_sets)
         live_scores = [None] * len(sp.input_sets)
-        parent = parents(sp.input_sets)
+        parent = set_parents(sp.input_sets, live, fs_hz)
         for k in self.progress(range(len(stats)), f'{desc}: cross-validation'):
             train = [s for j, s in enumerate(stats) if j != k]
             corr = (fold_correlations([s.corr for s in train], straddling.for_fold(k))
@@ -595,7 +601,7 @@ def fit_chosen(used, choice: Choice, welch: dict, lags: int, fs_hz: float,
     fits = {i: h1_fits([whole], config, sorted(v), fs_hz, order, input_channels, sets[i][1])
             for i, v in variants.items() if v}
     ref_est, _, ref_fir, extra = fits[len(sets) - 1][default]
-    live = live_design(config, input_channels, fs_hz)
+    live = live_design(config)
     ls = {}
     n_model = max(ref_fir.n_taps, config.long_segment_length)
     if lags:
@@ -641,7 +647,6 @@ def chosen_live(corr, choice: Choice, live: LiveDesign, n_in: int) -> tuple:
 
     """
     sets = choice.space.input_sets
-    live = live.for_inputs(n_in, corr.fs_hz)
     if corr.rxx.shape[0] != n_in or corr.max_lag < max_lag(live, corr.fs_hz):
         raise ConfigError(f'correlations of {corr.rxx.shape[0]} inputs to lag '
                           f'{corr.max_lag} cannot design live estimators of {n_in} inputs '
@@ -657,21 +662,21 @@ def _ls_solutions(corr, sets, ridges: Dict[int, set], live: LiveDesign,
     """
     Return the LS factorisations of each input set (index into ``sets``) at its ridges.
 
-    ``bordered``: a ridge's factor of a set is bordered from its parent's (the earlier set
-    its columns begin with, :func:`.spindle.parents`; :class:`.nested_factor.BorderedFactor`),
-    as the search's folds do, and the sets between two on one branch that use a ridge carry
-    it too (bordered), to pass it on.  A refit's rows take up to
-    three sets at two ridges (the diagnosis's held-out refits of a 2-minute record: accelerations
-    at 1e-3 and 1e-4, the split at both, the cornering split at 1e-4), so five
+    ``bordered``: a ridge's factor of a set is bordered from its parent's (the earlier set its
+    columns begin with, on the same basis: :func:`.candidates.set_parents`;
+    :class:`.nested_factor.BorderedFactor`), as the search's folds do, and the sets between two
+    on one branch that use a ridge carry it too (bordered), to pass it on.  A refit's rows take
+    up to three sets at two ridges (the diagnosis's held-out refits of a 2-minute record:
+    accelerations at 1e-3 and 1e-4, the split at both, the cornering split at 1e-4), so five
     factorisations from scratch become two and three borderings, about half the arithmetic
     (each bordering's triangular solve with the added inputs' columns costs ~0.3-0.4 of a
-    factorisation; ``bench/bench_nested_factor.py``).  For offline rows only: a bordered
-    factor forms its added part per look-ahead, and a chain of two borderings solves with
-    the inner factor per look-ahead too, so the live estimators' five look-aheads would cost
-    more than the factorisations saved.
+    factorisation; ``bench/bench_nested_factor.py``).  For offline rows only: a bordered factor
+    forms its added part per look-ahead, and a chain of two borderings solves with the inner
+    factor per look-ahead too, so the live estimators' five look-aheads would cost more than
+    the factorisations saved.
     """
     used = {i: set(r) for i, r in ridges.items() if r}
-    parent = parents(sets)
+    parent = set_parents(sets, live, corr.fs_hz)
     if bordered:
         # a ridge used by a set and by one of its ancestors is carried by every set between
         for i in sorted(used, reverse=True):
@@ -766,11 +771,19 @@ def _indicators_on(est, f_hz: np.ndarray):
 
 
 def _rows_of(estimators):
-    """Return one estimator whose row ``o`` is row ``o`` of ``estimators[o]`` (one basis)."""
+    """
+    Return one estimator whose row ``o`` is row ``o`` of ``estimators[o]``.
+
+    Rows of sets on different bases (:func:`.candidates.set_design`) are put on the union
+    of their coarse edges first (:func:`.live_estimator.on_common_edges`: the same taps).
+    """
+    estimators = on_common_edges(estimators)
     first = estimators[0]
     rows = np.arange(first.n_out)
     fine = np.stack([e.fine_taps for e in estimators])[rows, rows]
     coarse = np.stack([e.coarse_taps for e in estimators])[rows, rows]
-    ridges = [float(e.info['regularisation']) for e in estimators]
-    info = dict(first.info, regularisation=ridges[0] if len(set(ridges)) == 1 else ridges)
+    info = dict(first.info)
+    for key in ('regularisation', 'blocks_per_octave'):
+        values = [e.info[key] for e in estimators]
+        info[key] = values[0] if len(set(values)) == 1 else values
     return dataclasses.replace(first, fine_taps=fine, coarse_taps=coarse, info=info)
